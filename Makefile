@@ -1,0 +1,36 @@
+# Two entry points on a fresh clone: `make demo` and `make test`.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test lint format models clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	mkdir -p results
+	$(PY) -m humanoid build --height 1.75 --mass 75 --sex male -o results/adult_male.urdf
+	$(PY) -m humanoid info results/adult_male.urdf
+	$(PY) -m humanoid info models/adult_female.urdf
+
+test: $(STAMP) lint
+	$(PY) -m pytest -q
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check humanoid tests scripts
+	$(VENV)/bin/ruff format --check humanoid tests scripts
+
+format: $(STAMP)
+	$(VENV)/bin/ruff format humanoid tests scripts
+	$(VENV)/bin/ruff check --fix humanoid tests scripts
+
+models: $(STAMP)
+	$(PY) scripts/make_models.py
+
+clean:
+	rm -rf $(VENV) results .pytest_cache

@@ -1,0 +1,308 @@
+"""Body segment parameters: de Leva (1996) Table 4, scaled by a person's height and mass.
+
+Sources (the numbers below are copied with their source named next to them):
+
+- **de Leva 1996**: P. de Leva, "Adjustments to Zatsiorsky-Seluyanov's segment inertia
+  parameters", J. Biomech. 29(9):1223-1230, Table 4 (mass fraction, CoM position from the
+  segment origin as a fraction of length, radii of gyration about the sagittal, transverse and
+  longitudinal axes as fractions of length) and the reference subjects' segment lengths [mm].
+  Cross-checked in three public copies: BMClab/BMC ``data/BSP*_ZdeLeva.txt``, R. Gurchiek's
+  ``deleva.m`` and pyomeca/biobuddy ``characteristics/de_leva.py`` (see
+  ``shared/reference/anthropometry.md`` section 1).
+- **Winter 2009**: D. A. Winter, *Biomechanics and Motor Control of Human Movement*, Fig. 4.1
+  (after Drillis & Contini 1966): ankle height, foot width, shoulder and hip widths as fractions
+  of stature.
+- **Dumas 2007 / ERD**: hip and shoulder joint-centre offsets as fractions of stature, as used by
+  example-robot-data's ``HumanLoader`` (after Dumas, Cheze & Verriest 2007).
+
+Axis convention of the radii (de Leva's columns, as read by Gurchiek and biobuddy): ``r_sag``
+is about the antero-posterior axis (x, forward), ``r_trans`` about the medio-lateral axis
+(y, left), ``r_long`` about the segment's long axis (z for upright segments). The foot's long
+axis is horizontal: its ``r_long`` goes on x (forward), ``r_sag`` on y (lateral) and
+``r_trans`` on z (vertical), Gurchiek's mapping.
+
+Closure rule (de Leva's lengths do not add up to stature: the male chain is 2.0 % long, the
+female one 0.1 % short): the vertical chain sole -> ankle -> knee -> hip -> navel -> xiphoid ->
+C7 -> vertex is ankle height + shank + thigh + lower, middle and upper trunk + head. Every
+element of this chain that the caller did not measure is multiplied by one common factor so that
+the chain equals the stature exactly. Arms, hands and feet are scaled by stature only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from .errors import BodyParameterError
+
+__all__ = [
+    "CHAIN",
+    "DE_LEVA_1996",
+    "REFERENCE_SUBJECT",
+    "STATURE_FRACTIONS",
+    "BodyParameters",
+    "Segment",
+    "SegmentRow",
+    "body_dimensions",
+    "segments",
+]
+
+HEIGHT_RANGE = (0.5, 2.5)  # [m]
+MASS_RANGE = (10.0, 300.0)  # [kg]
+SEXES = ("male", "female")
+
+
+@dataclass(frozen=True)
+class SegmentRow:
+    """One row of de Leva (1996) Table 4.
+
+    Attributes:
+        origin: Proximal landmark (the CoM fraction is measured from it).
+        end: Distal landmark.
+        length_mm: Mean segment length of the reference subject [mm].
+        mass: Fraction of total body mass [-].
+        com: CoM position from ``origin`` as a fraction of the length [-].
+        r_sag: Radius of gyration about the antero-posterior axis, fraction of length [-].
+        r_trans: Radius of gyration about the medio-lateral axis, fraction of length [-].
+        r_long: Radius of gyration about the longitudinal axis, fraction of length [-].
+    """
+
+    origin: str
+    end: str
+    length_mm: float
+    mass: float
+    com: float
+    r_sag: float
+    r_trans: float
+    r_long: float
+
+
+# Reference subjects of de Leva (1996): stature [m], mass [kg] (Gurchiek deleva.m).
+REFERENCE_SUBJECT = MappingProxyType({"male": (1.741, 73.0), "female": (1.735, 61.9)})
+
+# de Leva (1996) Table 4, the rows this body uses. Keys are our segment names.
+# head: "Head 2" VERT->CERV (head with neck); thorax: "Upper trunk 2" CERV->XYPH;
+# abdomen: "Mid trunk" XYPH->OMPH; pelvis: "Lower trunk" OMPH->MIDH; shank: "Shank 2" KJC->AJC
+# (ends at the ankle joint centre, where our ankle joint is). Others: the main rows.
+# fmt: off
+DE_LEVA_1996: Mapping[str, Mapping[str, SegmentRow]] = MappingProxyType({
+    "male": MappingProxyType({
+        #                     origin   end     L[mm]  mass    CoM     r_sag  r_trans r_long
+        "head":      SegmentRow("VERT", "CERV", 242.9, 0.0694, 0.5002, 0.303, 0.315, 0.261),
+        "thorax":    SegmentRow("CERV", "XYPH", 242.1, 0.1596, 0.5066, 0.505, 0.320, 0.465),
+        "abdomen":   SegmentRow("XYPH", "OMPH", 215.5, 0.1633, 0.4502, 0.482, 0.383, 0.468),
+        "pelvis":    SegmentRow("OMPH", "MIDH", 145.7, 0.1117, 0.6115, 0.615, 0.551, 0.587),
+        "upper_arm": SegmentRow("SJC", "EJC", 281.7, 0.0271, 0.5772, 0.285, 0.269, 0.158),
+        "forearm":   SegmentRow("EJC", "WJC", 268.9, 0.0162, 0.4574, 0.276, 0.265, 0.121),
+        "hand":      SegmentRow("WJC", "MET3", 86.2, 0.0061, 0.7900, 0.628, 0.513, 0.401),
+        "thigh":     SegmentRow("HJC", "KJC", 422.2, 0.1416, 0.4095, 0.329, 0.329, 0.149),
+        "shank":     SegmentRow("KJC", "AJC", 440.3, 0.0433, 0.4395, 0.251, 0.246, 0.102),
+        "foot":      SegmentRow("HEEL", "TTIP", 258.1, 0.0137, 0.4415, 0.257, 0.245, 0.124),
+    }),
+    "female": MappingProxyType({
+        "head":      SegmentRow("VERT", "CERV", 243.7, 0.0668, 0.4841, 0.271, 0.295, 0.261),
+        "thorax":    SegmentRow("CERV", "XYPH", 228.0, 0.1545, 0.5050, 0.466, 0.314, 0.449),
+        "abdomen":   SegmentRow("XYPH", "OMPH", 205.3, 0.1465, 0.4512, 0.433, 0.354, 0.415),
+        "pelvis":    SegmentRow("OMPH", "MIDH", 181.5, 0.1247, 0.4920, 0.433, 0.402, 0.444),
+        "upper_arm": SegmentRow("SJC", "EJC", 275.1, 0.0255, 0.5754, 0.278, 0.260, 0.148),
+        "forearm":   SegmentRow("EJC", "WJC", 264.3, 0.0138, 0.4559, 0.261, 0.257, 0.094),
+        "hand":      SegmentRow("WJC", "MET3", 78.0, 0.0056, 0.7474, 0.531, 0.454, 0.335),
+        "thigh":     SegmentRow("HJC", "KJC", 368.5, 0.1478, 0.3612, 0.369, 0.364, 0.162),
+        "shank":     SegmentRow("KJC", "AJC", 438.6, 0.0481, 0.4352, 0.267, 0.263, 0.092),
+        "foot":      SegmentRow("HEEL", "TTIP", 228.3, 0.0129, 0.4014, 0.299, 0.279, 0.139),
+    }),
+})
+
+# Fractions of stature that de Leva does not give, with their sources.
+STATURE_FRACTIONS = MappingProxyType({
+    "male": MappingProxyType({
+        "ankle_height": 0.039,         # Winter 2009 Fig. 4.1 (sole to ankle joint centre)
+        "foot_width": 0.055,           # Winter 2009 Fig. 4.1
+        "shoulder_width": 0.259,       # Winter 2009 Fig. 4.1 (biacromial)
+        "hip_width": 0.191,            # Winter 2009 Fig. 4.1
+        "hip_joint_half_width": 0.0457,   # ERD HumanLoader, HJC lateral offset (Dumas 2007)
+        "shoulder_joint_half_width": 0.1164,  # ERD HumanLoader, SJC lateral offset
+        "shoulder_joint_below_c7": 0.0416,    # ERD HumanLoader, SJC below the thorax origin
+        "shoulder_joint_forward": 0.0046,     # ERD HumanLoader, SJC anterior offset
+    }),
+    "female": MappingProxyType({
+        "ankle_height": 0.039,
+        "foot_width": 0.055,
+        "shoulder_width": 0.259,
+        "hip_width": 0.191,
+        "hip_joint_half_width": 0.0548,
+        "shoulder_joint_half_width": 0.1108,
+        "shoulder_joint_below_c7": 0.0449,
+        "shoulder_joint_forward": 0.0043,
+    }),
+})
+# fmt: on
+
+# Design choice, no tabulated source found: the ankle joint centre lies above the point at this
+# fraction of the foot length in front of the heel.
+HEEL_TO_ANKLE_FRACTION = 0.25
+
+# The vertical chain from the sole to the vertex, bottom to top; see the closure rule above.
+CHAIN = ("ankle_height", "shank", "thigh", "pelvis", "abdomen", "thorax", "head")
+SEGMENT_NAMES = tuple(DE_LEVA_1996["male"])
+# Segments whose long axis is horizontal (x forward) in the standing pose.
+HORIZONTAL = frozenset({"foot"})
+
+
+def _check_finite_range(name: str, value: float, lo: float, hi: float, unit: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise BodyParameterError(
+            f"{name} must be a number in [{lo}, {hi}] {unit}, got {value!r}"
+        ) from None
+    if not math.isfinite(value) or not lo <= value <= hi:
+        raise BodyParameterError(f"{name} must be in [{lo}, {hi}] {unit}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class BodyParameters:
+    """A person: stature, mass and sex, validated on construction.
+
+    Args:
+        height: Stature, sole to vertex [m], in [0.5, 2.5].
+        mass: Total body mass [kg], in [10, 300].
+        sex: ``"male"`` or ``"female"`` (selects the de Leva table).
+        segment_lengths: Optional measured lengths [m] that override the scaled ones, keyed by
+            segment name (``head``, ``thorax``, ``abdomen``, ``pelvis``, ``upper_arm``,
+            ``forearm``, ``hand``, ``thigh``, ``shank``, ``foot``) or ``ankle_height``.
+            Measured chain lengths are kept; the others close the chain to the stature.
+
+    Raises:
+        BodyParameterError: a value is out of range, not finite, or of an unknown name.
+    """
+
+    height: float
+    mass: float
+    sex: str = "male"
+    segment_lengths: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "height", _check_finite_range("height", self.height, *HEIGHT_RANGE, "m")
+        )
+        object.__setattr__(self, "mass", _check_finite_range("mass", self.mass, *MASS_RANGE, "kg"))
+        if self.sex not in SEXES:
+            raise BodyParameterError(f"sex must be one of {SEXES}, got {self.sex!r}")
+        valid = (*SEGMENT_NAMES, "ankle_height")
+        lengths = {}
+        for key, value in dict(self.segment_lengths or {}).items():
+            if key not in valid:
+                raise BodyParameterError(
+                    f"unknown segment length {key!r}; valid names: {', '.join(valid)}"
+                )
+            lengths[key] = _check_finite_range(
+                f"segment_lengths[{key!r}]", value, 0.005, 0.6 * self.height, "m"
+            )
+        object.__setattr__(self, "segment_lengths", MappingProxyType(lengths))
+        body_dimensions(self)  # raises if the measured lengths cannot close the chain
+
+    def __hash__(self) -> int:
+        return hash((self.height, self.mass, self.sex, tuple(sorted(self.segment_lengths.items()))))
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One body segment scaled to a person, in its own frame (x forward, y left, z up).
+
+    Attributes:
+        name: Segment name (``thigh``, ``foot``...), the same for left and right.
+        length: Segment length [m] (origin to end landmark).
+        mass: Segment mass [kg].
+        com_fraction: CoM position from the origin landmark as a fraction of ``length`` [-].
+        inertia: Principal moments about the CoM along (x, y, z) [kg m^2].
+        row: The de Leva table row it comes from.
+    """
+
+    name: str
+    length: float
+    mass: float
+    com_fraction: float
+    inertia: tuple[float, float, float]
+    row: SegmentRow
+
+
+def body_dimensions(params: BodyParameters) -> dict[str, float]:
+    """Lengths [m] of the segments and of the other dimensions for a person.
+
+    The chain elements (see :data:`CHAIN`) sum to ``params.height`` exactly.
+
+    Returns:
+        A dict with every segment name, ``ankle_height`` and the widths of
+        :data:`STATURE_FRACTIONS`, plus ``chain_scale``: the common factor applied to the
+        unmeasured chain elements (1.0 means de Leva's proportions add up to the stature).
+    """
+    h = params.height
+    sex = params.sex
+    ref_h = REFERENCE_SUBJECT[sex][0]
+    dims = {name: row.length_mm / 1000.0 / ref_h * h for name, row in DE_LEVA_1996[sex].items()}
+    dims.update({k: f * h for k, f in STATURE_FRACTIONS[sex].items()})
+    measured = dict(params.segment_lengths)
+    fixed = sum(measured[k] for k in CHAIN if k in measured)
+    free = sum(dims[k] for k in CHAIN if k not in measured)
+    if free <= 0.0:
+        if abs(fixed - h) > 1e-9 * h:
+            raise BodyParameterError(
+                f"the measured chain {', '.join(CHAIN)} sums to {fixed:.4f} m, "
+                f"not the height {h:.4f} m"
+            )
+        scale = 1.0
+    else:
+        scale = (h - fixed) / free
+    if not 0.8 <= scale <= 1.25:
+        raise BodyParameterError(
+            f"measured segment lengths leave {h - fixed:.3f} m of the {h:.3f} m stature for the "
+            f"other chain segments ({', '.join(k for k in CHAIN if k not in measured)}), which "
+            f"would scale them by {scale:.2f}; valid is 0.8 to 1.25"
+        )
+    for k in CHAIN:
+        if k not in measured:
+            dims[k] *= scale
+    dims.update(measured)
+    dims["chain_scale"] = scale
+    return dims
+
+
+def segments(params: BodyParameters) -> dict[str, Segment]:
+    """The ten segment kinds scaled to a person (limbs once; the body has two of each).
+
+    Masses are the table fractions times the body mass, renormalised by the sum of the
+    fractions over the whole body (1.0000 for de Leva's male table, 0.9999 for the female one:
+    rounding in the table), so that the segment masses add up to ``params.mass`` exactly.
+
+    Returns:
+        Segments keyed by name, in the order of :data:`DE_LEVA_1996`.
+    """
+    table = DE_LEVA_1996[params.sex]
+    dims = body_dimensions(params)
+    total_fraction = mass_fraction_sum(params.sex)
+    out = {}
+    for name, row in table.items():
+        length = dims[name]
+        mass = params.mass * row.mass / total_fraction
+        r = np.array([row.r_sag, row.r_trans, row.r_long]) * length
+        if name in HORIZONTAL:  # long axis along x: (long, sag, trans) on (x, y, z), Gurchiek
+            r = np.array([row.r_long, row.r_sag, row.r_trans]) * length
+        inertia = tuple(float(v) for v in mass * r**2)
+        out[name] = Segment(name, length, mass, row.com, inertia, row)
+    return out
+
+
+# Segments that appear twice in the body (left and right).
+BILATERAL = frozenset({"upper_arm", "forearm", "hand", "thigh", "shank", "foot"})
+
+
+def mass_fraction_sum(sex: str) -> float:
+    """Sum of de Leva's mass fractions over the whole body (bilateral segments twice) [-]."""
+    table = DE_LEVA_1996[sex]
+    return sum(row.mass * (2 if name in BILATERAL else 1) for name, row in table.items())

@@ -1,0 +1,462 @@
+"""The de Leva body written as URDF, through yourdfpy's URDF objects.
+
+Frames: world-aligned in the standing pose (x forward, y left, z up); every joint angle zero is
+the upright anatomical pose with arms hanging and palms facing the thighs. The root link is the
+``pelvis``, its origin at the midpoint of the hip joint centres (de Leva's MIDH).
+
+Tree (33 joint DoF; 39 with the free-flyer root that :func:`humanoid.load` adds)::
+
+    pelvis -lumbar(3)- abdomen -thoracic(3)- thorax -neck(3)- head
+                                               thorax -{side}_shoulder(3)- {side}_upper_arm
+                  -{side}_elbow- {side}_forearm -{side}_wrist(2)- {side}_hand
+    pelvis -{side}_hip(3)- {side}_thigh -{side}_knee- {side}_shank -{side}_ankle(2)- {side}_foot
+
+Ball joints (hips, shoulders, lumbar, thoracic, neck) are three revolute joints through two
+massless intermediate links, in the order flexion -> ab/adduction (lateral bending for the spine)
+-> axial rotation, the ISB order (sagittal, frontal, transverse axes: y, x, z). Knees and elbows
+are hinges. Ankles are two hinges (talocrural flexion about y, then subtalar inversion about x)
+and wrists two hinges (flexion, then radial/ulnar deviation): a universal joint each, as in
+example-robot-data's human and MuJoCo's humanoid.
+
+Signs are anatomical: a positive angle is flexion, adduction, internal rotation, dorsiflexion,
+inversion, radial deviation, on both sides (the axes of the right side are the mirror images of
+the left ones), so that left and right share their limits. The spine and neck bend positively to
+the left and rotate positively to the left.
+
+Each foot carries a collision box (the sole box, from the sole to the ankle height), a fixed
+``{side}_sole`` frame at the centre of the sole, and four fixed contact points at the sole's
+corners: ``{side}_heel_inner``, ``{side}_heel_outer``, ``{side}_toe_inner``, ``{side}_toe_outer``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+import yourdfpy
+from lxml import etree
+
+from .anthropometry import (
+    HEEL_TO_ANKLE_FRACTION,
+    BodyParameters,
+    Segment,
+    body_dimensions,
+    segments,
+)
+
+__all__ = ["JOINT_RANGES", "SIDES", "build_urdf", "contact_point_names", "write_urdf"]
+
+SIDES = ("left", "right")
+CONTACT_CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
+TISSUE_DENSITY = 1050.0  # [kg/m^3] used only to size the visual primitives
+
+
+@dataclass(frozen=True)
+class JointRange:
+    """Range of motion of one joint axis [deg], positive in the anatomical sense."""
+
+    lower: float
+    upper: float
+    source: str
+
+
+# Clinical ranges of motion (see shared/reference/anthropometry.md section 3).
+# MERCK: Merck Manual "Normal Values for Range of Motion of Joints"; ROM-SHEET: "Normal ROM"
+# sheet; KURZ: Kurz via yoga-age.com; 38CFR: 38 CFR 4.71a Note (2) normals (quoted, unverified),
+# split evenly between the lumbar and thoracic joints for the thoracolumbar spine.
+# fmt: off
+JOINT_RANGES = MappingProxyType({
+    "hip_flexion":        JointRange(-30.0, 125.0, "ROM-SHEET: flexion 125, extension 30"),
+    "hip_adduction":      JointRange(-45.0, 25.0, "ROM-SHEET: abduction 45, adduction 25"),
+    "hip_rotation":       JointRange(-45.0, 45.0, "MERCK: internal 45, external 45"),
+    "knee":               JointRange(0.0, 140.0, "ROM-SHEET: flexion 140; no hyperextension"),
+    "ankle_flexion":      JointRange(-50.0, 20.0, "MERCK: dorsiflexion 20, plantarflexion 50"),
+    "ankle_inversion":    JointRange(-25.0, 35.0, "MERCK: inversion 35, eversion 25"),
+    "lumbar_flexion":     JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
+    "lumbar_bending":     JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
+    "lumbar_rotation":    JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
+    "thoracic_flexion":   JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
+    "thoracic_bending":   JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
+    "thoracic_rotation":  JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
+    "neck_flexion":       JointRange(-45.0, 45.0, "38CFR: cervical flexion 45, extension 45"),
+    "neck_bending":       JointRange(-45.0, 45.0, "38CFR: cervical lateral flexion 45"),
+    "neck_rotation":      JointRange(-80.0, 80.0, "38CFR: cervical rotation 80"),
+    "shoulder_flexion":   JointRange(-50.0, 180.0, "ROM-SHEET: flexion 180; MERCK: extension 50"),
+    "shoulder_abduction": JointRange(-45.0, 180.0, "ROM-SHEET: abduction 180; KURZ: adduction 45"),
+    "shoulder_rotation":  JointRange(-90.0, 90.0, "MERCK: internal 90, external 90"),
+    "elbow":              JointRange(0.0, 145.0, "ROM-SHEET: flexion 145"),
+    "wrist_flexion":      JointRange(-70.0, 80.0, "ROM-SHEET: flexion 80, extension 70"),
+    "wrist_deviation":    JointRange(-45.0, 20.0, "ROM-SHEET: radial 20, ulnar 45"),
+})
+
+# Left-side joint axes for a positive anatomical angle; the right side mirrors them.
+# Peak torque [N m] for a 75 kg adult (scaled with body mass) and peak speed [rad/s]: the order
+# of magnitude of example-robot-data's human.urdf limits (effort 20-190 N m, velocity 2-18.6).
+AXES = MappingProxyType({
+    #                      axis (left)      effort  velocity
+    "hip_flexion":        ((0.0, -1.0, 0.0), 180.0, 12.0),
+    "hip_adduction":      ((-1.0, 0.0, 0.0), 120.0, 12.0),
+    "hip_rotation":       ((0.0, 0.0, -1.0), 60.0, 12.0),
+    "knee":               ((0.0, 1.0, 0.0), 200.0, 18.0),
+    "ankle_flexion":      ((0.0, -1.0, 0.0), 150.0, 12.0),
+    "ankle_inversion":    ((-1.0, 0.0, 0.0), 40.0, 8.0),
+    "lumbar_flexion":     ((0.0, 1.0, 0.0), 200.0, 5.0),
+    "lumbar_bending":     ((-1.0, 0.0, 0.0), 160.0, 5.0),
+    "lumbar_rotation":    ((0.0, 0.0, 1.0), 100.0, 5.0),
+    "thoracic_flexion":   ((0.0, 1.0, 0.0), 190.0, 5.0),
+    "thoracic_bending":   ((-1.0, 0.0, 0.0), 160.0, 5.0),
+    "thoracic_rotation":  ((0.0, 0.0, 1.0), 100.0, 5.0),
+    "neck_flexion":       ((0.0, 1.0, 0.0), 50.0, 8.0),
+    "neck_bending":       ((-1.0, 0.0, 0.0), 40.0, 8.0),
+    "neck_rotation":      ((0.0, 0.0, 1.0), 30.0, 8.0),
+    "shoulder_flexion":   ((0.0, -1.0, 0.0), 90.0, 15.0),
+    "shoulder_abduction": ((1.0, 0.0, 0.0), 80.0, 15.0),
+    "shoulder_rotation":  ((0.0, 0.0, -1.0), 50.0, 15.0),
+    "elbow":              ((0.0, -1.0, 0.0), 70.0, 18.0),
+    "wrist_flexion":      ((-1.0, 0.0, 0.0), 20.0, 15.0),
+    "wrist_deviation":    ((0.0, -1.0, 0.0), 20.0, 15.0),
+})
+# fmt: on
+
+BALL_JOINTS = MappingProxyType(
+    {
+        "hip": ("flexion", "adduction", "rotation"),
+        "shoulder": ("flexion", "abduction", "rotation"),
+        "lumbar": ("flexion", "bending", "rotation"),
+        "thoracic": ("flexion", "bending", "rotation"),
+        "neck": ("flexion", "bending", "rotation"),
+    }
+)
+
+COLORS = MappingProxyType(
+    {
+        "skin": (0.87, 0.72, 0.60, 1.0),
+        "trunk": (0.30, 0.45, 0.70, 1.0),
+        "legs": (0.25, 0.25, 0.30, 1.0),
+        "feet": (0.55, 0.30, 0.20, 1.0),
+    }
+)
+
+
+def contact_point_names(side: str) -> tuple[str, ...]:
+    """Names of the four sole contact frames of one foot (``side`` is left or right)."""
+    return tuple(f"{side}_{corner}" for corner in CONTACT_CORNERS)
+
+
+def _mirror(v, side: str) -> np.ndarray:
+    """A point (polar vector) of the left side reflected to ``side`` through the y = 0 plane."""
+    v = np.asarray(v, dtype=float)
+    return v * np.array([1.0, -1.0, 1.0]) if side == "right" else v
+
+
+def _mirror_axis(axis, side: str) -> np.ndarray:
+    """A rotation axis (axial vector) of the left side reflected to ``side``."""
+    a = np.asarray(axis, dtype=float)
+    return a * np.array([-1.0, 1.0, -1.0]) if side == "right" else a
+
+
+def _pose(xyz) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = xyz
+    return T
+
+
+class _Builder:
+    """Collects yourdfpy links and joints for one body."""
+
+    def __init__(self, params: BodyParameters) -> None:
+        self.params = params
+        self.mass_scale = params.mass / 75.0
+        self.links: list[yourdfpy.Link] = []
+        self.joints: list[yourdfpy.Joint] = []
+        self.materials = [
+            yourdfpy.Material(name=k, color=yourdfpy.Color(rgba=np.array(c)))
+            for k, c in COLORS.items()
+        ]
+
+    def link(self, name, segment: Segment | None = None, com=None, visuals=(), collisions=()):
+        inertial = None
+        if segment is not None:
+            T = _pose(com)
+            inertial = yourdfpy.Inertial(
+                origin=T, mass=segment.mass, inertia=np.diag(segment.inertia)
+            )
+        self.links.append(
+            yourdfpy.Link(
+                name=name, inertial=inertial, visuals=list(visuals), collisions=list(collisions)
+            )
+        )
+
+    def revolute(self, name, kind, side, parent, child, xyz):
+        axis, effort, velocity = AXES[kind]
+        rng = JOINT_RANGES[kind]
+        self.joints.append(
+            yourdfpy.Joint(
+                name=name,
+                type="revolute",
+                parent=parent,
+                child=child,
+                origin=_pose(xyz),
+                axis=_mirror_axis(axis, side),
+                limit=yourdfpy.Limit(
+                    effort=effort * self.mass_scale,
+                    velocity=velocity,
+                    lower=math.radians(rng.lower),
+                    upper=math.radians(rng.upper),
+                ),
+            )
+        )
+
+    def fixed(self, name, parent, child, xyz):
+        self.joints.append(
+            yourdfpy.Joint(name=name, type="fixed", parent=parent, child=child, origin=_pose(xyz))
+        )
+
+    def ball(self, prefix, kind, side, parent, child, xyz):
+        """Three revolute joints through two massless links: ``{prefix}_{motion}``."""
+        motions = BALL_JOINTS[kind]
+        chain = [parent] + [f"{prefix}_{m}_link" for m in motions[:2]] + [child]
+        for i, motion in enumerate(motions):
+            if i < 2:
+                self.link(chain[i + 1])
+            self.revolute(
+                f"{prefix}_{motion}",
+                f"{kind}_{motion}",
+                side,
+                chain[i],
+                chain[i + 1],
+                xyz if i == 0 else (0.0, 0.0, 0.0),
+            )
+
+    def build(self) -> yourdfpy.URDF:
+        robot = yourdfpy.Robot(
+            name="humanoid_" + self.params.sex,
+            links=self.links,
+            joints=self.joints,
+            materials=self.materials,
+        )
+        return yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False)
+
+
+def _visual(name, shape, xyz, material, collision=False):
+    geometry = yourdfpy.Geometry(**shape)
+    cls = yourdfpy.Collision if collision else yourdfpy.Visual
+    kwargs = {} if collision else {"material": yourdfpy.Material(name=material)}
+    return cls(name=name, origin=_pose(xyz), geometry=geometry, **kwargs)
+
+
+def _cylinder(length, mass):
+    radius = math.sqrt(mass / (TISSUE_DENSITY * math.pi * length))
+    return {"cylinder": yourdfpy.Cylinder(radius=radius, length=length)}
+
+
+def _box(x, y, z):
+    return {"box": yourdfpy.Box(size=np.array([x, y, z]))}
+
+
+def _trunk_box(seg: Segment, width):
+    depth = seg.mass / (TISSUE_DENSITY * width * seg.length)
+    return _box(depth, width, seg.length)
+
+
+def build_urdf_object(params: BodyParameters) -> yourdfpy.URDF:
+    """The body as a yourdfpy ``URDF`` object (see the module docstring for its layout)."""
+    seg = segments(params)
+    d = body_dimensions(params)
+    b = _Builder(params)
+
+    # Trunk: each segment's frame at its lower joint, CoM measured from its upper landmark.
+    def up(name):
+        s = seg[name]
+        return (0.0, 0.0, s.length * (1.0 - s.com_fraction))
+
+    pelvis, abdomen, thorax, head = (seg[k] for k in ("pelvis", "abdomen", "thorax", "head"))
+    hip_w, shoulder_w = d["hip_width"], d["shoulder_width"]
+    b.link(
+        "pelvis",
+        pelvis,
+        up("pelvis"),
+        [_visual("pelvis", _trunk_box(pelvis, hip_w), (0, 0, pelvis.length / 2), "trunk")],
+    )
+    b.ball("lumbar", "lumbar", "left", "pelvis", "abdomen", (0.0, 0.0, pelvis.length))
+    b.link(
+        "abdomen",
+        abdomen,
+        up("abdomen"),
+        [_visual("abdomen", _trunk_box(abdomen, hip_w), (0, 0, abdomen.length / 2), "trunk")],
+    )
+    b.ball("thoracic", "thoracic", "left", "abdomen", "thorax", (0.0, 0.0, abdomen.length))
+    b.link(
+        "thorax",
+        thorax,
+        up("thorax"),
+        [
+            _visual(
+                "thorax",
+                _trunk_box(thorax, 0.8 * shoulder_w),
+                (0, 0, thorax.length / 2),
+                "trunk",
+            )
+        ],
+    )
+    b.ball("neck", "neck", "left", "thorax", "head", (0.0, 0.0, thorax.length))
+    head_r = (3.0 * head.mass / (4.0 * math.pi * TISSUE_DENSITY)) ** (1.0 / 3.0)
+    neck_len = max(head.length - 2.0 * head_r, 0.01)
+    b.link(
+        "head",
+        head,
+        up("head"),
+        [
+            _visual("head", {"sphere": yourdfpy.Sphere(radius=head_r)}, up("head"), "skin"),
+            _visual(
+                "neck",
+                {"cylinder": yourdfpy.Cylinder(radius=0.35 * head_r, length=neck_len)},
+                (0, 0, neck_len / 2),
+                "skin",
+            ),
+        ],
+    )
+
+    for side in SIDES:
+        _arm(b, seg, d, side)
+        _leg(b, seg, d, side)
+    return b.build()
+
+
+def _limb_link(b, name, s: Segment, material):
+    """A limb segment hanging down from its proximal joint along -z."""
+    b.link(
+        name,
+        s,
+        (0.0, 0.0, -s.com_fraction * s.length),
+        [_visual(name, _cylinder(s.length, s.mass), (0, 0, -s.length / 2), material)],
+    )
+
+
+def _arm(b: _Builder, seg, d, side):
+    h = b.params.height
+    thorax = seg["thorax"]
+    f = d["shoulder_joint_forward"]
+    shoulder = _mirror(
+        (f, d["shoulder_joint_half_width"], thorax.length - d["shoulder_joint_below_c7"]), side
+    )
+    ua, fa, hand = seg["upper_arm"], seg["forearm"], seg["hand"]
+    b.ball(f"{side}_shoulder", "shoulder", side, "thorax", f"{side}_upper_arm", shoulder)
+    _limb_link(b, f"{side}_upper_arm", ua, "skin")
+    b.revolute(
+        f"{side}_elbow", "elbow", side, f"{side}_upper_arm", f"{side}_forearm", (0, 0, -ua.length)
+    )
+    _limb_link(b, f"{side}_forearm", fa, "skin")
+    b.link(f"{side}_wrist_flexion_link")
+    b.revolute(
+        f"{side}_wrist_flexion",
+        "wrist_flexion",
+        side,
+        f"{side}_forearm",
+        f"{side}_wrist_flexion_link",
+        (0, 0, -fa.length),
+    )
+    b.revolute(
+        f"{side}_wrist_deviation",
+        "wrist_deviation",
+        side,
+        f"{side}_wrist_flexion_link",
+        f"{side}_hand",
+        (0, 0, 0),
+    )
+    hand_width = 0.045 * h  # visual only: hand breadth about 0.045 x stature
+    thickness = hand.mass / (TISSUE_DENSITY * hand_width * hand.length)
+    b.link(
+        f"{side}_hand",
+        hand,
+        (0.0, 0.0, -hand.com_fraction * hand.length),
+        [
+            _visual(
+                f"{side}_hand",
+                _box(hand_width, thickness, hand.length),
+                (0, 0, -hand.length / 2),
+                "skin",
+            )
+        ],
+    )
+
+
+def _leg(b: _Builder, seg, d, side):
+    thigh, shank, foot = seg["thigh"], seg["shank"], seg["foot"]
+    hip = _mirror((0.0, d["hip_joint_half_width"], 0.0), side)
+    b.ball(f"{side}_hip", "hip", side, "pelvis", f"{side}_thigh", hip)
+    _limb_link(b, f"{side}_thigh", thigh, "legs")
+    b.revolute(
+        f"{side}_knee", "knee", side, f"{side}_thigh", f"{side}_shank", (0, 0, -thigh.length)
+    )
+    _limb_link(b, f"{side}_shank", shank, "legs")
+    b.link(f"{side}_ankle_flexion_link")
+    b.revolute(
+        f"{side}_ankle_flexion",
+        "ankle_flexion",
+        side,
+        f"{side}_shank",
+        f"{side}_ankle_flexion_link",
+        (0, 0, -shank.length),
+    )
+    b.revolute(
+        f"{side}_ankle_inversion",
+        "ankle_inversion",
+        side,
+        f"{side}_ankle_flexion_link",
+        f"{side}_foot",
+        (0, 0, 0),
+    )
+    # Foot frame at the ankle joint centre; the sole lies ankle_height below it.
+    length, width, ah = foot.length, d["foot_width"], d["ankle_height"]
+
+    heel_x = -HEEL_TO_ANKLE_FRACTION * length
+    centre = (heel_x + length / 2, 0.0, -ah / 2)
+    com = (heel_x + foot.com_fraction * length, 0.0, -ah / 2)
+    b.link(
+        f"{side}_foot",
+        foot,
+        com,
+        visuals=[_visual(f"{side}_foot", _box(length, width, ah), centre, "feet")],
+        collisions=[_visual(f"{side}_sole_box", _box(length, width, ah), centre, "", True)],
+    )
+    b.link(f"{side}_sole")
+    b.fixed(f"{side}_sole_joint", f"{side}_foot", f"{side}_sole", (centre[0], 0.0, -ah))
+    for corner in CONTACT_CORNERS:
+        x = heel_x if corner.startswith("heel") else heel_x + length
+        y = -width / 2 if corner.endswith("inner") else width / 2
+        name = f"{side}_{corner}"
+        b.link(name)
+        b.fixed(f"{name}_joint", f"{side}_foot", name, _mirror((x, y, -ah), side))
+
+
+def build_urdf(params: BodyParameters) -> str:
+    """URDF text of the body of a person.
+
+    Args:
+        params: The person (height, mass, sex, optional measured segment lengths).
+
+    Returns:
+        The URDF document as a string; it parses with yourdfpy and Pinocchio.
+    """
+    tree = build_urdf_object(params).write_xml()
+    # yourdfpy's write_xml_string drops its keyword arguments (0.0.60), so format with lxml.
+    text = etree.tostring(tree, pretty_print=True, encoding="unicode")
+    lengths = "".join(f", {k} {v} m" for k, v in sorted(params.segment_lengths.items()))
+    return (
+        '<?xml version="1.0"?>\n'
+        f"<!-- humanoid body: height {params.height} m, mass {params.mass} kg, sex {params.sex}"
+        f"{lengths}. Segment parameters: de Leva (1996) Table 4. Written by humanoid.build_urdf."
+        " -->\n" + text
+    )
+
+
+def write_urdf(params: BodyParameters, path: str | Path) -> Path:
+    """Write :func:`build_urdf` to ``path`` (parent folders are created) and return the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(build_urdf(params), encoding="ascii")
+    return path

@@ -1,0 +1,23 @@
+"""Errors raised where input enters the toolkit.
+
+Every error the toolkit raises on purpose derives from :class:`HumanoidError`, so callers can
+catch one type. Messages say what was wrong and what would be valid.
+"""
+
+from __future__ import annotations
+
+
+class HumanoidError(Exception):
+    """Base class of every error raised by humanoid on purpose."""
+
+
+class BodyParameterError(HumanoidError, ValueError):
+    """A body parameter (height, mass, sex, segment length) is out of its valid range."""
+
+
+class ModelError(HumanoidError):
+    """A URDF or model cannot be used: missing file, malformed XML, bad inertia, no feet..."""
+
+
+class ConfigurationError(HumanoidError, ValueError):
+    """A configuration or velocity vector has the wrong size or non-finite entries."""

@@ -1,0 +1,321 @@
+"""Fusion of hinge triplets into ball joints (``JointModelSpherical``), and the state maps.
+
+URDF has no ball joint, so human models write a shoulder or a hip as three revolute joints
+through two massless links (an Euler-angle triplet). Such a triplet gimbal-locks when its middle
+angle reaches +-90 deg: the mass matrix becomes singular there (cond(M) ~ 1e15 on
+example-robot-data's human at its hip limit). :func:`fuse_ball_joints` replaces every triplet
+that meets at one point with mutually orthogonal axes through massless links by one spherical
+joint (a unit quaternion in q, the angular velocity in the child frame in v), keeping every
+placement and inertia exactly.
+
+Geometry of one triplet (joints j1 -> j2 -> j3, placements P1, P2, P3 with P2, P3 pure
+rotations, axes a1, a2, a3 in their own joint frames): with G = R(P2) R(P3), b2 = R(P2) a2 and
+b3 = G a3, the child frame's orientation relative to j1's frame is
+
+    R(a1, t1) R(b2, t2) R(b3, t3) G  =  G R_s,
+
+so the fused joint sits at P1 P2 P3 and its rotation is R_s = G^T W G with
+W = R(a1, t1) R(b2, t2) R(b3, t3). The angular velocity in j1's frame is
+a1 t1' + R(a1, t1) b2 t2' + R(a1, t1) R(b2, t2) b3 t3', and the spherical joint's velocity is
+that vector in the child frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import ConfigurationError
+
+__all__ = ["BallJoint", "Fusion", "fuse_ball_joints"]
+
+REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned"}
+TOL = 1e-9
+
+
+def joint_axis(jmodel) -> np.ndarray:
+    """Rotation axis of a 1-DoF revolute joint model, in its joint frame."""
+    jdata = jmodel.createData()
+    jmodel.calc(jdata, np.zeros(jmodel.nq))
+    return np.array(jdata.S).reshape(6, -1)[3:, 0].copy()
+
+
+def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
+    return pin.exp3(np.asarray(axis) * angle)
+
+
+@dataclass(frozen=True)
+class BallJoint:
+    """One fused triplet: its new joint and the three hinges it replaces."""
+
+    name: str
+    joint_id: int  # in the fused model
+    hinges: tuple[str, str, str]  # names in the Euler model
+    hinge_ids: tuple[int, int, int]  # in the Euler model
+    axes: np.ndarray  # (3, 3): columns a1, b2, b3 in j1's frame
+    G: np.ndarray  # (3, 3): rotation of the child's zero frame relative to j1's frame
+
+    def rotation(self, angles) -> np.ndarray:
+        """R_s for three hinge angles [rad]."""
+        W = _rot(self.axes[:, 0], angles[0]) @ _rot(self.axes[:, 1], angles[1])
+        W = W @ _rot(self.axes[:, 2], angles[2])
+        return self.G.T @ W @ self.G
+
+    def velocity_map(self, angles) -> np.ndarray:
+        """3x3 matrix E with (child-frame angular velocity) = E @ (hinge rates)."""
+        R1 = _rot(self.axes[:, 0], angles[0])
+        R2 = _rot(self.axes[:, 1], angles[1])
+        cols = np.column_stack([self.axes[:, 0], R1 @ self.axes[:, 1], R1 @ R2 @ self.axes[:, 2]])
+        Rs = self.rotation(angles)
+        return (self.G @ Rs).T @ cols
+
+    def angles(self, Rs: np.ndarray, lower=None, upper=None) -> np.ndarray:
+        """Hinge angles [rad] of a rotation; of the two Euler branches, the one in the limits."""
+        C = self.axes
+        s = np.sign(np.linalg.det(C))
+        Wp = C.T @ (self.G @ Rs @ self.G.T) @ C  # = Rx(s t1) Ry(s t2) Rz(s t3)
+        beta = np.arcsin(np.clip(Wp[0, 2], -1.0, 1.0))
+        alpha = np.arctan2(-Wp[1, 2], Wp[2, 2])
+        gamma = np.arctan2(-Wp[0, 1], Wp[0, 0])
+        first = s * np.array([alpha, beta, gamma])
+        second = s * np.array([alpha + np.pi, np.pi - beta, gamma + np.pi])
+        second = (second + np.pi) % (2 * np.pi) - np.pi
+        if lower is not None and upper is not None:
+            for cand in (first, second):
+                if np.all(cand >= lower - 1e-12) and np.all(cand <= upper + 1e-12):
+                    return cand
+        return first
+
+
+@dataclass(frozen=True)
+class Fusion:
+    """The map between an Euler model (hinge triplets) and its fused model (ball joints)."""
+
+    euler_model: pin.Model
+    model: pin.Model
+    balls: tuple[BallJoint, ...]
+    copied: tuple[tuple[int, int], ...]  # (euler joint id, fused joint id) for other joints
+
+    def to_quaternion(self, q_euler, v_euler=None):
+        """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given)."""
+        em, fm = self.euler_model, self.model
+        q_euler = _check(q_euler, em.nq, "q")
+        q = np.zeros(fm.nq)
+        v = None if v_euler is None else np.zeros(fm.nv)
+        if v is not None:
+            v_euler = _check(v_euler, em.nv, "v")
+        for je, jf in self.copied:
+            a, b = em.joints[je], fm.joints[jf]
+            q[b.idx_q : b.idx_q + b.nq] = q_euler[a.idx_q : a.idx_q + a.nq]
+            if v is not None:
+                v[b.idx_v : b.idx_v + b.nv] = v_euler[a.idx_v : a.idx_v + a.nv]
+        for ball in self.balls:
+            iq = [em.joints[j].idx_q for j in ball.hinge_ids]
+            th = q_euler[iq]
+            jf = fm.joints[ball.joint_id]
+            q[jf.idx_q : jf.idx_q + 4] = pin.Quaternion(ball.rotation(th)).coeffs()
+            if v is not None:
+                iv = [em.joints[j].idx_v for j in ball.hinge_ids]
+                v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th) @ v_euler[iv]
+        return q, v
+
+    def to_euler(self, q, v=None):
+        """Map a fused-model state back to hinge angles and rates: ``(q_euler, v_euler)``.
+
+        Raises:
+            ConfigurationError: ``v`` is given and a triplet is at gimbal lock, where hinge
+                rates are not defined.
+        """
+        em, fm = self.euler_model, self.model
+        q = _check(q, fm.nq, "q")
+        qe = np.zeros(em.nq)
+        ve = None if v is None else np.zeros(em.nv)
+        if ve is not None:
+            v = _check(v, fm.nv, "v")
+        for je, jf in self.copied:
+            a, b = em.joints[je], fm.joints[jf]
+            qe[a.idx_q : a.idx_q + a.nq] = q[b.idx_q : b.idx_q + b.nq]
+            if ve is not None:
+                ve[a.idx_v : a.idx_v + a.nv] = v[b.idx_v : b.idx_v + b.nv]
+        for ball in self.balls:
+            jf = fm.joints[ball.joint_id]
+            quat = q[jf.idx_q : jf.idx_q + 4]
+            Rs = pin.Quaternion(quat / np.linalg.norm(quat)).toRotationMatrix()
+            iq = [em.joints[j].idx_q for j in ball.hinge_ids]
+            th = ball.angles(Rs, em.lowerPositionLimit[iq], em.upperPositionLimit[iq])
+            qe[iq] = th
+            if ve is not None:
+                E = ball.velocity_map(th)
+                if np.linalg.cond(E) > 1e10:
+                    raise ConfigurationError(
+                        f"ball joint {ball.name!r} is at gimbal lock for its hinges "
+                        f"{', '.join(ball.hinges)} (middle angle {th[1]:.6f} rad): "
+                        "hinge rates are undefined there"
+                    )
+                iv = [em.joints[j].idx_v for j in ball.hinge_ids]
+                ve[iv] = np.linalg.solve(E, v[jf.idx_v : jf.idx_v + 3])
+        return qe, ve
+
+
+def _check(x, n, what):
+    x = np.asarray(x, dtype=float).reshape(-1)
+    if x.shape != (n,):
+        raise ConfigurationError(f"{what} must have {n} entries, got {x.shape[0]}")
+    if not np.all(np.isfinite(x)):
+        raise ConfigurationError(f"{what} has non-finite entries")
+    return x
+
+
+def _massless(inertia) -> bool:
+    return inertia.mass <= TOL and np.abs(inertia.inertia).max() <= TOL
+
+
+def _find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, int]]:
+    children = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        children[model.parents[j]].append(j)
+    carrying = {g.parentJoint for gm in geometry_models for g in gm.geometryObjects}
+    plain = {pin.FrameType.JOINT, pin.FrameType.BODY}
+    framed = {f.parentJoint for f in model.frames if f.type not in plain}
+    triplets = []
+    used = set()
+    for j1 in range(1, model.njoints):
+        if j1 in used:
+            continue
+        chain = [j1]
+        while len(chain) < 3 and len(children[chain[-1]]) == 1:
+            chain.append(children[chain[-1]][0])
+        if len(chain) != 3 or any(model.joints[j].shortname() not in REVOLUTE for j in chain):
+            continue
+        j1, j2, j3 = chain
+        if any(np.abs(model.jointPlacements[j].translation).max() > TOL for j in (j2, j3)):
+            continue
+        if not (_massless(model.inertias[j1]) and _massless(model.inertias[j2])):
+            continue
+        if {j1, j2} & (carrying | framed):
+            continue
+        P2 = model.jointPlacements[j2].rotation
+        G = P2 @ model.jointPlacements[j3].rotation
+        axes = np.column_stack(
+            [joint_axis(model.joints[j1]), P2 @ joint_axis(model.joints[j2]),
+             G @ joint_axis(model.joints[j3])]
+        )  # fmt: skip
+        if np.abs(axes.T @ axes - np.eye(3)).max() > 1e-9:
+            continue
+        triplets.append((j1, j2, j3))
+        used.update(chain)
+    return triplets
+
+
+def _ball_name(model, ids) -> str:
+    names = [model.names[j] for j in ids]
+    prefix = names[0]
+    for n in names[1:]:
+        while not n.startswith(prefix):
+            prefix = prefix[:-1]
+    prefix = prefix.rstrip("_")
+    if not prefix or model.existJointName(prefix):
+        prefix = names[0] + "_ball"
+    return prefix
+
+
+def fuse_ball_joints(model: pin.Model, geometry_models=()):
+    """Replace every fusible hinge triplet by a spherical joint.
+
+    Args:
+        model: The Euler model (it is not modified).
+        geometry_models: Geometry models of ``model`` to carry over to the fused model.
+
+    Returns:
+        ``(fusion, geometry_models)``: the :class:`Fusion` (with the new model and the state
+        maps) and the geometry models re-attached to the fused model.
+    """
+    triplets = _find_triplets(model, geometry_models)
+    first = {t[0]: t for t in triplets}
+    inner = {j for t in triplets for j in t[1:]}
+    new = pin.Model()
+    new.name = model.name
+    new.gravity = model.gravity
+    jmap = {0: 0}
+    balls, copied = [], []
+    for j in range(1, model.njoints):
+        if j in inner:
+            continue
+        parent = jmap[model.parents[j]]
+        if j in first:
+            j1, j2, j3 = first[j]
+            P = model.jointPlacements[j1] * model.jointPlacements[j2] * model.jointPlacements[j3]
+            name = _ball_name(model, first[j])
+            idx = [model.joints[k].idx_v for k in first[j]]
+            jid = new.addJoint(
+                parent,
+                pin.JointModelSpherical(),
+                P,
+                name,
+                model.effortLimit[idx],
+                model.velocityLimit[idx],
+                -np.ones(4),
+                np.ones(4),
+            )
+            new.inertias[jid] = model.inertias[j3]
+            P2 = model.jointPlacements[j2].rotation
+            G = P2 @ model.jointPlacements[j3].rotation
+            axes = np.column_stack(
+                [joint_axis(model.joints[j1]), P2 @ joint_axis(model.joints[j2]),
+                 G @ joint_axis(model.joints[j3])]
+            )  # fmt: skip
+            names = tuple(model.names[k] for k in first[j])
+            balls.append(BallJoint(name, jid, names, first[j], axes, G))
+            for k in first[j]:
+                jmap[k] = jid
+            continue
+        jm = model.joints[j]
+        sq, sv = slice(jm.idx_q, jm.idx_q + jm.nq), slice(jm.idx_v, jm.idx_v + jm.nv)
+        jid = new.addJoint(
+            parent,
+            jm,
+            model.jointPlacements[j],
+            model.names[j],
+            model.effortLimit[sv],
+            model.velocityLimit[sv],
+            model.lowerPositionLimit[sq],
+            model.upperPositionLimit[sq],
+        )
+        new.inertias[jid] = model.inertias[j]
+        nj = new.joints[jid]
+        for attr in ("damping", "friction", "armature", "rotorInertia", "rotorGearRatio"):
+            getattr(new, attr)[nj.idx_v : nj.idx_v + nj.nv] = getattr(model, attr)[sv]
+        jmap[j] = jid
+        copied.append((j, jid))
+
+    fmap = {0: 0}
+    ball_of = {j: b for b in balls for j in b.hinge_ids}
+    for fid in range(1, model.nframes):
+        f = model.frames[fid]
+        pj = f.parentJoint
+        ball = ball_of.get(pj)
+        is_joint = f.type == pin.FrameType.JOINT
+        if ball is not None and (is_joint or pj != ball.hinge_ids[2]):
+            if is_joint and pj == ball.hinge_ids[0]:
+                fmap[fid] = new.addJointFrame(ball.joint_id, fmap[f.parentFrame])
+            else:  # intermediate links and the inner hinges' frames fold into the ball
+                fmap[fid] = new.getFrameId(ball.name, pin.FrameType.JOINT)
+        elif is_joint:
+            fmap[fid] = new.addJointFrame(jmap[pj], fmap[f.parentFrame])
+        else:
+            frame = pin.Frame(f.name, jmap[pj], fmap[f.parentFrame], f.placement, f.type, f.inertia)
+            fmap[fid] = new.addFrame(frame, False)
+
+    new_geoms = []
+    for gm in geometry_models:
+        ng = pin.GeometryModel()
+        for g in gm.geometryObjects:
+            c = g.copy()
+            c.parentJoint = jmap[g.parentJoint]
+            c.parentFrame = fmap[g.parentFrame]
+            ng.addGeometryObject(c)
+        new_geoms.append(ng)
+    fusion = Fusion(model, new, tuple(balls), tuple(copied))
+    return fusion, new_geoms

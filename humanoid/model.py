@@ -1,0 +1,471 @@
+"""Load any humanoid URDF into Pinocchio with a free-flyer root: :func:`load`.
+
+What loading does, in order:
+
+1. Reads the URDF (a path, a string of XML, or an example-robot-data robot by name with
+   :func:`load_example`) and checks it: well-formed XML, finite non-negative masses, positive
+   semi-definite inertias, mesh files that exist. Each problem is a :class:`ModelError` naming
+   the file and the element.
+2. Builds the Pinocchio model with a ``JointModelFreeFlyer`` root at the URDF's root link (the
+   pelvis of a human), and its visual and collision geometry.
+3. Finds the feet by name (``sole`` before ``foot`` before ``ankle``, with ``left``/``l`` and
+   ``right``/``r`` tokens) unless the caller names them.
+4. Turns a model whose URDF is not Z-up (example-robot-data's human is Y-up, ISB) so that it
+   stands along +Z: the free-flyer's joint placement gets the fixed rotation.
+5. With ``ball_joints="quaternion"``, fuses hinge triplets into spherical joints
+   (:mod:`humanoid.fusion`).
+6. Adds, where the model has none, a ``{side}_sole`` frame at the centre of each sole and four
+   sole contact points ``{side}_heel_inner|heel_outer|toe_inner|toe_outer``, from the
+   bounding box of the foot's geometry (collision geometry first, visual otherwise).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+from lxml import etree
+
+from .errors import ConfigurationError, ModelError
+from .fusion import Fusion, fuse_ball_joints
+
+__all__ = ["Humanoid", "example_robot_names", "load", "load_example"]
+
+SIDES = ("left", "right")
+CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
+FOOT_WORDS = ("sole", "foot", "ankle")
+BALL_MODES = ("quaternion", "euler")
+
+
+@dataclass(eq=False)
+class Humanoid:
+    """A humanoid loaded into Pinocchio, standing along +Z with a free-flyer pelvis.
+
+    Attributes:
+        model: The Pinocchio model (free-flyer root, ball joints fused in quaternion mode).
+        data: A ``pin.Data`` for ``model``.
+        visual_model: Visual geometry (``pin.GeometryModel``).
+        collision_model: Collision geometry (``pin.GeometryModel``).
+        feet: Sole frame names, (left, right).
+        contact_points: Sole contact frame names per side: heel inner/outer, toe inner/outer.
+        ball_joints: ``"quaternion"`` or ``"euler"``.
+        source: The file it came from, or ``"<string>"``.
+        fusion: The Euler <-> quaternion state maps (None in Euler mode).
+        euler_model: The model with hinge triplets (the same as ``model`` in Euler mode).
+    """
+
+    model: pin.Model
+    data: pin.Data
+    visual_model: pin.GeometryModel
+    collision_model: pin.GeometryModel
+    feet: tuple[str, str]
+    contact_points: dict[str, tuple[str, ...]]
+    ball_joints: str
+    source: str
+    fusion: Fusion | None
+    euler_model: pin.Model
+
+    @property
+    def mass(self) -> float:
+        """Total mass [kg]."""
+        return float(sum(inertia.mass for inertia in self.model.inertias))
+
+    @property
+    def nq(self) -> int:
+        return self.model.nq
+
+    @property
+    def nv(self) -> int:
+        return self.model.nv
+
+    def frame_id(self, name: str) -> int:
+        """Index of a frame by name; raises :class:`ModelError` listing similar names."""
+        if not self.model.existFrame(name):
+            raise ModelError(f"no frame {name!r} in {self.source}; {_frame_hint(self.model)}")
+        return self.model.getFrameId(name)
+
+    def standing_configuration(self) -> np.ndarray:
+        """Upright configuration [q]: joints at zero (clipped into their limits), soles on z = 0.
+
+        The pelvis is above the world origin and the lowest sole contact point on z = 0.
+        """
+        m = self.model
+        q = _upright(m)
+        data = m.createData()
+        pin.framesForwardKinematics(m, data, q)
+        names = [n for side in SIDES for n in self.contact_points[side]]
+        zmin = min(data.oMf[m.getFrameId(n)].translation[2] for n in names)
+        q[2] -= zmin
+        return q
+
+    def to_euler(self, q, v=None):
+        """State of the Euler model (hinge triplets) for a state of this model."""
+        return (q, v) if self.fusion is None else self.fusion.to_euler(q, v)
+
+    def from_euler(self, q_euler, v_euler=None):
+        """State of this model for a state of the Euler model."""
+        return (
+            (q_euler, v_euler)
+            if self.fusion is None
+            else self.fusion.to_quaternion(q_euler, v_euler)
+        )
+
+
+def _upright(model: pin.Model) -> np.ndarray:
+    """Neutral configuration with every 1-DoF joint at zero clipped into its limits."""
+    q = pin.neutral(model)
+    for jm in model.joints[2:]:
+        if jm.nq == 1:
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            q[jm.idx_q] = np.clip(0.0, lo, hi) if lo <= hi else 0.0
+    return q
+
+
+def example_robot_names() -> tuple[str, ...]:
+    """Names accepted by :func:`load_example` (example-robot-data's URDF robots)."""
+    from example_robot_data.robots_loader import ROBOTS
+
+    return tuple(sorted(k for k, cls in ROBOTS.items() if getattr(cls, "urdf_filename", "")))
+
+
+def example_robot_path(name: str) -> tuple[Path, Path]:
+    """URDF path and package directory of an example-robot-data robot."""
+    from example_robot_data.robots_loader import ROBOTS, getModelPath
+
+    cls = ROBOTS.get(name)
+    if cls is None or not getattr(cls, "urdf_filename", ""):
+        raise ModelError(
+            f"unknown example-robot-data robot {name!r}; valid: {', '.join(example_robot_names())}"
+        )
+    sub = Path(cls.path) / cls.urdf_subpath / cls.urdf_filename
+    root = Path(getModelPath(str(sub)))
+    return root / sub, (root / "../..").resolve()
+
+
+def load_example(name: str, ball_joints: str = "quaternion", feet=None) -> Humanoid:
+    """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) with :func:`load`."""
+    path, package_dir = example_robot_path(name)
+    return load(path, ball_joints=ball_joints, feet=feet, package_dirs=[package_dir])
+
+
+def load(source, ball_joints: str = "quaternion", feet=None, package_dirs=()) -> Humanoid:
+    """Load a humanoid URDF with a free-flyer root.
+
+    Args:
+        source: A path to a URDF file, or the URDF text itself.
+        ball_joints: ``"quaternion"`` fuses hinge triplets into spherical joints;
+            ``"euler"`` keeps the URDF's revolute joints.
+        feet: Optional (left, right) frame names of the feet; found by name if omitted.
+        package_dirs: Extra folders to resolve ``package://`` mesh URIs.
+
+    Returns:
+        The :class:`Humanoid`.
+
+    Raises:
+        ModelError: the file is missing or malformed, a mass or inertia is invalid, a mesh
+            cannot be found, or no feet can be identified.
+    """
+    if ball_joints not in BALL_MODES:
+        raise ModelError(f"ball_joints must be one of {BALL_MODES}, got {ball_joints!r}")
+    text, path = _read(source)
+    dirs = _package_dirs(path, package_dirs)
+    label = str(path) if path else "<string>"
+    _validate(text, label, path, dirs)
+    try:
+        model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
+        geoms = [_geometry(model, text, path, kind, dirs) for kind in ("VISUAL", "COLLISION")]
+    except (RuntimeError, ValueError) as exc:
+        raise ModelError(f"{label}: Pinocchio cannot build the model: {exc}") from None
+
+    foot_frames = _find_feet(model, feet, label)
+    _make_z_up(model, geoms, foot_frames)
+    fusion = None
+    euler_model = model
+    if ball_joints == "quaternion":
+        fusion, geoms = fuse_ball_joints(model, geoms)
+        model = fusion.model
+    soles, contacts = _add_sole_frames(model, geoms, foot_frames)
+    return Humanoid(
+        model=model,
+        data=model.createData(),
+        visual_model=geoms[0],
+        collision_model=geoms[1],
+        feet=soles,
+        contact_points=contacts,
+        ball_joints=ball_joints,
+        source=label,
+        fusion=fusion,
+        euler_model=euler_model,
+    )
+
+
+def _read(source) -> tuple[str, Path | None]:
+    if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
+        path = Path(source)
+        if not path.is_file():
+            raise ModelError(f"URDF file not found: {path}")
+        try:
+            return path.read_text(encoding="utf-8"), path.resolve()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ModelError(f"cannot read URDF file {path}: {exc}") from None
+    if isinstance(source, str):
+        return source, None
+    raise ModelError(f"expected a URDF path or URDF text, got {type(source).__name__}")
+
+
+def _package_dirs(path: Path | None, extra) -> list[str]:
+    dirs = [str(Path(d)) for d in extra]
+    if path is not None:
+        dirs += [str(p) for p in list(path.parents)[:4]]
+    try:
+        from example_robot_data.robots_loader import getModelPath
+
+        dirs.append(str((Path(getModelPath("human_description")) / "../..").resolve()))
+    except (ImportError, OSError):  # pragma: no cover - example-robot-data is a dependency
+        pass
+    return dirs
+
+
+def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> None:
+    try:
+        root = etree.fromstring(text.encode("utf-8"))
+    except etree.XMLSyntaxError as exc:
+        raise ModelError(f"{label}: malformed URDF XML: {exc}") from None
+    if root.tag != "robot":
+        raise ModelError(f"{label}: the root element is <{root.tag}>, expected <robot>")
+    for link in root.iter("link"):
+        name = link.get("name", "?")
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        where = f"{label}: link {name!r}"
+        try:
+            mass = float(inertial.find("mass").get("value"))
+            I = inertial.find("inertia")
+            v = {k: float(I.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        except (AttributeError, TypeError, ValueError):
+            raise ModelError(f"{where}: <inertial> needs <mass value> and <inertia>") from None
+        if not math.isfinite(mass) or mass < 0:
+            raise ModelError(f"{where}: mass must be finite and >= 0, got {mass}")
+        M = np.array(
+            [
+                [v["ixx"], v["ixy"], v["ixz"]],
+                [v["ixy"], v["iyy"], v["iyz"]],
+                [v["ixz"], v["iyz"], v["izz"]],
+            ]
+        )
+        if not np.all(np.isfinite(M)):
+            raise ModelError(f"{where}: inertia has non-finite entries")
+        eig = np.linalg.eigvalsh(M)
+        if eig[0] < -1e-9 * max(1.0, abs(eig[-1])):
+            raise ModelError(
+                f"{where}: inertia is not positive semi-definite (eigenvalues {eig.round(9)})"
+            )
+    for mesh in root.iter("mesh"):
+        filename = mesh.get("filename", "")
+        if _resolve_mesh(filename, path, dirs) is None:
+            owner = next((a.get("name") for a in mesh.iterancestors("link")), "?")
+            raise ModelError(
+                f"{label}: link {owner!r}: mesh {filename!r} not found "
+                f"(searched {', '.join(dirs) or 'no package folders'})"
+            )
+
+
+def _resolve_mesh(filename: str, path: Path | None, dirs: list[str]) -> Path | None:
+    if filename.startswith("package://"):
+        rest = filename[len("package://") :]
+        candidates = [Path(d) / rest for d in dirs]
+    elif filename.startswith("file://"):
+        candidates = [Path(filename[len("file://") :])]
+    else:
+        base = path.parent if path is not None else Path.cwd()
+        candidates = [base / filename]
+    return next((c for c in candidates if c.is_file()), None)
+
+
+def _geometry(model, text, path, kind, dirs):
+    gtype = getattr(pin.GeometryType, kind)
+    if path is not None:
+        return pin.buildGeomFromUrdf(model, str(path), gtype, package_dirs=dirs)
+    return pin.buildGeomFromUrdfString(model, text, gtype, package_dirs=dirs)
+
+
+def _side_match(name: str, side: str) -> bool:
+    n = name.lower()
+    return side in n or re.search(rf"(^|[^a-z]){side[0]}([^a-z]|$)", n) is not None
+
+
+def _find_feet(model: pin.Model, feet, label: str) -> tuple[str, str]:
+    if feet is not None:
+        feet = tuple(feet)
+        if len(feet) != 2:
+            raise ModelError(f"feet must be two frame names (left, right), got {feet!r}")
+        for name in feet:
+            if not model.existFrame(name):
+                raise ModelError(f"{label}: no frame {name!r}; {_frame_hint(model)}")
+        return feet
+    found = []
+    for side in SIDES:
+        best = None
+        for f in model.frames:
+            n = f.name.lower()
+            if "virtual" in n or not _side_match(n, side):
+                continue
+            other = SIDES[1 - SIDES.index(side)]
+            if other in n:
+                continue
+            for rank, word in enumerate(FOOT_WORDS):
+                if word in n:
+                    key = (rank, -f.parentJoint, f.type == pin.FrameType.JOINT, len(n))
+                    if best is None or key < best[0]:
+                        best = (key, f.name)
+                    break
+        if best is None:
+            raise ModelError(
+                f"{label}: cannot identify the {side} foot (no frame name with "
+                f"{'/'.join(FOOT_WORDS)} and {side!r}); candidates (leaf links): "
+                f"{', '.join(_leaf_links(model))}. Pass feet=(left, right)."
+            )
+        found.append(best[1])
+    return tuple(found)
+
+
+def _leaf_links(model: pin.Model) -> list[str]:
+    parents = set(model.parents)
+    leaves = {j for j in range(1, model.njoints) if j not in parents}
+    return [
+        f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint in leaves
+    ]
+
+
+def _frame_hint(model: pin.Model) -> str:
+    names = [f.name for f in model.frames if f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]
+    return "frames: " + ", ".join(names)
+
+
+def _make_z_up(model: pin.Model, geoms, feet: tuple[str, str]) -> None:
+    """Turn the root link so that the direction from the feet to the pelvis is +Z.
+
+    The turn goes between the free-flyer joint and the root link (into every placement and
+    inertia carried by joint 1), so the free-flyer's coordinates stay world-aligned.
+    """
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, pin.neutral(model))
+    up = data.oMi[1].translation - np.mean(
+        [data.oMf[model.getFrameId(n)].translation for n in feet], axis=0
+    )
+    axis = int(np.argmax(np.abs(up)))
+    turns = {  # rotation taking the URDF's up axis to +Z, keeping +X forward where possible
+        (0, 1): pin.utils.rotate("y", -np.pi / 2),
+        (0, -1): pin.utils.rotate("y", np.pi / 2),
+        (1, 1): pin.utils.rotate("x", np.pi / 2),
+        (1, -1): pin.utils.rotate("x", -np.pi / 2),
+        (2, -1): pin.utils.rotate("x", np.pi),
+    }
+    R = turns.get((axis, int(np.sign(up[axis]))))
+    if R is None:
+        return
+    T = pin.SE3(R, np.zeros(3))
+    model.inertias[1] = model.inertias[1].se3Action(T)
+    for j in range(2, model.njoints):
+        if model.parents[j] == 1:
+            model.jointPlacements[j] = T * model.jointPlacements[j]
+    for f in model.frames:
+        if f.parentJoint == 1 and f.type != pin.FrameType.JOINT:
+            f.placement = T * f.placement
+    for gm in geoms:
+        for g in gm.geometryObjects:
+            if g.parentJoint == 1:
+                g.placement = T * g.placement
+
+
+def _add_sole_frames(model: pin.Model, geoms, feet):
+    """Sole frames and contact points: the model's own, or from the foot geometry's box."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, _upright(model))
+    soles, contacts = [], {}
+    for side, foot in zip(SIDES, feet, strict=True):
+        names = tuple(f"{side}_{c}" for c in CORNERS)
+        fid = model.getFrameId(foot)
+        joint = model.frames[fid].parentJoint
+        if all(model.existFrame(n) for n in names):
+            contacts[side] = names
+            sole = foot if "sole" in foot.lower() else f"{side}_sole"
+            if not model.existFrame(sole):
+                sole = foot
+            soles.append(sole)
+            continue
+        lo, hi = _foot_box(model, data, geoms, joint, foot)
+        inner_y = lo[1] if side == "left" else hi[1]
+        outer_y = hi[1] if side == "left" else lo[1]
+        oMi = data.oMi[joint]
+        R_local = oMi.rotation.T  # world-aligned in the standing pose
+        points = {
+            "heel_inner": (lo[0], inner_y),
+            "heel_outer": (lo[0], outer_y),
+            "toe_inner": (hi[0], inner_y),
+            "toe_outer": (hi[0], outer_y),
+        }
+        for corner, (x, y) in points.items():
+            p = oMi.actInv(np.array([x, y, lo[2]]))
+            model.addFrame(
+                pin.Frame(
+                    f"{side}_{corner}", joint, fid, pin.SE3(R_local, p), pin.FrameType.OP_FRAME
+                ),
+                False,
+            )
+        contacts[side] = names
+        if "sole" in foot.lower():
+            soles.append(foot)
+        else:
+            centre = oMi.actInv(np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]]))
+            sole = f"{side}_sole"
+            model.addFrame(
+                pin.Frame(sole, joint, fid, pin.SE3(R_local, centre), pin.FrameType.OP_FRAME), False
+            )
+            soles.append(sole)
+    return tuple(soles), contacts
+
+
+def _foot_box(model, data, geoms, joint, foot):
+    """World-frame bounding box (min, max corners) of the geometry on the foot's joint."""
+    for gm in (geoms[1], geoms[0]):  # collision first
+        corners = []
+        for g in gm.geometryObjects:
+            if g.parentJoint != joint:
+                continue
+            g.geometry.computeLocalAABB()
+            box = g.geometry.aabb_local
+            lo, hi = np.array(box.min_), np.array(box.max_)
+            M = data.oMi[joint] * g.placement
+            for i in range(8):
+                c = np.where([(i >> k) & 1 for k in range(3)], hi, lo)
+                corners.append(M.act(c))
+        if corners:
+            corners = np.array(corners)
+            return corners.min(axis=0), corners.max(axis=0)
+    raise ModelError(
+        f"the foot {foot!r} has no geometry to place sole contact points on; "
+        "add {side}_heel_inner/heel_outer/toe_inner/toe_outer frames to the URDF"
+    )
+
+
+def check_configuration(h: Humanoid, q, v=None):
+    """``q`` (and ``v``) as float arrays of the model's sizes, finite; else ConfigurationError."""
+    q = np.asarray(q, dtype=float).reshape(-1)
+    if q.shape != (h.nq,):
+        raise ConfigurationError(f"q must have nq = {h.nq} entries, got {q.shape[0]}")
+    if not np.all(np.isfinite(q)):
+        raise ConfigurationError("q has non-finite entries")
+    if v is None:
+        return q
+    v = np.asarray(v, dtype=float).reshape(-1)
+    if v.shape != (h.nv,):
+        raise ConfigurationError(f"v must have nv = {h.nv} entries, got {v.shape[0]}")
+    if not np.all(np.isfinite(v)):
+        raise ConfigurationError("v has non-finite entries")
+    return q, v
