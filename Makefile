@@ -15,8 +15,10 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	mkdir -p results
 	$(PY) -m humanoid build --height 1.75 --mass 75 --sex male -o results/adult_male.urdf
-	$(PY) -m humanoid info results/adult_male.urdf
-	$(PY) -m humanoid info models/adult_female.urdf
+	$(PY) -m humanoid build --height 1.62 --mass 62 --sex female -o results/adult_female.urdf
+	$(PY) -m humanoid info results/adult_male.urdf | tee results/adult_male.txt
+	$(PY) -m humanoid info results/adult_female.urdf | tee results/adult_female.txt
+	@echo "demo: results written to results/"
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q

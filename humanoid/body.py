@@ -303,14 +303,22 @@ def build_urdf_object(params: BodyParameters) -> yourdfpy.URDF:
         ],
     )
     b.ball("neck", "neck", "left", "thorax", "head", (0.0, 0.0, thorax.length))
-    head_r = (3.0 * head.mass / (4.0 * math.pi * TISSUE_DENSITY)) ** (1.0 / 3.0)
+    # A sphere of the head's volume whose top is the vertex, on a neck cylinder from C7.
+    head_r = min(
+        (3.0 * head.mass / (4.0 * math.pi * TISSUE_DENSITY)) ** (1.0 / 3.0), head.length / 2
+    )
     neck_len = max(head.length - 2.0 * head_r, 0.01)
     b.link(
         "head",
         head,
         up("head"),
         [
-            _visual("head", {"sphere": yourdfpy.Sphere(radius=head_r)}, up("head"), "skin"),
+            _visual(
+                "head",
+                {"sphere": yourdfpy.Sphere(radius=head_r)},
+                (0, 0, head.length - head_r),
+                "skin",
+            ),
             _visual(
                 "neck",
                 {"cylinder": yourdfpy.Cylinder(radius=0.35 * head_r, length=neck_len)},

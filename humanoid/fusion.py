@@ -71,8 +71,13 @@ class BallJoint:
         Rs = self.rotation(angles)
         return (self.G @ Rs).T @ cols
 
-    def angles(self, Rs: np.ndarray, lower=None, upper=None) -> np.ndarray:
-        """Hinge angles [rad] of a rotation; of the two Euler branches, the one in the limits."""
+    def angles(self, Rs: np.ndarray, lower=None, upper=None, hint=None) -> np.ndarray:
+        """Hinge angles [rad] of a rotation.
+
+        A rotation has two Euler-angle solutions (middle angle b or pi - b). The one inside the
+        limits is returned; when both are, the one nearer ``hint`` (e.g. the previous angles of
+        a trajectory), else the one with |middle angle| <= pi/2.
+        """
         C = self.axes
         s = np.sign(np.linalg.det(C))
         Wp = C.T @ (self.G @ Rs @ self.G.T) @ C  # = Rx(s t1) Ry(s t2) Rz(s t3)
@@ -82,11 +87,15 @@ class BallJoint:
         first = s * np.array([alpha, beta, gamma])
         second = s * np.array([alpha + np.pi, np.pi - beta, gamma + np.pi])
         second = (second + np.pi) % (2 * np.pi) - np.pi
+        candidates = [first, second]
         if lower is not None and upper is not None:
-            for cand in (first, second):
-                if np.all(cand >= lower - 1e-12) and np.all(cand <= upper + 1e-12):
-                    return cand
-        return first
+            inside = [
+                c for c in candidates if np.all(c >= lower - 1e-12) and np.all(c <= upper + 1e-12)
+            ]
+            candidates = inside or candidates
+        if hint is not None:
+            return min(candidates, key=lambda c: np.abs(np.angle(np.exp(1j * (c - hint)))).sum())
+        return candidates[0]
 
 
 @dataclass(frozen=True)
@@ -121,8 +130,11 @@ class Fusion:
                 v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th) @ v_euler[iv]
         return q, v
 
-    def to_euler(self, q, v=None):
+    def to_euler(self, q, v=None, hint=None):
         """Map a fused-model state back to hinge angles and rates: ``(q_euler, v_euler)``.
+
+        ``hint``: an Euler-model configuration near the answer, to choose between the two
+        Euler-angle solutions of a ball joint when both are inside the limits.
 
         Raises:
             ConfigurationError: ``v`` is given and a triplet is at gimbal lock, where hinge
@@ -144,7 +156,8 @@ class Fusion:
             quat = q[jf.idx_q : jf.idx_q + 4]
             Rs = pin.Quaternion(quat / np.linalg.norm(quat)).toRotationMatrix()
             iq = [em.joints[j].idx_q for j in ball.hinge_ids]
-            th = ball.angles(Rs, em.lowerPositionLimit[iq], em.upperPositionLimit[iq])
+            lim = em.lowerPositionLimit[iq], em.upperPositionLimit[iq]
+            th = ball.angles(Rs, *lim, None if hint is None else np.asarray(hint)[iq])
             qe[iq] = th
             if ve is not None:
                 E = ball.velocity_map(th)

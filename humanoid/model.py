@@ -102,9 +102,36 @@ class Humanoid:
         q[2] -= zmin
         return q
 
-    def to_euler(self, q, v=None):
-        """State of the Euler model (hinge triplets) for a state of this model."""
-        return (q, v) if self.fusion is None else self.fusion.to_euler(q, v)
+    def standing_height(self) -> float:
+        """Top of the visual geometry in the standing configuration [m] (soles on z = 0)."""
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, self.standing_configuration())
+        box = _world_box(self.model, data, self.visual_model)
+        if box is None:
+            raise ModelError(f"{self.source} has no visual geometry to measure its height")
+        return float(box[1][2])
+
+    def body_masses(self) -> dict[str, float]:
+        """Mass [kg] carried by each moving body, keyed by its link name."""
+        out = {}
+        for j in range(1, self.model.njoints):
+            mass = self.model.inertias[j].mass
+            if mass > 0:
+                name = next(
+                    (f.name for f in self.model.frames
+                     if f.parentJoint == j and f.type == pin.FrameType.BODY),
+                    self.model.names[j],
+                )  # fmt: skip
+                out[name] = float(mass)
+        return out
+
+    def to_euler(self, q, v=None, hint=None):
+        """State of the Euler model (hinge triplets) for a state of this model.
+
+        ``hint`` (an Euler configuration near the answer) picks between the two Euler-angle
+        solutions of a ball joint; see :meth:`humanoid.fusion.Fusion.to_euler`.
+        """
+        return (q, v) if self.fusion is None else self.fusion.to_euler(q, v, hint)
 
     def from_euler(self, q_euler, v_euler=None):
         """State of this model for a state of the Euler model."""
@@ -431,26 +458,36 @@ def _add_sole_frames(model: pin.Model, geoms, feet):
     return tuple(soles), contacts
 
 
+def _world_box(model, data, geometry_model, joints=None):
+    """World bounding box (min, max corners) of the geometry on ``joints`` (all if None).
+
+    Uses ``data.oMi`` as it stands; returns None when no geometry object matches.
+    """
+    corners = []
+    for g in geometry_model.geometryObjects:
+        if joints is not None and g.parentJoint not in joints:
+            continue
+        g.geometry.computeLocalAABB()
+        box = g.geometry.aabb_local
+        lo, hi = np.array(box.min_), np.array(box.max_)
+        M = data.oMi[g.parentJoint] * g.placement
+        for i in range(8):
+            corners.append(M.act(np.where([(i >> k) & 1 for k in range(3)], hi, lo)))
+    if not corners:
+        return None
+    corners = np.array(corners)
+    return corners.min(axis=0), corners.max(axis=0)
+
+
 def _foot_box(model, data, geoms, joint, foot):
-    """World-frame bounding box (min, max corners) of the geometry on the foot's joint."""
-    for gm in (geoms[1], geoms[0]):  # collision first
-        corners = []
-        for g in gm.geometryObjects:
-            if g.parentJoint != joint:
-                continue
-            g.geometry.computeLocalAABB()
-            box = g.geometry.aabb_local
-            lo, hi = np.array(box.min_), np.array(box.max_)
-            M = data.oMi[joint] * g.placement
-            for i in range(8):
-                c = np.where([(i >> k) & 1 for k in range(3)], hi, lo)
-                corners.append(M.act(c))
-        if corners:
-            corners = np.array(corners)
-            return corners.min(axis=0), corners.max(axis=0)
+    """World bounding box of the foot's geometry: collision geometry first, visual otherwise."""
+    for gm in (geoms[1], geoms[0]):
+        box = _world_box(model, data, gm, {joint})
+        if box is not None:
+            return box
     raise ModelError(
-        f"the foot {foot!r} has no geometry to place sole contact points on; "
-        "add {side}_heel_inner/heel_outer/toe_inner/toe_outer frames to the URDF"
+        f"the foot {foot!r} has no geometry to place sole contact points on; add "
+        "{side}_heel_inner, _heel_outer, _toe_inner and _toe_outer frames to the URDF"
     )
 
 

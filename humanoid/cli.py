@@ -1,0 +1,123 @@
+"""The ``humanoid`` command line: ``build`` and ``info`` (more subcommands join as they land).
+
+Errors go to stderr as one line, with exit code 2 for bad input and no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from .errors import HumanoidError
+
+__all__ = ["main"]
+
+
+def _segment_length(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"expected NAME=LENGTH, got {text!r}")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"length of {name!r} is not a number: {value!r}") from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="humanoid", description="Physics-based human body models on Pinocchio."
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+
+    b = sub.add_parser("build", help="write the URDF body of a person (de Leva 1996)")
+    b.add_argument("--height", type=float, required=True, help="stature [m], 0.5-2.5")
+    b.add_argument("--mass", type=float, required=True, help="body mass [kg], 10-300")
+    b.add_argument("--sex", choices=("male", "female"), required=True)
+    b.add_argument(
+        "--segment",
+        type=_segment_length,
+        action="append",
+        default=[],
+        metavar="NAME=LENGTH",
+        help="a measured segment length [m], e.g. thigh=0.45 (repeatable)",
+    )
+    b.add_argument("-o", "--output", required=True, help="URDF file to write")
+
+    i = sub.add_parser("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
+    i.add_argument("model", help="a URDF file or an example-robot-data name (human, talos...)")
+    i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "build":
+            return _build(args)
+        if args.command == "info":
+            return _info(args)
+    except HumanoidError as exc:
+        print(f"humanoid {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    return 1  # pragma: no cover - argparse rejects unknown commands
+
+
+def _build(args) -> int:
+    from .anthropometry import BodyParameters
+    from .body import write_urdf
+
+    params = BodyParameters(args.height, args.mass, args.sex, dict(args.segment))
+    path = write_urdf(params, args.output)
+    print(f"wrote {path} ({params.sex}, {params.height} m, {params.mass} kg)")
+    return 0
+
+
+def load_any(name: str, ball_joints: str = "quaternion"):
+    """A URDF path, or else an example-robot-data robot name."""
+    from .model import example_robot_names, load, load_example
+
+    if not Path(name).exists() and name in example_robot_names():
+        return load_example(name, ball_joints=ball_joints)
+    return load(Path(name), ball_joints=ball_joints)
+
+
+def _info(args) -> int:
+    print(summary(load_any(args.model, args.ball_joints)))
+    return 0
+
+
+def summary(h) -> str:
+    """A human-readable summary of a loaded :class:`~humanoid.model.Humanoid`."""
+    from .dynamics import centre_of_mass
+
+    m = h.model
+    q = h.standing_configuration()
+    top = h.standing_height()
+    com = centre_of_mass(h, q)
+    lines = [
+        f"model        {h.source}",
+        f"ball joints  {h.ball_joints}",
+        f"DoF          nq = {m.nq}, nv = {m.nv} (6 free-flyer + {m.nv - 6} joint)",
+        f"mass         {h.mass:.4f} kg",
+        f"height       {top:.4f} m standing (top of the visual geometry)",
+        f"CoM height   {com[2]:.4f} m standing ({com[2] / top:.3f} x height)",
+        f"feet         {h.feet[0]}, {h.feet[1]}",
+        "contacts     " + ", ".join(h.contact_points["left"] + h.contact_points["right"]),
+        "",
+        f"{'joint':<28} {'type':<28} {'nq':>2} {'nv':>2}  limits [deg]",
+    ]
+    for j in range(1, m.njoints):
+        jm = m.joints[j]
+        limits = ""
+        if jm.nq == 1:
+            lo = math.degrees(m.lowerPositionLimit[jm.idx_q])
+            hi = math.degrees(m.upperPositionLimit[jm.idx_q])
+            limits = f"{lo:7.1f} .. {hi:6.1f}"
+        lines.append(f"{m.names[j]:<28} {jm.shortname():<28} {jm.nq:>2} {jm.nv:>2}  {limits}")
+    lines += ["", f"{'segment (link)':<28} {'mass [kg]':>10} {'share':>7}"]
+    for name, mass in h.body_masses().items():
+        lines.append(f"{name:<28} {mass:>10.4f} {mass / h.mass:>7.2%}")
+    return "\n".join(lines)

@@ -1,0 +1,65 @@
+"""Shared fixtures: the bodies and models the tests run on, loaded once per session."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import humanoid as hm
+
+ROOT = Path(__file__).resolve().parent.parent
+MODELS = ROOT / "models"
+
+
+@pytest.fixture(scope="session")
+def male_urdf() -> str:
+    return hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male"))
+
+
+@pytest.fixture(scope="session")
+def female_urdf() -> str:
+    return hm.build_urdf(hm.BodyParameters(1.62, 62.0, "female"))
+
+
+_CACHE: dict = {}
+
+
+def get_model(name: str, mode: str) -> hm.Humanoid:
+    """A loaded model by short name: male, female, human (erd), talos (erd)."""
+    key = (name, mode)
+    if key not in _CACHE:
+        if name == "male":
+            _CACHE[key] = hm.load(MODELS / "adult_male.urdf", ball_joints=mode)
+        elif name == "female":
+            _CACHE[key] = hm.load(MODELS / "adult_female.urdf", ball_joints=mode)
+        else:
+            path, _ = hm.model.example_robot_path(name)
+            _CACHE[key] = hm.load(path, ball_joints=mode)
+    return _CACHE[key]
+
+
+ALL_MODELS = [
+    (name, mode)
+    for name in ("male", "female", "human", "talos")
+    for mode in ("euler", "quaternion")
+]
+
+
+def random_state(h: hm.Humanoid, rng: np.random.Generator, inside_limits: bool = True):
+    """A random (q, v): joints uniform in their limits (clipped to +-2 rad), random base."""
+    m = h.model
+    q = h.standing_configuration()
+    q[:3] += rng.normal(scale=0.3, size=3)
+    q[3:7] = pin.Quaternion(pin.exp3(rng.normal(size=3))).coeffs()
+    for jm in m.joints[2:]:
+        if jm.nq == 1:
+            lo = max(m.lowerPositionLimit[jm.idx_q], -2.0)
+            hi = min(m.upperPositionLimit[jm.idx_q], 2.0)
+            q[jm.idx_q] = rng.uniform(lo, hi) if inside_limits else rng.uniform(-2, 2)
+        elif jm.nq == 4:
+            q[jm.idx_q : jm.idx_q + 4] = pin.Quaternion(pin.exp3(rng.normal(size=3))).coeffs()
+    v = rng.normal(size=m.nv)
+    return q, v

@@ -1,0 +1,96 @@
+"""The command line, called as main([...]) and once as a real process."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+from conftest import MODELS
+
+import humanoid as hm
+from humanoid.cli import main
+
+
+def test_build_writes_the_same_body_as_the_api(tmp_path, capsys):
+    out = tmp_path / "sub" / "me.urdf"
+    code = main(["build", "--height", "1.8", "--mass", "80", "--sex", "female", "-o", str(out)])
+    assert code == 0
+    assert out.read_text() == hm.build_urdf(hm.BodyParameters(1.8, 80.0, "female"))
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_build_with_a_measured_segment(tmp_path):
+    out = tmp_path / "me.urdf"
+    argv = ["build", "--height", "1.8", "--mass", "80", "--sex", "male", "--segment", "thigh=0.45"]
+    assert main([*argv, "-o", str(out)]) == 0
+    expected = hm.BodyParameters(1.8, 80.0, "male", {"thigh": 0.45})
+    assert out.read_text() == hm.build_urdf(expected)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--height", "3", "--mass", "70", "--sex", "male"], r"height must be in \[0.5, 2.5\] m"),
+        (["--height", "1.7", "--mass", "5", "--sex", "male"], r"mass must be in \[10.0, 300.0\]"),
+        (["--height", "1.7", "--mass", "nan", "--sex", "male"], "mass must be in"),
+        (
+            ["--height", "1.7", "--mass", "70", "--sex", "male", "--segment", "tail=0.3"],
+            "unknown segment length 'tail'",
+        ),
+    ],
+)
+def test_build_errors_go_to_stderr_without_traceback(tmp_path, capsys, argv, message):
+    code = main(["build", *argv, "-o", str(tmp_path / "x.urdf")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "Traceback" not in err
+    assert err.startswith("humanoid build: error:")
+    assert re.search(message, err), err
+    assert not (tmp_path / "x.urdf").exists()
+
+
+def test_info_summarises_our_body(capsys):
+    assert main(["info", str(MODELS / "adult_male.urdf")]) == 0
+    out = capsys.readouterr().out
+    assert "nq = 47, nv = 39" in out
+    assert "mass         75.0000 kg" in out
+    assert "left_sole, right_sole" in out
+    assert "left_hip" in out and "JointModelSpherical" in out
+    assert "left_thigh" in out and "14.16%" in out  # de Leva male thigh 0.1416
+
+
+def test_info_euler_mode_and_erd_name(capsys):
+    assert main(["info", "human", "--ball-joints", "euler"]) == 0
+    out = capsys.readouterr().out
+    assert "nq = 43, nv = 42" in out
+    assert "left_hip_X" in out
+
+
+def test_info_missing_file(capsys):
+    assert main(["info", "no/such/model.urdf"]) == 2
+    err = capsys.readouterr().err
+    assert "URDF file not found: no/such/model.urdf" in err and "Traceback" not in err
+
+
+def test_python_dash_m_entry_point():
+    proc = subprocess.run(
+        [sys.executable, "-m", "humanoid", "info", "/nonexistent.urdf"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert "URDF file not found" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_import_is_light():
+    """`import humanoid` imports no viewer, server or browser module."""
+    code = (
+        "import sys, humanoid; "
+        "bad = [m for m in ('meshcat', 'zmq', 'tornado', 'matplotlib', 'playwright') "
+        "if m in sys.modules]; print(bad)"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.strip() == "[]"

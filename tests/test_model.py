@@ -1,0 +1,166 @@
+"""Loading humanoid URDFs: ours and others', up-axis, feet, contact points, clear errors."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import MODELS, get_model
+
+import humanoid as hm
+from humanoid.model import example_robot_path
+
+
+def _world(h, q, names):
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, q)
+    return np.array([data.oMf[h.model.getFrameId(n)].translation for n in names])
+
+
+@pytest.mark.parametrize("name", ["male", "female", "human", "talos"])
+@pytest.mark.parametrize("mode", ["euler", "quaternion"])
+def test_loaded_model_stands_on_its_soles(name, mode):
+    h = get_model(name, mode)
+    assert h.model.joints[1].shortname() == "JointModelFreeFlyer"
+    assert h.model.names[1] == "root_joint"
+    q = h.standing_configuration()
+    points = _world(h, q, h.contact_points["left"] + h.contact_points["right"])
+    assert np.abs(points[:, 2]).max() < 1e-9, "sole points not on z = 0"
+    left, right = points[:4], points[4:]
+    assert left[:, 1].min() > right[:, 1].max(), "left foot is not on +y"
+    heel, toe = points[[0, 1]], points[[2, 3]]
+    assert toe[:, 0].min() > heel[:, 0].max(), "toes are not in front of the heels (+x)"
+    # The body stands along +Z: the pelvis is above the feet and the CoM between them.
+    com = hm.centre_of_mass(h, q)
+    assert q[2] > 0.5
+    assert points[:, 0].min() - 0.05 < com[0] < points[:, 0].max() + 0.05
+    assert right[:, 1].max() < com[1] + 0.05 and com[1] - 0.05 < left[:, 1].min()
+    # The sole frames are flat and world-aligned
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, q)
+    for foot in h.feet:
+        assert np.allclose(data.oMf[h.model.getFrameId(foot)].rotation, np.eye(3), atol=1e-9)
+
+
+def test_erd_human_is_turned_z_up():
+    h = get_model("human", "euler")
+    data = h.model.createData()
+    q = h.standing_configuration()
+    pin.framesForwardKinematics(h.model, data, q)
+    head = data.oMf[h.model.getFrameId("middle_head")].translation
+    assert head[2] > 1.3, f"head at {head}"
+    assert h.standing_height() == pytest.approx(1.80, abs=0.05)  # erd's body is 1.80 m
+    assert h.mass == pytest.approx(74.712, abs=1e-9)  # the URDF's masses, unchanged
+
+
+def test_our_body_height_and_com_ratio():
+    for name, height in (("male", 1.75), ("female", 1.62)):
+        h = get_model(name, "quaternion")
+        assert h.standing_height() == pytest.approx(height, abs=1e-12)
+        ratio = hm.centre_of_mass(h, h.standing_configuration())[2] / height
+        assert 0.53 <= ratio <= 0.58, f"{name}: CoM at {ratio:.4f} x stature"
+
+
+def test_load_from_text_and_from_path_agree(male_urdf):
+    a = hm.load(male_urdf)
+    b = get_model("male", "quaternion")
+    assert a.model.nq == b.model.nq and a.mass == pytest.approx(b.mass, rel=1e-15)
+    assert a.source == "<string>"
+
+
+def test_load_example_shortcut():
+    h = hm.load_example("talos")
+    assert h.feet == ("left_sole_link", "right_sole_link")
+    assert "talos" in hm.example_robot_names() and "human" in hm.example_robot_names()
+    with pytest.raises(hm.ModelError, match=r"unknown example-robot-data robot 'robby'.*talos"):
+        hm.load_example("robby")
+
+
+def test_feet_given_by_the_caller():
+    path, _ = example_robot_path("human")
+    h = hm.load(path, feet=("left_foot", "right_foot"))
+    assert h.feet == ("left_sole", "right_sole")
+    with pytest.raises(hm.ModelError, match=r"no frame 'left_paw'.*frames: .*left_foot"):
+        hm.load(path, feet=("left_paw", "right_foot"))
+
+
+def _strip_feet(text: str) -> str:
+    for word, other in (("foot", "paw"), ("sole", "pad"), ("ankle", "hock")):
+        text = text.replace(word, other)
+    return text
+
+
+def test_no_identifiable_feet_names_candidates(male_urdf):
+    with pytest.raises(hm.ModelError, match=r"cannot identify the left foot.*candidates.*left_paw"):
+        hm.load(_strip_feet(male_urdf))
+
+
+def test_bad_ball_joint_mode(male_urdf):
+    with pytest.raises(hm.ModelError, match="ball_joints must be one of"):
+        hm.load(male_urdf, ball_joints="matrix")
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("</robot>", ""), r"<string>: malformed URDF XML"),
+        (lambda t: "<robot_x/>", r"root element is <robot_x>"),
+        (
+            lambda t: re.sub(r'(<link name="left_thigh">\s*<inertial>\s*<origin[^>]*/>\s*'
+                             r'<mass value=")[^"]*', r"\g<1>-1.0", t),
+            r"link 'left_thigh': mass must be finite and >= 0, got -1.0",
+        ),
+        (
+            lambda t: re.sub(r'(<link name="head">\s*<inertial>\s*<origin[^>]*/>\s*'
+                             r'<mass value="[^"]*"/>\s*<inertia ixx=")[^"]*', r"\g<1>-0.5", t),
+            r"link 'head': inertia is not positive semi-definite",
+        ),
+        (
+            lambda t: t.replace(
+                '<box size="', '<mesh filename="package://nowhere/foot.stl"/><box size="', 1
+            ),
+            r"link 'pelvis': mesh 'package://nowhere/foot.stl' not found",
+        ),
+    ],
+)  # fmt: skip
+def test_malformed_urdf_is_a_clear_error(male_urdf, edit, message):
+    with pytest.raises(hm.ModelError, match=message):
+        hm.load(edit(male_urdf))
+
+
+def test_missing_file_and_bad_types(tmp_path):
+    with pytest.raises(hm.ModelError, match="URDF file not found: .*nothing.urdf"):
+        hm.load(tmp_path / "nothing.urdf")
+    with pytest.raises(hm.ModelError, match="expected a URDF path or URDF text, got int"):
+        hm.load(42)
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'>")
+    with pytest.raises(hm.ModelError, match=r"bad.urdf: malformed URDF XML"):
+        hm.load(bad)
+
+
+def test_a_users_urdf_with_relative_meshes(tmp_path):
+    """A URDF with a relative mesh path loads from its own folder (meshes of erd's human)."""
+    path, package = example_robot_path("human")
+    text = path.read_text().replace(
+        "package://example-robot-data/robots/human_description/meshes/", "meshes/"
+    )
+    (tmp_path / "meshes").symlink_to(path.parent.parent / "meshes")
+    mine = tmp_path / "person.urdf"
+    mine.write_text(text)
+    h = hm.load(mine)
+    assert h.visual_model.ngeoms == get_model("human", "quaternion").visual_model.ngeoms > 0
+
+
+def test_shipped_models_equal_the_builder():
+    """models/*.urdf are what scripts/make_models.py writes with the current builder."""
+    expected = {
+        "adult_male.urdf": hm.BodyParameters(1.75, 75.0, "male"),
+        "adult_female.urdf": hm.BodyParameters(1.62, 62.0, "female"),
+    }
+    for name, params in expected.items():
+        assert (MODELS / name).read_text() == hm.build_urdf(params), (
+            f"models/{name} is stale: run `make models`"
+        )
