@@ -21,3 +21,11 @@ class ModelError(HumanoidError):
 
 class ConfigurationError(HumanoidError, ValueError):
     """A configuration or velocity vector has the wrong size or non-finite entries."""
+
+
+class SceneError(HumanoidError, ValueError):
+    """A scene file or scene value is invalid (unknown key, wrong type, impossible value)."""
+
+
+class DivergenceError(HumanoidError):
+    """A simulation diverged: non-finite or exploding state, or a step size that collapsed."""

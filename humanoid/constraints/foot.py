@@ -1,0 +1,77 @@
+"""Foot attachments: a 6D weld of a sole frame, or 3D point contacts at the sole corners.
+
+Both attach a frame (or a point) to a world anchor taken where it is when the contact is made,
+and are released by removing them from the active set (a transient attachment, as in the seeds).
+Forces follow the convention M a = tau - b + J^T lambda: lambda is the force (and torque) that
+the ground applies to the foot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .base import Constraint
+
+__all__ = ["PointContact", "Weld"]
+
+LOCAL = pin.ReferenceFrame.LOCAL
+WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class Weld(Constraint):
+    """Frame ``frame_id`` welded to the world placement ``anchor`` (6 rows, LOCAL axes).
+
+    Residual: log6(anchor^-1 oMf) (translation, rotation) in the frame's axes. Jacobian: the
+    frame's LOCAL Jacobian (the constraint velocity is the frame's twist). Drift: the frame's
+    spatial acceleration at a = 0, in LOCAL axes.
+    """
+
+    size = 6
+
+    def __init__(self, name: str, frame_id: int, anchor: pin.SE3) -> None:
+        self.name = name
+        self.frame_id = frame_id
+        self.anchor = anchor.copy()
+
+    def residual(self, model, data):
+        return pin.log6(self.anchor.actInv(data.oMf[self.frame_id])).vector
+
+    def jacobian(self, model, data):
+        return pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
+
+    def drift(self, model, data):
+        return pin.getFrameAcceleration(model, data, self.frame_id, LOCAL).vector
+
+    def residual_jacobian(self, model, data):
+        error = self.anchor.actInv(data.oMf[self.frame_id])
+        return pin.Jlog6(error) @ self.jacobian(model, data)
+
+    def wrench_world(self, model, data, force: np.ndarray) -> np.ndarray:
+        """The contact wrench (force, torque about the frame origin) in world axes [N, N m]."""
+        R = data.oMf[self.frame_id].rotation
+        return np.concatenate([R @ force[:3], R @ force[3:]])
+
+
+class PointContact(Constraint):
+    """The origin of frame ``frame_id`` held at the world point ``anchor`` (3 rows, world axes).
+
+    Residual: p(q) - anchor. Jacobian: the linear rows of the frame Jacobian in world-aligned
+    axes. Drift: the point's classical acceleration at a = 0, world axes.
+    """
+
+    size = 3
+
+    def __init__(self, name: str, frame_id: int, anchor: np.ndarray) -> None:
+        self.name = name
+        self.frame_id = frame_id
+        self.anchor = np.array(anchor, dtype=float)
+
+    def residual(self, model, data):
+        return data.oMf[self.frame_id].translation - self.anchor
+
+    def jacobian(self, model, data):
+        return pin.getFrameJacobian(model, data, self.frame_id, WORLD_ALIGNED)[:3]
+
+    def drift(self, model, data):
+        return pin.getFrameClassicalAcceleration(model, data, self.frame_id, WORLD_ALIGNED).linear

@@ -1,0 +1,178 @@
+"""Effects: generalised forces that a scene adds only if it asks for them.
+
+Each :class:`Effect` returns a generalised force [N, N m] of size nv, added to tau. Gravity and
+the Coriolis/centrifugal terms are not Effects: they live in the bias b(q, v), which the
+simulator computes only as far as the scene needs (see :mod:`humanoid.simulate`). Joint torques
+of effects and controllers never act on the 6 free-flyer coordinates: :func:`joint_mask` is
+applied to all of them.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = [
+    "Effect",
+    "JointDamping",
+    "JointLimits",
+    "JointSprings",
+    "PostureController",
+    "Push",
+    "joint_mask",
+]
+
+
+def joint_mask(model: pin.Model) -> np.ndarray:
+    """1.0 on the actuated (non-root) velocity coordinates, 0.0 on the free-flyer's six."""
+    mask = np.ones(model.nv)
+    root = model.joints[1]
+    mask[root.idx_v : root.idx_v + root.nv] = 0.0
+    return mask
+
+
+class Effect(ABC):
+    """A generalised force of a scene. ``velocity_dependent`` effects read v."""
+
+    name: str = "effect"
+    velocity_dependent: bool = False
+
+    @abstractmethod
+    def force(self, model: pin.Model, data: pin.Data, t: float, q, v) -> np.ndarray:
+        """Generalised force [N, N m], shape (nv,)."""
+
+
+class JointDamping(Effect):
+    """tau = -c v on the joints [c in N m s/rad]."""
+
+    name = "damping"
+    velocity_dependent = True
+
+    def __init__(self, model: pin.Model, coefficient: float) -> None:
+        self.c = coefficient * joint_mask(model)
+
+    def force(self, model, data, t, q, v):
+        return -self.c * v
+
+
+class JointSprings(Effect):
+    """tau = -k (q - q_rest) on the joints, the difference taken on the Lie group [k N m/rad]."""
+
+    name = "springs"
+
+    def __init__(self, model: pin.Model, stiffness: float, rest: np.ndarray) -> None:
+        self.k = stiffness * joint_mask(model)
+        self.rest = np.array(rest, dtype=float)
+
+    def force(self, model, data, t, q, v):
+        return -self.k * pin.difference(model, self.rest, q)
+
+
+class JointLimits(Effect):
+    """A stiff spring-damper that pushes 1-DoF joints back inside their position limits.
+
+    tau_j = -k (q_j - limit) - c min(v_j, 0 or max) beyond a limit, zero inside. Ball joints
+    have no position limits in Pinocchio (their quaternion is unbounded); their anatomical
+    ranges are kept by the Euler model.
+    """
+
+    name = "joint_limits"
+    velocity_dependent = True
+
+    def __init__(self, model: pin.Model, stiffness: float, damping: float) -> None:
+        iq, iv = [], []
+        for jm in model.joints[2:]:
+            if jm.nq == 1 and jm.nv == 1:
+                lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+                if np.isfinite(lo) and np.isfinite(hi) and lo < hi:
+                    iq.append(jm.idx_q)
+                    iv.append(jm.idx_v)
+        self.iq, self.iv = np.array(iq, dtype=int), np.array(iv, dtype=int)
+        self.lo, self.hi = model.lowerPositionLimit[self.iq], model.upperPositionLimit[self.iq]
+        self.k, self.c = stiffness, damping
+
+    def force(self, model, data, t, q, v):
+        tau = np.zeros(model.nv)
+        x, xd = q[self.iq], v[self.iv]
+        below, above = x < self.lo, x > self.hi
+        f = np.where(below, self.k * (self.lo - x) - self.c * np.minimum(xd, 0.0), 0.0)
+        f = np.where(above, self.k * (self.hi - x) - self.c * np.maximum(xd, 0.0), f)
+        tau[self.iv] = f
+        return tau
+
+    def violation(self, q) -> float:
+        """Largest excursion beyond a limit [rad]."""
+        x = q[self.iq]
+        return float(max(np.max(self.lo - x, initial=0.0), np.max(x - self.hi, initial=0.0)))
+
+
+class Push(Effect):
+    """A force [N] in world axes at the origin of a frame, during [start, start + duration)."""
+
+    name = "push"
+
+    def __init__(self, frame_id: int, force, start: float, duration: float) -> None:
+        self.frame_id = frame_id
+        self.f = np.array(force, dtype=float)
+        self.start, self.end = start, start + duration
+
+    def active(self, t: float) -> bool:
+        return self.start <= t < self.end
+
+    def force(self, model, data, t, q, v):
+        if not self.active(t):
+            return np.zeros(model.nv)
+        pin.framesForwardKinematics(model, data, q)
+        J = pin.computeFrameJacobian(
+            model, data, q, self.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        )
+        return J[:3].T @ self.f
+
+
+class PostureController(Effect):
+    """PD hold of a posture: tau = Kp (q_ref - q) - Kd v on the joints.
+
+    Either absolute gains (``kp`` [N m/rad], ``kd`` [N m s/rad], the same on every joint), or a
+    closed-loop ``frequency`` [Hz] and ``damping_ratio``: then each joint j gets
+    Kp_j = w^2 m_j and Kd_j = 2 zeta w m_j with w = 2 pi frequency and m_j = 1 / (A)_jj the
+    inertia the joint sees at q_ref when every other joint is free, where A = M^-1 without
+    contacts and A = M^-1 - M^-1 J^T (J M^-1 J^T)^+ J M^-1 (the constrained inverse inertia)
+    with the contact Jacobian J: an ankle whose foot is welded carries the whole body. Equal
+    absolute gains on a 0.4 kg hand and a 30 kg trunk make the hand's loop far too stiff for an
+    explicit step; the scaled gains give every joint the same bandwidth.
+
+    With contacts, a constant feed-forward holds q_ref in static equilibrium: the joint part
+    of g(q_ref) - J^T f, with f the minimum-norm contact forces that balance the base,
+    J_base^T f = g_base(q_ref). Without it a PD posture sags until the loop gain balances gravity.
+    """
+
+    name = "controller"
+    velocity_dependent = True
+
+    def __init__(
+        self, model, q_ref, kp=0.0, kd=0.0, frequency=0.0, damping_ratio=1.0, contact_jacobian=None
+    ):
+        mask = joint_mask(model)
+        self.q_ref = np.array(q_ref, dtype=float)
+        self.feedforward = np.zeros(model.nv)
+        if contact_jacobian is not None and len(contact_jacobian):
+            g = pin.computeGeneralizedGravity(model, model.createData(), self.q_ref)
+            f = np.linalg.lstsq(contact_jacobian[:, :6].T, g[:6], rcond=None)[0]
+            self.feedforward = (g - contact_jacobian.T @ f) * mask
+        if frequency > 0:
+            A = pin.computeMinverse(model, model.createData(), self.q_ref)
+            if contact_jacobian is not None and len(contact_jacobian):
+                J = contact_jacobian
+                AJt = A @ J.T
+                A = A - AJt @ np.linalg.pinv(J @ AJt, rcond=1e-10) @ AJt.T
+            inertia = 1.0 / np.maximum(np.diag(A), 1e-12)
+            w = 2.0 * np.pi * frequency
+            self.kp = w**2 * inertia * mask
+            self.kd = 2.0 * damping_ratio * w * inertia * mask
+        else:
+            self.kp, self.kd = kp * mask, kd * mask
+
+    def force(self, model, data, t, q, v):
+        return self.feedforward + self.kp * pin.difference(model, q, self.q_ref) - self.kd * v

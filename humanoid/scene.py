@@ -1,0 +1,437 @@
+"""Scenes: a TOML file <-> a frozen, validated :class:`Scene`.
+
+A scene names the body, the initial state, the time step and integrator, the effects it wants
+and the stabilisation of its constraints. Everything it does not name is not simulated.
+Example (``models/scenes/standing.toml``)::
+
+    name = "standing"
+    duration = 2.0            # [s]
+    dt = 0.001                # [s] step (the control and contact tick for "adaptive")
+    integrator = "rk4"        # euler | semi_implicit_euler | rk4 | adaptive
+    record_rate = 100.0       # [Hz]
+
+    [body]
+    urdf = "../adult_male.urdf"   # relative to this file; or height/mass/sex
+    ball_joints = "quaternion"
+
+    [initial]
+    configuration = "standing"    # or a list of nq numbers
+    base_velocity = [0, 0, 0, 0, 0, 0]   # [m/s, rad/s] in the pelvis frame
+
+    [effects]
+    gravity = [0, 0, -9.81]
+    [[effects.contacts]]
+    foot = "left"
+    kind = "weld"                  # weld | points
+    mu = 0.8
+    unilateral = false
+
+    [controller]
+    kind = "posture"
+    frequency = 4.0           # [Hz] closed-loop bandwidth of every joint
+    damping_ratio = 1.0
+
+    [stabilisation]
+    baumgarte = 20.0    # time constant in steps (tau = 20 dt); 0 switches it off
+    projection = false
+
+Unknown keys, wrong types and impossible values raise :class:`SceneError` naming the file, the
+key and the reason.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+
+from .anthropometry import BodyParameters
+from .errors import BodyParameterError, SceneError
+
+__all__ = [
+    "Contact",
+    "Controller",
+    "Effects",
+    "Initial",
+    "JointLimitSpec",
+    "PushSpec",
+    "Scene",
+    "Stabilisation",
+]
+
+INTEGRATOR_NAMES = ("euler", "semi_implicit_euler", "rk4", "adaptive")
+FORMULATIONS = ("lie", "coordinates")
+BACKENDS = ("reference", "pinocchio")
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A foot on the ground: ``weld`` (6D at the sole frame) or ``points`` (4 x 3D corners)."""
+
+    foot: str
+    kind: str = "weld"
+    mu: float = 0.8
+    unilateral: bool = False
+    start: float = 0.0
+    end: float = math.inf
+
+
+@dataclass(frozen=True)
+class PushSpec:
+    """A force [N] (world axes) at a frame's origin from ``start`` for ``duration`` [s]."""
+
+    frame: str
+    force: tuple[float, float, float]
+    start: float
+    duration: float
+
+
+@dataclass(frozen=True)
+class JointLimitSpec:
+    stiffness: float = 2000.0  # [N m/rad]
+    damping: float = 20.0  # [N m s/rad]
+
+
+@dataclass(frozen=True)
+class Effects:
+    """The effects a scene simulates; what is absent costs nothing."""
+
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    coriolis: bool = True
+    damping: float = 0.0  # [N m s/rad]
+    springs: float = 0.0  # [N m/rad], towards the initial configuration
+    joint_limits: JointLimitSpec | None = None
+    contacts: tuple[Contact, ...] = ()
+    pushes: tuple[PushSpec, ...] = ()
+
+
+@dataclass(frozen=True)
+class Controller:
+    """``posture``: PD hold of the initial posture, by bandwidth (``frequency`` [Hz] and
+    ``damping_ratio``, gains scaled by each joint's inertia) or by absolute ``kp`` [N m/rad]
+    and ``kd`` [N m s/rad] when ``frequency`` is 0."""
+
+    kind: str = "none"  # none | posture
+    frequency: float = 0.0  # [Hz]
+    damping_ratio: float = 1.0
+    kp: float = 0.0  # [N m/rad]
+    kd: float = 0.0  # [N m s/rad]
+
+
+@dataclass(frozen=True)
+class Stabilisation:
+    baumgarte: float = 0.0  # Baumgarte time constant in steps; 0 = off
+    projection: bool = False  # project q and v on the constraint manifold after each step
+    quaternions: str = "lie"  # lie | coordinates (the seeds' norm-constrained formulation)
+    backend: str = "reference"  # reference (own KKT solve) | pinocchio (constraintDynamics)
+
+
+@dataclass(frozen=True)
+class Initial:
+    configuration: str | tuple[float, ...] = "standing"
+    base_velocity: tuple[float, ...] = (0.0,) * 6
+    joint_velocity: float | tuple[float, ...] = 0.0
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A simulation scene (see the module docstring for its TOML form)."""
+
+    name: str = "scene"
+    body: str | BodyParameters = "models/adult_male.urdf"
+    ball_joints: str = "quaternion"
+    duration: float = 1.0  # [s]
+    dt: float = 1e-3  # [s]
+    integrator: str = "rk4"
+    rtol: float = 1e-6
+    atol: float = 1e-8
+    record_rate: float = 100.0  # [Hz]
+    initial: Initial = field(default_factory=Initial)
+    effects: Effects = field(default_factory=Effects)
+    controller: Controller = field(default_factory=Controller)
+    stabilisation: Stabilisation = field(default_factory=Stabilisation)
+    source: str = "<scene>"
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+    # -- files ---------------------------------------------------------------------------
+    @classmethod
+    def load(cls, path: str | Path) -> Scene:
+        """Read and validate a scene TOML file."""
+        path = Path(path)
+        if not path.is_file():
+            raise SceneError(f"scene file not found: {path}")
+        try:
+            doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise SceneError(f"{path}: not valid TOML: {exc}") from None
+        return cls.from_dict(doc, source=str(path), base=path.parent)
+
+    @classmethod
+    def from_dict(cls, doc: dict, source: str = "<scene>", base: Path | None = None) -> Scene:
+        """Build a scene from the TOML structure (relative URDF paths resolve from ``base``)."""
+        r = _Reader(source)
+        tables = ("body", "initial", "effects", "controller", "stabilisation")
+        scalars = {f.name for f in fields(cls)} - {"source", "ball_joints", *tables}
+        top = r.section(doc, "", scalars | set(tables))
+        kw = {k: v for k, v in top.items() if k not in tables}
+        body_keys = {"urdf", "height", "mass", "sex", "ball_joints", "segment_lengths"}
+        body = r.section(top.get("body", {}), "body", body_keys)
+        if "urdf" in body:
+            if {"height", "mass", "sex"} & body.keys():
+                raise SceneError(f"{source}: [body] give either urdf or height/mass/sex, not both")
+            urdf = r.typed(body["urdf"], str, "body.urdf")
+            p = Path(urdf)
+            if base is not None and not p.is_absolute() and (base / p).exists():
+                p = base / p
+            kw["body"] = str(p)
+        elif body:
+            try:
+                kw["body"] = BodyParameters(
+                    body.get("height", 0.0),
+                    body.get("mass", 0.0),
+                    body.get("sex", "male"),
+                    body.get("segment_lengths", {}),
+                )
+            except BodyParameterError as exc:
+                raise SceneError(f"{source}: [body] {exc}") from None
+        if "ball_joints" in body:
+            kw["ball_joints"] = body["ball_joints"]
+        kw["initial"] = r.dataclass(Initial, top.get("initial", {}), "initial")
+        kw["controller"] = r.dataclass(Controller, top.get("controller", {}), "controller")
+        kw["stabilisation"] = r.dataclass(
+            Stabilisation, top.get("stabilisation", {}), "stabilisation"
+        )
+        eff = dict(r.section(top.get("effects", {}), "effects", {f.name for f in fields(Effects)}))
+        eff["contacts"] = tuple(
+            r.dataclass(Contact, c, f"effects.contacts[{i}]")
+            for i, c in enumerate(r.typed(eff.get("contacts", []), list, "effects.contacts"))
+        )
+        eff["pushes"] = tuple(
+            r.dataclass(PushSpec, c, f"effects.pushes[{i}]")
+            for i, c in enumerate(r.typed(eff.get("pushes", []), list, "effects.pushes"))
+        )
+        if "joint_limits" in eff:
+            eff["joint_limits"] = r.dataclass(
+                JointLimitSpec, eff["joint_limits"], "effects.joint_limits"
+            )
+        kw["effects"] = r.dataclass(Effects, eff, "effects", nested=True)
+        for key in ("duration", "dt", "rtol", "atol", "record_rate"):
+            if key in kw:
+                kw[key] = r.number(kw[key], key)
+        for key in ("name", "integrator"):
+            if key in kw:
+                kw[key] = r.typed(kw[key], str, key)
+        try:
+            return cls(**kw, source=source)
+        except SceneError as exc:
+            raise SceneError(f"{source}: {exc}") from None
+
+    def to_dict(self) -> dict:
+        """The TOML structure of this scene (inverse of :meth:`from_dict`)."""
+        d = {k: v for k, v in asdict(self).items() if k not in ("source", "body", "ball_joints")}
+        if isinstance(self.body, BodyParameters):
+            body = {"height": self.body.height, "mass": self.body.mass, "sex": self.body.sex}
+            if self.body.segment_lengths:
+                body["segment_lengths"] = dict(self.body.segment_lengths)
+        else:
+            body = {"urdf": self.body}
+        body["ball_joints"] = self.ball_joints
+        d["body"] = body
+        if d["effects"]["joint_limits"] is None:
+            del d["effects"]["joint_limits"]
+        return _drop_inf(d)
+
+    def dumps(self) -> str:
+        """TOML text of this scene."""
+        return _toml(self.to_dict())
+
+    def save(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(self.dumps(), encoding="utf-8")
+        return path
+
+    def replace(self, **changes) -> Scene:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+
+class _Reader:
+    """Checks keys and types of the TOML structure, with the file and key in every message."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, key: str, reason: str):
+        raise SceneError(f"{self.source}: {key}: {reason}")
+
+    def section(self, d, name: str, valid: set[str]) -> dict:
+        if not isinstance(d, dict):
+            self.fail(name or "<top>", f"expected a table, got {type(d).__name__}")
+        for k in d:
+            if k not in valid:
+                where = f"[{name}] " if name else ""
+                raise SceneError(
+                    f"{self.source}: {where}unknown key {k!r}; valid: {', '.join(sorted(valid))}"
+                )
+        return d
+
+    def typed(self, value, kind, key):
+        if kind is float:
+            return self.number(value, key)
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            self.fail(key, f"expected {kind.__name__}, got {type(value).__name__} {value!r}")
+        return value
+
+    def number(self, value, key) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.fail(key, f"expected a number, got {type(value).__name__} {value!r}")
+        return float(value)
+
+    def numbers(self, value, key) -> tuple[float, ...]:
+        value = self.typed(value, list, key)
+        return tuple(self.number(x, f"{key}[{i}]") for i, x in enumerate(value))
+
+    def dataclass(self, cls, d, name: str, nested: bool = False):
+        """Fields of ``cls`` from a table, each checked against its annotation."""
+        d = self.section(d, name, {f.name for f in fields(cls)})
+        out = {}
+        for f in fields(cls):
+            if f.name not in d:
+                continue
+            value, key, t = d[f.name], f"{name}.{f.name}", f.type
+            if nested and f.name in ("contacts", "pushes", "joint_limits"):
+                out[f.name] = value
+            elif t == "bool":
+                out[f.name] = self.typed(value, bool, key)
+            elif t == "float":
+                out[f.name] = self.number(value, key)
+            elif t == "str":
+                out[f.name] = self.typed(value, str, key)
+            elif t.startswith("tuple"):
+                out[f.name] = self.numbers(value, key)
+            elif t.startswith("str |"):
+                out[f.name] = value if isinstance(value, str) else self.numbers(value, key)
+            elif t.startswith("float |"):
+                is_number = isinstance(value, int | float) and not isinstance(value, bool)
+                out[f.name] = float(value) if is_number else self.numbers(value, key)
+            else:  # pragma: no cover - every field type is listed above
+                raise TypeError(f"no reader for {t}")
+        try:
+            return cls(**out)
+        except TypeError as exc:
+            raise SceneError(f"{self.source}: [{name}] {exc}") from None
+
+
+def _validate(s: Scene) -> None:
+    def bad(key, reason):
+        raise SceneError(f"{key}: {reason}")
+
+    for key in ("duration", "dt", "record_rate"):
+        value = getattr(s, key)
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            bad(key, f"must be a finite number > 0, got {value!r}")
+    if s.dt > s.duration:
+        bad("dt", f"the step {s.dt} s is longer than the duration {s.duration} s")
+    if s.integrator not in INTEGRATOR_NAMES:
+        bad("integrator", f"unknown {s.integrator!r}; valid: {', '.join(INTEGRATOR_NAMES)}")
+    if not (s.rtol > 0 and s.atol > 0):
+        bad("rtol/atol", "tolerances must be > 0")
+    if s.ball_joints not in ("quaternion", "euler"):
+        bad("body.ball_joints", f"must be quaternion or euler, got {s.ball_joints!r}")
+    e = s.effects
+    if len(e.gravity) != 3 or not all(math.isfinite(x) for x in e.gravity):
+        bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")
+    if e.damping < 0 or e.springs < 0:
+        bad("effects", "damping and springs must be >= 0")
+    if e.joint_limits is not None and (e.joint_limits.stiffness < 0 or e.joint_limits.damping < 0):
+        bad("effects.joint_limits", "stiffness and damping must be >= 0")
+    feet = set()
+    for i, c in enumerate(e.contacts):
+        key = f"effects.contacts[{i}]"
+        if c.foot not in ("left", "right"):
+            bad(f"{key}.foot", f"must be 'left' or 'right', got {c.foot!r}")
+        if c.foot in feet:
+            bad(f"{key}.foot", f"{c.foot} foot appears twice")
+        feet.add(c.foot)
+        if c.kind not in ("weld", "points"):
+            bad(f"{key}.kind", f"must be 'weld' or 'points', got {c.kind!r}")
+        if not (math.isfinite(c.mu) and c.mu >= 0):
+            bad(f"{key}.mu", f"friction coefficient must be >= 0, got {c.mu!r}")
+        if not c.end > c.start >= 0:
+            bad(f"{key}", f"needs 0 <= start < end, got start {c.start}, end {c.end}")
+    for i, p in enumerate(e.pushes):
+        key = f"effects.pushes[{i}]"
+        if len(p.force) != 3 or not all(math.isfinite(x) for x in p.force):
+            bad(f"{key}.force", f"must be 3 finite numbers [N], got {p.force!r}")
+        if p.duration <= 0 or p.start < 0:
+            bad(key, "needs start >= 0 and duration > 0")
+    if s.controller.kind not in ("none", "posture"):
+        bad("controller.kind", f"must be none or posture, got {s.controller.kind!r}")
+    ctl = s.controller
+    if min(ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio) < 0:
+        bad("controller", "gains, frequency and damping ratio must be >= 0")
+    if ctl.kind == "posture" and ctl.frequency == 0 and ctl.kp == 0:
+        bad("controller", "a posture controller needs frequency > 0 or kp > 0")
+    st = s.stabilisation
+    if st.baumgarte < 0 or (0 < st.baumgarte < 1):
+        bad(
+            "stabilisation.baumgarte",
+            f"time constant must be 0 (off) or >= 1 step, got {st.baumgarte}",
+        )
+    if st.quaternions not in FORMULATIONS:
+        bad("stabilisation.quaternions", f"must be one of {FORMULATIONS}, got {st.quaternions!r}")
+    if st.backend not in BACKENDS:
+        bad("stabilisation.backend", f"must be one of {BACKENDS}, got {st.backend!r}")
+    if st.quaternions == "coordinates" and st.backend == "pinocchio":
+        bad("stabilisation.backend", "the coordinate quaternion formulation needs 'reference'")
+    ini = s.initial
+    if isinstance(ini.configuration, str) and ini.configuration != "standing":
+        bad("initial.configuration", f"must be 'standing' or a list, got {ini.configuration!r}")
+    if len(ini.base_velocity) != 6:
+        bad("initial.base_velocity", f"needs 6 numbers, got {len(ini.base_velocity)}")
+
+
+def _drop_inf(d):
+    if isinstance(d, dict):
+        return {
+            k: _drop_inf(v) for k, v in d.items() if not (isinstance(v, float) and math.isinf(v))
+        }
+    if isinstance(d, list | tuple):
+        return [_drop_inf(x) for x in d]
+    return d
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return "[" + ", ".join(_value(x) for x in v) + "]"
+
+
+def _toml(d: dict, prefix: str = "") -> str:
+    """A minimal TOML writer for the scene structure (scalars, lists, tables, table arrays)."""
+    lines, tables, arrays = [], [], []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            tables.append((k, v))
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            arrays.append((k, v))
+        elif isinstance(v, list) and not v:
+            continue
+        else:
+            lines.append(f"{k} = {_value(v)}")
+    out = "\n".join(lines) + ("\n" if lines else "")
+    for k, v in tables:
+        name = f"{prefix}{k}"
+        out += f"\n[{name}]\n" + _toml(v, name + ".")
+    for k, items in arrays:
+        for item in items:
+            out += f"\n[[{prefix}{k}]]\n" + _toml(item, f"{prefix}{k}.")
+    return out

@@ -1,0 +1,700 @@
+"""The run loop: a :class:`Scene` in, a :class:`Trajectory` out.
+
+One step: effects -> tau; bias b(q, v) as far as the scene needs it (no gravity term without
+gravity, nothing velocity-dependent without Coriolis terms); plain ABA when no contact is
+attached, else the KKT solve of :mod:`humanoid.constraints`; then the integrator. After each
+step: optional projection on the constraint manifold, contact checks (unilaterality, friction,
+centre of pressure) that release unilateral contacts, touchdown that attaches them again with an
+impulse, and the divergence guard. Records are taken at ``record_rate`` into preallocated
+arrays, so memory is fixed by the duration and a run does not slow down as it goes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .anthropometry import BodyParameters
+from .body import build_urdf
+from .constraints import Baumgarte, PointContact, Weld, solve_kkt, update_kinematics
+from .constraints.quaternion import CoordinateMap, QuaternionNorm
+from .constraints.solve import stack
+from .effects import (
+    JointDamping,
+    JointLimits,
+    JointSprings,
+    PostureController,
+    Push,
+    joint_mask,
+)
+from .errors import DivergenceError, HumanoidError, ModelError, SceneError
+from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
+from .model import Humanoid, load
+from .scene import Scene
+
+__all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
+
+MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A recorded run.
+
+    Attributes:
+        t: Record times [s], shape (N,).
+        q: Configurations, (N, nq). v: velocities, (N, nv). tau: applied joint torques, (N, nv).
+        forces: Contact forces by name, world axes: per foot a wrench (fx, fy, fz, tx, ty, tz)
+            about the sole frame origin; per point contact a force (fx, fy, fz); NaN while the
+            contact is released.
+        energy: Kinetic + potential energy [J], (N,).
+        residual: Largest constraint position residual [m or rad] at each record, (N,).
+        metadata: Model, joint and contact names, dt, scene, events, statistics, status.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    tau: np.ndarray
+    forces: dict[str, np.ndarray]
+    energy: np.ndarray
+    residual: np.ndarray
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for a in (
+            self.t,
+            self.q,
+            self.v,
+            self.tau,
+            self.energy,
+            self.residual,
+            *self.forces.values(),
+        ):
+            a.flags.writeable = False
+
+    @property
+    def status(self) -> str:
+        return self.metadata.get("status", "completed")
+
+    def save(self, path: str | Path) -> Path:
+        """Write an .npz file (arrays, and the metadata as JSON)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"t": self.t, "q": self.q, "v": self.v, "tau": self.tau}
+        arrays |= {"energy": self.energy, "residual": self.residual}
+        arrays |= {f"force/{k}": a for k, a in self.forces.items()}
+        np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                forces = {k[6:]: z[k] for k in z.files if k.startswith("force/")}
+                return cls(
+                    z["t"], z["q"], z["v"], z["tau"], forces, z["energy"], z["residual"],
+                    json.loads(str(z["metadata"])),
+                )  # fmt: skip
+        except (OSError, KeyError, ValueError) as exc:
+            raise HumanoidError(f"cannot read trajectory {path}: {exc}") from None
+
+
+class ContactState:
+    """One foot's contact: its constraints, whether it is attached, and its last forces."""
+
+    def __init__(self, h: Humanoid, spec, data: pin.Data) -> None:
+        self.spec = spec
+        self.side = spec.foot
+        self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
+        self.points = [h.frame_id(n) for n in h.contact_points[self.side]]
+        self.attached = False
+        self.ever_attached = False
+        self.constraints = []
+        self.wrench = np.full(6, np.nan)
+        self.point_forces = np.full((4, 3), np.nan)
+        # sole rectangle in the sole frame, for the centre-of-pressure check
+        local = np.array(
+            [(data.oMf[self.sole].actInv(data.oMf[p].translation)) for p in self.points]
+        )
+        self.cop_box = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
+
+    def attach(self, data: pin.Data) -> None:
+        if self.spec.kind == "weld":
+            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])]
+        else:
+            self.constraints = [
+                PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
+                for i, p in enumerate(self.points)
+            ]
+        self.attached = True
+
+    def release(self) -> None:
+        self.constraints = []
+        self.attached = False
+        self.wrench[:] = np.nan
+        self.point_forces[:] = np.nan
+
+    def store(self, model, data, forces: np.ndarray) -> None:
+        """World-axes wrench about the sole origin (and point forces) from the solve's lambda."""
+        o = data.oMf[self.sole].translation
+        if self.spec.kind == "weld":
+            self.wrench = self.constraints[0].wrench_world(model, data, forces)
+        else:
+            f = forces.reshape(4, 3)
+            self.point_forces = f
+            arms = np.array([data.oMf[p].translation - o for p in self.points])
+            self.wrench = np.concatenate([f.sum(axis=0), np.cross(arms, f).sum(axis=0)])
+
+    def check(self, data) -> list[str]:
+        """Violations of unilaterality, friction and the centre of pressure."""
+        out = []
+        fz = self.wrench[2]
+        mu = self.spec.mu
+        loads = [self.wrench[:3]] if self.spec.kind == "weld" else list(self.point_forces)
+        if min(f[2] for f in loads) < 0:
+            out.append(f"normal force {min(f[2] for f in loads):.1f} N < 0")
+        for f in loads:
+            if f[2] > 0 and math.hypot(f[0], f[1]) > mu * f[2] * (1 + 1e-9) + 1e-9:
+                out.append(f"friction |f_t| {math.hypot(f[0], f[1]):.1f} N > mu f_n")
+                break
+        if self.spec.kind == "weld" and fz > 1e-9:
+            R = data.oMf[self.sole].rotation
+            local = R.T @ self.wrench[3:]  # torque about the sole origin, sole axes
+            f_local = R.T @ self.wrench[:3]
+            cop = np.array([-local[1], local[0]]) / f_local[2]
+            lo, hi = self.cop_box
+            if np.any(cop < lo - 1e-9) or np.any(cop > hi + 1e-9):
+                out.append(f"centre of pressure {cop.round(3)} outside the sole")
+        return out
+
+    def lowest(self, data) -> float:
+        return min(data.oMf[p].translation[2] for p in self.points)
+
+
+class Simulation:
+    """A scene made ready to run: model, effects, contacts, integrator."""
+
+    def __init__(self, scene: Scene, humanoid: Humanoid | None = None) -> None:
+        self.scene = scene
+        self.h = humanoid or load_body(scene)
+        h = self.h
+        self.model = h.model.copy()
+        self.gravity = np.array(scene.effects.gravity, dtype=float)
+        self.has_gravity = bool(np.any(self.gravity))
+        self.model.gravity = pin.Motion(self.gravity, np.zeros(3))
+        self.data = self.model.createData()
+        self.mask = joint_mask(self.model)
+        q0, v0 = initial_state(scene, h)
+        self.q0, self.v0 = q0, v0
+        e = scene.effects
+        self.effects = []
+        if e.damping > 0:
+            self.effects.append(JointDamping(self.model, e.damping))
+        if e.springs > 0:
+            self.effects.append(JointSprings(self.model, e.springs, q0))
+        if e.joint_limits is not None:
+            self.effects.append(
+                JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
+            )
+        for i, p in enumerate(e.pushes):
+            if not self.model.existFrame(p.frame):
+                raise SceneError(
+                    f"{scene.source}: effects.pushes[{i}].frame: no frame {p.frame!r} in the body"
+                )
+            self.effects.append(Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration))
+        pin.framesForwardKinematics(self.model, self.data, q0)
+        self.contacts = [ContactState(h, c, self.data) for c in e.contacts]
+        self.controller = None
+        if scene.controller.kind == "posture":
+            ctl = scene.controller
+            self.controller = PostureController(
+                self.model, q0, ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio,
+                self._initial_contact_jacobian(q0),
+            )  # fmt: skip
+        tc = scene.stabilisation.baumgarte * scene.dt
+        self.baumgarte = Baumgarte.from_time_constant(tc) if tc > 0 else Baumgarte()
+        self.coordinates = scene.stabilisation.quaternions == "coordinates"
+        if self.coordinates:
+            self.cmap = CoordinateMap(self.model)
+            self.norm = QuaternionNorm(self.cmap)
+            self.space = CoordinateSpace(self.model.nq)
+        else:
+            self.space = LieGroupSpace(self.model)
+        self.adaptive = DormandPrince(scene.rtol, scene.atol, max_step=scene.dt) if (
+            scene.integrator == "adaptive"
+        ) else None  # fmt: skip
+        self.step_fn = INTEGRATORS.get(scene.integrator)
+        self.velocity_terms = e.coriolis
+        self.counters = {"aba": 0, "kkt": 0, "bias": 0, "gravity": 0}
+        self.events: list[dict] = []
+        self.violations: dict[str, int] = {}
+        self.last = None  # the last solve (stage 1 of the last step)
+        self.tau_last = np.zeros(self.model.nv)
+        self._pin_backend = None
+
+    def _initial_contact_jacobian(self, q0) -> np.ndarray:
+        """Jacobian of the contacts scheduled at t = 0, at q0."""
+        self._kinematics(q0)
+        rows = []
+        for c in self.contacts:
+            if c.spec.start == 0.0:
+                c.attach(self.data)
+                rows += [k.jacobian(self.model, self.data) for k in c.constraints]
+                c.release()
+        return np.vstack(rows) if rows else np.zeros((0, self.model.nv))
+
+    # -- forces --------------------------------------------------------------------------
+    def applied(self, t, q, v) -> np.ndarray:
+        """Generalised force of the effects and the controller, zero on the free flyer."""
+        tau = np.zeros(self.model.nv)
+        for eff in self.effects:
+            tau += eff.force(self.model, self.data, t, q, v)
+        if self.controller is not None:
+            tau += self.controller.force(self.model, self.data, t, q, v)
+        return tau * self.mask
+
+    def bias(self, q, v) -> np.ndarray:
+        """b(q, v) with only the terms the scene calls for."""
+        if self.velocity_terms:
+            self.counters["bias"] += 1
+            return pin.nle(self.model, self.data, q, v)  # gravity is zero in the model if off
+        if self.has_gravity:
+            self.counters["gravity"] += 1
+            return pin.computeGeneralizedGravity(self.model, self.data, q)
+        return np.zeros(self.model.nv)
+
+    def active_constraints(self):
+        return [c for s in self.contacts if s.attached for c in s.constraints]
+
+    # -- dynamics ------------------------------------------------------------------------
+    def acceleration(self, t, q, v) -> np.ndarray:
+        """dv/dt for the Lie-group formulation."""
+        tau = self.applied(t, q, v)
+        constraints = self.active_constraints()
+        if not constraints:
+            self.counters["aba"] += 1
+            v_dyn = v if self.velocity_terms else np.zeros_like(v)
+            a = pin.aba(self.model, self.data, q, v_dyn, tau)
+            self.last = (tau, None)
+            return a.copy()
+        self.counters["kkt"] += 1
+        if self.scene.stabilisation.backend == "pinocchio" and self.velocity_terms:
+            return self._pinocchio_backend(q, v, tau, constraints)
+        update_kinematics(self.model, self.data, q, v)
+        Minv = pin.computeMinverse(self.model, self.data, q)
+        J, gamma = stack(self.model, self.data, constraints, v, self.baumgarte)
+        sol = solve_kkt(Minv, tau - self.bias(q, v), J, gamma)
+        self.last = (tau, sol)
+        return sol.a
+
+    def _pinocchio_backend(self, q, v, tau, constraints):
+        from .constraints.solve import ConstrainedAcceleration
+
+        key = tuple(id(c) for c in constraints)
+        if self._pin_backend is None or self._pin_backend[0] != key:
+            cms = pin.StdVec_RigidConstraintModel()
+            for c in constraints:
+                fr = self.model.frames[c.frame_id]
+                if isinstance(c, Weld):
+                    cm = pin.RigidConstraintModel(
+                        pin.ContactType.CONTACT_6D, self.model, fr.parentJoint, fr.placement,
+                        0, c.anchor, pin.ReferenceFrame.LOCAL,
+                    )  # fmt: skip
+                else:
+                    cm = pin.RigidConstraintModel(
+                        pin.ContactType.CONTACT_3D, self.model, fr.parentJoint, fr.placement,
+                        0, pin.SE3(np.eye(3), c.anchor), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
+                    )  # fmt: skip
+                cm.corrector.Kp[:] = self.baumgarte.beta**2
+                cm.corrector.Kd[:] = 2 * self.baumgarte.alpha
+                cms.append(cm)
+            cds = pin.StdVec_RigidConstraintData()
+            for cm in cms:
+                cds.append(cm.createData())
+            data = self.model.createData()
+            pin.initConstraintDynamics(self.model, data, cms, cds)
+            self._pin_backend = (key, cms, cds, data, pin.ProximalSettings(1e-12, 1e-12, 0.0, 1))
+        _, cms, cds, data, prox = self._pin_backend
+        a = pin.constraintDynamics(self.model, data, q, v, tau, cms, cds, prox)
+        forces = np.concatenate(
+            [cd.contact_force.vector[: cm.size()] for cm, cd in zip(cms, cds, strict=True)]
+        )
+        sol = ConstrainedAcceleration(a.copy(), forces, float("nan"), len(forces), "pinocchio")
+        self.last = (tau, sol)
+        return sol.a
+
+    def coordinate_acceleration(self, t, x, xdot) -> np.ndarray:
+        """d(x')/dt for the seeds' coordinate formulation (quaternion norm as a constraint)."""
+        cm = self.cmap
+        q = cm.configuration(x)
+        H = cm.H(x)
+        v = H @ xdot
+        tau = self.applied(t, q, v)
+        update_kinematics(self.model, self.data, q, v)
+        pin.crba(self.model, self.data, q)
+        M = self.data.M.copy()
+        b = self.bias(q, v)
+        Mx = H.T @ M @ H
+        fx = H.T @ (tau - b - M @ cm.Hdot_xdot(x, xdot))
+        constraints = self.active_constraints()
+        Jc_v, gc = stack(self.model, self.data, constraints, v, Baumgarte())
+        gc = gc - Jc_v @ cm.Hdot_xdot(x, xdot)
+        Jc = Jc_v @ H
+        Jn, gn = self.norm.jacobian(x), -self.norm.drift(xdot)
+        bg = self.baumgarte
+        if bg.active:
+            gn -= 2 * bg.alpha * (Jn @ xdot) + bg.beta**2 * self.norm.residual(x)
+            if constraints:
+                gc -= 2 * bg.alpha * (Jc @ xdot) + bg.beta**2 * np.concatenate(
+                    [c.residual(self.model, self.data) for c in constraints]
+                )
+        J = np.vstack([Jn, Jc])
+        gamma = np.concatenate([gn, gc])
+        m = J.shape[0]
+        K = np.block([[Mx, J.T], [J, np.zeros((m, m))]])
+        rhs = np.concatenate([fx, gamma])
+        try:
+            sol = np.linalg.solve(K, rhs)
+        except np.linalg.LinAlgError:
+            sol = None
+        if sol is None or not np.all(np.isfinite(sol)):  # redundant rows: least squares
+            sol = np.linalg.lstsq(K, rhs, rcond=1e-13)[0]
+        self.counters["kkt"] += 1
+        self.last = (tau, None)
+        if constraints:
+            from .constraints.solve import ConstrainedAcceleration
+
+            lam = -sol[cm.nq + self.norm.size :]
+            a = H @ sol[: cm.nq] + cm.Hdot_xdot(x, xdot)
+            self.last = (tau, ConstrainedAcceleration(a, lam, 0.0, m, "coordinates"))
+        return sol[: cm.nq]
+
+    # -- one step ------------------------------------------------------------------------
+    def step(self, t: float, q, v, dt: float):
+        """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
+        f = self.coordinate_acceleration if self.coordinates else self.acceleration
+        self._first = None
+
+        def capture(t_, q_, v_):
+            a = f(t_, q_, v_)
+            if self._first is None:
+                self._first = self.last
+            return a
+
+        if self.adaptive is not None:
+            return self.adaptive.advance(self.space, capture, t, q, v, t + dt)
+        return self.step_fn(self.space, capture, t, q, v, dt)
+
+    # -- contacts ------------------------------------------------------------------------
+    def _kinematics(self, q, v=None):
+        v = np.zeros(self.model.nv) if v is None else v
+        update_kinematics(self.model, self.data, q, v)
+
+    def attach(self, contact: ContactState, t: float, q, v, reason: str):
+        """Attach a contact where the foot is, with the impulse that stops it (J v+ = 0)."""
+        self._kinematics(q, v)
+        contact.attach(self.data)
+        J, _ = stack(self.model, self.data, contact.constraints, v, Baumgarte())
+        J_all, _ = stack(self.model, self.data, self.active_constraints(), v, Baumgarte())
+        Minv = pin.computeMinverse(self.model, self.data, q)
+        dv = solve_kkt(Minv, np.zeros(self.model.nv), J_all, -(J_all @ v)).a
+        self.events.append(
+            {"t": t, "contact": contact.side, "event": "attach", "reason": reason,
+             "impact_speed": float(np.abs(J @ v).max())}
+        )  # fmt: skip
+        return v + dv
+
+    def project(self, q, v):
+        """Put q and v back on the manifold of the active constraints (Gauss-Newton, 3 its)."""
+        constraints = self.active_constraints()
+        if not constraints:
+            return q, v
+        for _ in range(3):
+            self._kinematics(q, v)
+            e = np.concatenate([c.residual(self.model, self.data) for c in constraints])
+            if np.abs(e).max() < 1e-12:
+                break
+            Je = np.vstack([c.residual_jacobian(self.model, self.data) for c in constraints])
+            Minv = pin.computeMinverse(self.model, self.data, q)
+            q = pin.integrate(self.model, q, solve_kkt(Minv, np.zeros(self.model.nv), Je, -e).a)
+        self._kinematics(q, v)
+        J, _ = stack(self.model, self.data, constraints, v, Baumgarte())
+        Minv = pin.computeMinverse(self.model, self.data, q)
+        return q, v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
+
+    def update_contacts(self, t: float, q, v):
+        """Store and check the last forces; release, attach on schedule or at touchdown."""
+        sol = self._first[1] if self._first is not None else None
+        if sol is not None and self.active_constraints():
+            self._kinematics(q, v)
+            split = sol.split(self.active_constraints())
+            for c in self.contacts:
+                if c.attached:
+                    names = [k.name for k in c.constraints]
+                    c.store(self.model, self.data, np.concatenate([split[n] for n in names]))
+        for c in self.contacts:
+            if c.attached:
+                problems = c.check(self.data) if sol is not None else []
+                if problems:
+                    self.violations[c.side] = self.violations.get(c.side, 0) + 1
+                if t >= c.spec.end or (problems and c.spec.unilateral):
+                    c.release()
+                    why = "end of window" if t >= c.spec.end else "; ".join(problems)
+                    self.events.append(
+                        {"t": t, "contact": c.side, "event": "release", "reason": why}
+                    )
+            elif c.spec.start <= t < c.spec.end:
+                self._kinematics(q, v)
+                if not c.ever_attached:
+                    v = self.attach(c, t, q, v, "scheduled")
+                    c.ever_attached = True
+                elif (
+                    c.lowest(self.data) <= 0.0
+                    and min(
+                        pin.getFrameVelocity(
+                            self.model, self.data, p, pin.LOCAL_WORLD_ALIGNED
+                        ).linear[2]
+                        for p in c.points
+                    )
+                    < 0.0
+                ):
+                    v = self.attach(c, t, q, v, "touchdown")
+                    c.ever_attached = True
+        return v
+
+    # -- the loop ------------------------------------------------------------------------
+    def run(self, quiet: bool = False) -> Trajectory:
+        """Simulate the scene; stops early (keeping what was computed) on Ctrl-C or divergence."""
+        scene, model = self.scene, self.model
+        dt = scene.dt
+        n_steps = max(1, int(round(scene.duration / dt)))
+        every = max(1, int(round(1.0 / (scene.record_rate * dt))))
+        rec = _Recorder(n_steps // every + 1, model, self.contacts)
+        t, q, v = 0.0, self.q0.copy(), self.v0.copy()
+        self._first = None
+        v = self.update_contacts(t, q, v)
+        x, xd = self.cmap.from_tangent(q, v) if self.coordinates else (q, v)
+        status, message = "completed", ""
+        start = time.perf_counter()
+        progress = _Progress(n_steps, quiet)
+        worst_residual = 0.0
+        k = 0
+        try:
+            for k in range(n_steps):
+                x_new, xd_new = self.step(t, x, xd, dt)
+                if k % every == 0:
+                    rec.add(self, t, q, v)
+                _guard(t + dt, x_new, xd_new)
+                t = (k + 1) * dt
+                x, xd = x_new, xd_new
+                if self.coordinates:
+                    if scene.stabilisation.projection:
+                        x = self.cmap.configuration(x)
+                        q, v = self.project(x, self.cmap.H(x) @ xd)
+                        x, xd = self.cmap.from_tangent(q, v)
+                    q, v = self.cmap.configuration(x), self.cmap.H(x) @ xd
+                else:
+                    if scene.stabilisation.projection:
+                        x, xd = self.project(x, xd)
+                    q, v = x, xd
+                v_new = self.update_contacts(t, q, v)
+                if v_new is not v:
+                    v = v_new
+                    x, xd = self.cmap.from_tangent(q, v) if self.coordinates else (q, v)
+                progress.update(k + 1)
+            self._first = None
+            f = self.coordinate_acceleration if self.coordinates else self.acceleration
+            f(t, x, xd)
+            self._first = self.last
+            rec.add(self, t, q, v)
+        except KeyboardInterrupt:
+            status, message = "interrupted", f"interrupted by the user at t = {t:.4f} s"
+        except DivergenceError as exc:
+            status, message = "diverged", str(exc)
+        finally:
+            progress.close()
+        wall = time.perf_counter() - start
+        worst_residual = float(np.nanmax(rec.residual[: rec.n], initial=0.0))
+        meta = {
+            "status": status,
+            "message": message,
+            "model": self.h.source,
+            "ball_joints": self.h.ball_joints,
+            "nq": model.nq,
+            "nv": model.nv,
+            "joint_names": list(model.names),
+            "contacts": {
+                c.side: [k.name for k in c.constraints] or c.spec.kind for c in self.contacts
+            },
+            "feet": list(self.h.feet),
+            "dt": dt,
+            "record_rate": scene.record_rate,
+            "scene": scene.to_dict(),
+            "events": self.events,
+            "violations": self.violations,
+            "counters": self.counters,
+            "steps": k + 1 if status == "completed" else k,
+            "wall_time": wall,
+            "max_residual": worst_residual,
+        }
+        if self.adaptive is not None:
+            meta["adaptive"] = vars(self.adaptive.stats)
+        return rec.trajectory(meta)
+
+
+def _guard(t, q, v):
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        raise DivergenceError(f"the state became non-finite at t = {t:.6f} s")
+    speed = float(np.abs(v).max())
+    if speed > MAX_SPEED:
+        raise DivergenceError(
+            f"the state is exploding at t = {t:.6f} s (|v| = {speed:.3g} > {MAX_SPEED:g}): "
+            "reduce the time step or the gains"
+        )
+
+
+class _Progress:
+    """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
+
+    def __init__(self, total: int, quiet: bool) -> None:
+        self.total, self.bar = total, None
+        self.enabled = not quiet and sys.stderr.isatty()
+        self.start = time.perf_counter()
+
+    def update(self, n: int) -> None:
+        if not self.enabled or n % 64:
+            return
+        if self.bar is None:
+            if time.perf_counter() - self.start < 2.0:
+                return
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, unit="step", file=sys.stderr, initial=n)
+        self.bar.n = n
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+class _Recorder:
+    """Preallocated record arrays."""
+
+    def __init__(self, n: int, model, contacts) -> None:
+        self.n = 0
+        self.t = np.zeros(n)
+        self.q = np.zeros((n, model.nq))
+        self.v = np.zeros((n, model.nv))
+        self.tau = np.zeros((n, model.nv))
+        self.energy = np.zeros(n)
+        self.residual = np.zeros(n)
+        self.forces = {}
+        for c in contacts:
+            self.forces[c.side] = np.full((n, 6), np.nan)
+            if c.spec.kind == "points":
+                for name in ("heel_inner", "heel_outer", "toe_inner", "toe_outer"):
+                    self.forces[f"{c.side}_{name}"] = np.full((n, 3), np.nan)
+
+    def add(self, sim: Simulation, t, q, v) -> None:
+        i = self.n
+        if i >= len(self.t):
+            return
+        model, data = sim.model, sim.data
+        self.t[i], self.q[i], self.v[i] = t, q, v
+        first = sim._first
+        if first is not None:
+            self.tau[i] = first[0]
+        self.energy[i] = pin.computeKineticEnergy(model, data, q, v) + pin.computePotentialEnergy(
+            model, data, q
+        )
+        constraints = sim.active_constraints()
+        if constraints:
+            sim._kinematics(q, v)
+            sol = first[1] if first is not None else None
+            if sol is not None:
+                split = sol.split(constraints)
+                for c in sim.contacts:
+                    if c.attached:
+                        c.store(model, data, np.concatenate([split[k.name] for k in c.constraints]))
+            e = np.concatenate([c.residual(model, data) for c in constraints])
+            self.residual[i] = np.abs(e).max()
+        for c in sim.contacts:
+            if c.attached:
+                self.forces[c.side][i] = c.wrench
+                if c.spec.kind == "points":
+                    for j, name in enumerate(
+                        ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
+                    ):
+                        self.forces[f"{c.side}_{name}"][i] = c.point_forces[j]
+        self.n += 1
+
+    def trajectory(self, meta) -> Trajectory:
+        n = self.n
+        forces = {k: a[:n].copy() for k, a in self.forces.items()}
+        return Trajectory(
+            self.t[:n].copy(), self.q[:n].copy(), self.v[:n].copy(), self.tau[:n].copy(),
+            forces, self.energy[:n].copy(), self.residual[:n].copy(), meta,
+        )  # fmt: skip
+
+
+def load_body(scene: Scene) -> Humanoid:
+    """The scene's body: a URDF path or BodyParameters."""
+    if isinstance(scene.body, BodyParameters):
+        return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
+    try:
+        return load(Path(scene.body), ball_joints=scene.ball_joints)
+    except ModelError as exc:
+        raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
+
+
+def initial_state(scene: Scene, h: Humanoid):
+    """(q0, v0) of a scene; NaN or inf is rejected here, at entry."""
+    model = h.model
+    ini = scene.initial
+    if isinstance(ini.configuration, str):
+        q = h.standing_configuration()
+    else:
+        q = np.array(ini.configuration, dtype=float)
+        if q.shape != (model.nq,):
+            raise SceneError(
+                f"{scene.source}: initial.configuration: needs nq = {model.nq} numbers, "
+                f"got {q.size}"
+            )
+    v = np.zeros(model.nv)
+    v[:6] = ini.base_velocity
+    jv = np.asarray(ini.joint_velocity, dtype=float)
+    if jv.ndim == 0:
+        v[6:] = jv
+    elif jv.shape == (model.nv - 6,):
+        v[6:] = jv
+    else:
+        raise SceneError(
+            f"{scene.source}: initial.joint_velocity: needs 1 or {model.nv - 6} numbers, "
+            f"got {jv.size}"
+        )
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
+        raise SceneError(f"{scene.source}: initial state has NaN or inf entries")
+    for jm in model.joints[1:]:
+        if jm.nq == jm.nv + 1:  # free flyer, spherical: unit quaternions
+            iq = jm.idx_q + (3 if jm.nq == 7 else 0)
+            quat = q[iq : iq + 4]
+            if abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+                raise SceneError(
+                    f"{scene.source}: initial.configuration: quaternion of joint "
+                    f"{model.names[jm.id]} has norm {np.linalg.norm(quat):.6f}, not 1"
+                )
+    return q, v
+
+
+def simulate(scene: Scene, humanoid: Humanoid | None = None, quiet: bool = False) -> Trajectory:
+    """Run a scene. Returns the trajectory, also when the run stopped early: see its status."""
+    return Simulation(scene, humanoid).run(quiet=quiet)
