@@ -48,6 +48,17 @@ def _parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
     i.add_argument("model", help="a URDF file or an example-robot-data name (human, talos...)")
     i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+
+    s = sub.add_parser("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
+    s.add_argument("scene", help="scene file, e.g. models/scenes/standing.toml")
+    s.add_argument("-o", "--output", default="run.npz", help="trajectory file to write")
+    s.add_argument("--duration", type=float, help="override the scene's duration [s]")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    bench = sub.add_parser("bench", help="benchmarks: step cost against Pinocchio")
+    bench.add_argument("kind", choices=("step",))
+    bench.add_argument("--quick", action="store_true", help="fewer repetitions")
+    bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
     return p
 
 
@@ -59,6 +70,12 @@ def main(argv: list[str] | None = None) -> int:
             return _build(args)
         if args.command == "info":
             return _info(args)
+        if args.command == "simulate":
+            return _simulate(args)
+        if args.command == "bench":
+            from .bench import run_step_benchmark
+
+            return run_step_benchmark(quick=args.quick, out=args.output)
     except HumanoidError as exc:
         print(f"humanoid {args.command}: error: {exc}", file=sys.stderr)
         return 2
@@ -87,6 +104,41 @@ def load_any(name: str, ball_joints: str = "quaternion"):
 def _info(args) -> int:
     print(summary(load_any(args.model, args.ball_joints)))
     return 0
+
+
+def _simulate(args) -> int:
+    from .scene import Scene
+    from .simulate import simulate
+
+    scene = Scene.load(args.scene)
+    if args.duration is not None:
+        scene = scene.replace(duration=args.duration)
+    traj = simulate(scene, quiet=args.quiet)
+    path = traj.save(args.output)
+    print(run_summary(traj))
+    print(f"saved        {path}")
+    if traj.status != "completed":
+        print(f"humanoid simulate: {traj.status}: {traj.metadata['message']}", file=sys.stderr)
+        return 3
+    return 0
+
+
+def run_summary(traj) -> str:
+    """Duration, steps, wall time, real-time factor, residual and energy drift of a run."""
+    m = traj.metadata
+    sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
+    wall = m["wall_time"]
+    drift = float(traj.energy[-1] - traj.energy[0]) if len(traj.energy) else float("nan")
+    scale = max(abs(float(traj.energy[0])), 1.0) if len(traj.energy) else 1.0
+    lines = [
+        f"scene        {m['scene'].get('name', '?')} ({m['status']})",
+        f"simulated    {sim_time:.3f} s in {m['steps']} steps of {m['dt']} s",
+        f"wall time    {wall:.2f} s (real-time factor {sim_time / max(wall, 1e-9):.2f})",
+        f"residual     {m['max_residual']:.2e} (largest constraint position error, m or rad)",
+        f"energy       drift {drift:+.3e} J ({drift / scale:+.2e} relative)",
+        f"events       {len(m['events'])} contact events, violations {m['violations'] or 'none'}",
+    ]
+    return "\n".join(lines)
 
 
 def summary(h) -> str:

@@ -167,7 +167,29 @@ class Scene:
             doc = tomllib.loads(path.read_text(encoding="utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise SceneError(f"{path}: not valid TOML: {exc}") from None
-        return cls.from_dict(doc, source=str(path), base=path.parent)
+        scene = cls.from_dict(doc, source=str(path), base=path.parent)
+        scene.check()
+        return scene
+
+    def check(self, humanoid=None) -> None:
+        """Check the scene against its body: the body loads, frame names exist, sizes match.
+
+        Raises:
+            SceneError: naming the scene file, the key and the reason.
+        """
+        from .simulate import initial_state, load_body
+
+        h = humanoid or load_body(self)
+        for i, p in enumerate(self.effects.pushes):
+            if not h.model.existFrame(p.frame):
+                frames = sorted(
+                    f.name for f in h.model.frames if f.type.name in ("BODY", "OP_FRAME")
+                )
+                raise SceneError(
+                    f"{self.source}: effects.pushes[{i}].frame: no frame {p.frame!r} in the body; "
+                    f"frames: {', '.join(frames)}"
+                )
+        initial_state(self, h)
 
     @classmethod
     def from_dict(cls, doc: dict, source: str = "<scene>", base: Path | None = None) -> Scene:

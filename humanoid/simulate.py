@@ -25,7 +25,7 @@ from .anthropometry import BodyParameters
 from .body import build_urdf
 from .constraints import Baumgarte, PointContact, Weld, solve_kkt, update_kinematics
 from .constraints.quaternion import CoordinateMap, QuaternionNorm
-from .constraints.solve import stack
+from .constraints.solve import split_forces, stack
 from .effects import (
     JointDamping,
     JointLimits,
@@ -42,6 +42,7 @@ from .scene import Scene
 __all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
 
 MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
+GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,7 @@ class ContactState:
                 PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
                 for i, p in enumerate(self.points)
             ]
-        self.attached = True
+        self.attached = self.ever_attached = True
 
     def release(self) -> None:
         self.constraints = []
@@ -176,7 +177,15 @@ class ContactState:
         return out
 
     def lowest(self, data) -> float:
+        """Height of the lowest sole point [m]."""
         return min(data.oMf[p].translation[2] for p in self.points)
+
+    def sinking(self, model, data) -> bool:
+        """Whether a sole point moves down (needs velocities in ``data``)."""
+        return any(
+            pin.getFrameVelocity(model, data, p, pin.LOCAL_WORLD_ALIGNED).linear[2] < 0.0
+            for p in self.points
+        )
 
 
 class Simulation:
@@ -204,11 +213,8 @@ class Simulation:
             self.effects.append(
                 JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
             )
-        for i, p in enumerate(e.pushes):
-            if not self.model.existFrame(p.frame):
-                raise SceneError(
-                    f"{scene.source}: effects.pushes[{i}].frame: no frame {p.frame!r} in the body"
-                )
+        scene.check(h)
+        for p in e.pushes:
             self.effects.append(Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration))
         pin.framesForwardKinematics(self.model, self.data, q0)
         self.contacts = [ContactState(h, c, self.data) for c in e.contacts]
@@ -237,6 +243,10 @@ class Simulation:
         self.events: list[dict] = []
         self.violations: dict[str, int] = {}
         self.last = None  # the last solve (stage 1 of the last step)
+        self._active = None
+        self._zero = np.zeros(self.model.nv)
+        self._zero.flags.writeable = False
+        self._forced = bool(self.effects) or self.controller is not None
         self.tau_last = np.zeros(self.model.nv)
         self._pin_backend = None
 
@@ -249,11 +259,15 @@ class Simulation:
                 c.attach(self.data)
                 rows += [k.jacobian(self.model, self.data) for k in c.constraints]
                 c.release()
+                self._active = None
+                c.ever_attached = False
         return np.vstack(rows) if rows else np.zeros((0, self.model.nv))
 
     # -- forces --------------------------------------------------------------------------
     def applied(self, t, q, v) -> np.ndarray:
         """Generalised force of the effects and the controller, zero on the free flyer."""
+        if not self._forced:
+            return self._zero
         tau = np.zeros(self.model.nv)
         for eff in self.effects:
             tau += eff.force(self.model, self.data, t, q, v)
@@ -272,7 +286,10 @@ class Simulation:
         return np.zeros(self.model.nv)
 
     def active_constraints(self):
-        return [c for s in self.contacts if s.attached for c in s.constraints]
+        """The constraints of the attached contacts (cached; refreshed on attach/release)."""
+        if self._active is None:
+            self._active = [c for s in self.contacts if s.attached for c in s.constraints]
+        return self._active
 
     # -- dynamics ------------------------------------------------------------------------
     def acceleration(self, t, q, v) -> np.ndarray:
@@ -296,8 +313,6 @@ class Simulation:
         return sol.a
 
     def _pinocchio_backend(self, q, v, tau, constraints):
-        from .constraints.solve import ConstrainedAcceleration
-
         key = tuple(id(c) for c in constraints)
         if self._pin_backend is None or self._pin_backend[0] != key:
             cms = pin.StdVec_RigidConstraintModel()
@@ -313,23 +328,27 @@ class Simulation:
                         pin.ContactType.CONTACT_3D, self.model, fr.parentJoint, fr.placement,
                         0, pin.SE3(np.eye(3), c.anchor), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
                     )  # fmt: skip
-                cm.corrector.Kp[:] = self.baumgarte.beta**2
-                cm.corrector.Kd[:] = 2 * self.baumgarte.alpha
+                cm.setBaumgarteCorrectorParameters(
+                    pin.BaumgarteCorrectorParameters(
+                        self.baumgarte.beta**2, 2 * self.baumgarte.alpha
+                    )
+                )
                 cms.append(cm)
             cds = pin.StdVec_RigidConstraintData()
             for cm in cms:
                 cds.append(cm.createData())
             data = self.model.createData()
             pin.initConstraintDynamics(self.model, data, cms, cds)
-            self._pin_backend = (key, cms, cds, data, pin.ProximalSettings(1e-12, 1e-12, 0.0, 1))
+            # Redundant sets (point contacts: 12 rows per foot) need the proximal iterations.
+            redundant = sum(c.size for c in constraints) > 6 * len(self.contacts)
+            prox = pin.ProximalSettings(
+                1e-12, 1e-12, 1e-2 if redundant else 0.0, 50 if redundant else 1
+            )
+            self._pin_backend = (key, cms, cds, data, prox)
         _, cms, cds, data, prox = self._pin_backend
         a = pin.constraintDynamics(self.model, data, q, v, tau, cms, cds, prox)
-        forces = np.concatenate(
-            [cd.contact_force.vector[: cm.size()] for cm, cd in zip(cms, cds, strict=True)]
-        )
-        sol = ConstrainedAcceleration(a.copy(), forces, float("nan"), len(forces), "pinocchio")
-        self.last = (tau, sol)
-        return sol.a
+        self.last = (tau, _PinSolution(a, cms, cds))
+        return a
 
     def coordinate_acceleration(self, t, x, xdot) -> np.ndarray:
         """d(x')/dt for the seeds' coordinate formulation (quaternion norm as a constraint)."""
@@ -402,6 +421,7 @@ class Simulation:
         """Attach a contact where the foot is, with the impulse that stops it (J v+ = 0)."""
         self._kinematics(q, v)
         contact.attach(self.data)
+        self._active = None
         J, _ = stack(self.model, self.data, contact.constraints, v, Baumgarte())
         J_all, _ = stack(self.model, self.data, self.active_constraints(), v, Baumgarte())
         Minv = pin.computeMinverse(self.model, self.data, q)
@@ -447,27 +467,18 @@ class Simulation:
                     self.violations[c.side] = self.violations.get(c.side, 0) + 1
                 if t >= c.spec.end or (problems and c.spec.unilateral):
                     c.release()
+                    self._active = None
                     why = "end of window" if t >= c.spec.end else "; ".join(problems)
                     self.events.append(
                         {"t": t, "contact": c.side, "event": "release", "reason": why}
                     )
             elif c.spec.start <= t < c.spec.end:
                 self._kinematics(q, v)
-                if not c.ever_attached:
+                height = c.lowest(self.data)
+                if not c.ever_attached and height <= GROUND_TOLERANCE:
                     v = self.attach(c, t, q, v, "scheduled")
-                    c.ever_attached = True
-                elif (
-                    c.lowest(self.data) <= 0.0
-                    and min(
-                        pin.getFrameVelocity(
-                            self.model, self.data, p, pin.LOCAL_WORLD_ALIGNED
-                        ).linear[2]
-                        for p in c.points
-                    )
-                    < 0.0
-                ):
+                elif height <= 0.0 and c.sinking(self.model, self.data):
                     v = self.attach(c, t, q, v, "touchdown")
-                    c.ever_attached = True
         return v
 
     # -- the loop ------------------------------------------------------------------------
@@ -548,6 +559,30 @@ class Simulation:
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
+
+
+class _PinSolution:
+    """The result of ``pin.constraintDynamics``; forces are read from its data on demand."""
+
+    method = "pinocchio"
+
+    def __init__(self, a, cms, cds) -> None:
+        self.a, self._cms, self._cds = a, cms, cds
+        self._forces = None
+
+    @property
+    def forces(self) -> np.ndarray:
+        if self._forces is None:
+            self._forces = np.concatenate(
+                [
+                    cd.contact_force.vector[: cm.residualSize()]
+                    for cm, cd in zip(self._cms, self._cds, strict=True)
+                ]
+            )
+        return self._forces
+
+    def split(self, constraints):
+        return split_forces(self.forces, constraints)
 
 
 def _guard(t, q, v):

@@ -50,7 +50,9 @@ def _pinocchio(h, q, v, tau, constraints):
         cds.append(cm.createData())
     data = m.createData()
     pin.initConstraintDynamics(m, data, cms, cds)
-    a = pin.constraintDynamics(m, data, q, v, tau, cms, cds, pin.ProximalSettings(1e-14, 1e-14, 0, 1))
+    a = pin.constraintDynamics(
+        m, data, q, v, tau, cms, cds, pin.ProximalSettings(1e-14, 1e-14, 0, 1)
+    )
     return a, np.concatenate([cd.contact_force.vector for cd in cds])
 
 
@@ -80,7 +82,9 @@ def test_static_standing_forces_sum_to_weight():
     v = np.zeros(h.nv)
     for constraints in (_welds(h, q), _points(h, q)):
         # joint torques that hold the pose: the joints' share of g with balanced base rows
-        sol0 = constrained_dynamics(h.model, h.model.createData(), q, v, np.zeros(h.nv), constraints)
+        sol0 = constrained_dynamics(
+            h.model, h.model.createData(), q, v, np.zeros(h.nv), constraints
+        )
         fz = sum(f[2] for f in _world_forces(h, q, constraints, sol0.forces))
         weight = h.mass * 9.81
         # without torques the body accelerates, but the base's vertical equation still balances
@@ -291,7 +295,7 @@ def test_ball_on_a_rod_conical_pendulum():
     forces.clear()
     a = acc(t_end, x, xd)
     assert abs(forces[0]) == pytest.approx(tension, rel=1e-8)
-    assert np.allclose(a, -omega**2 * np.array([x[0], x[1], 0.0]), atol=1e-7)
+    assert np.allclose(a, -(omega**2) * np.array([x[0], x[1], 0.0]), atol=1e-7)
 
 
 def test_coordinate_map_velocity_and_norm_constraint():

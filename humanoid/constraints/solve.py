@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg import lapack
 
 from .base import Constraint, update_kinematics
 
@@ -75,11 +76,16 @@ class ConstrainedAcceleration:
 
     def split(self, constraints: Sequence[Constraint]) -> dict[str, np.ndarray]:
         """Forces by constraint name."""
-        out, i = {}, 0
-        for c in constraints:
-            out[c.name] = self.forces[i : i + c.size]
-            i += c.size
-        return out
+        return split_forces(self.forces, constraints)
+
+
+def split_forces(forces: np.ndarray, constraints: Sequence[Constraint]) -> dict[str, np.ndarray]:
+    """Stacked constraint forces, by constraint name."""
+    out, i = {}, 0
+    for c in constraints:
+        out[c.name] = forces[i : i + c.size]
+        i += c.size
+    return out
 
 
 def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray):
@@ -95,14 +101,11 @@ def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray)
     D = J @ MJt
     rhs = gamma - J @ a_free
     lam, rank, method = None, J.shape[0], "cholesky"
-    try:
-        L = np.linalg.cholesky(D)
-        pivots = np.diag(L) ** 2
+    factor, info = lapack.dpotrf(D)  # LAPACK directly: numpy's wrappers cost more than m = 12
+    if info == 0:
+        pivots = np.diag(factor) ** 2
         if pivots.min() > CHOLESKY_MIN_PIVOT * pivots.max():
-            y = np.linalg.solve(L, rhs)  # small triangular systems (m <= ~30)
-            lam = np.linalg.solve(L.T, y)
-    except np.linalg.LinAlgError:
-        pass
+            lam = lapack.dpotrs(factor, rhs)[0]
     if lam is None:
         w, V = np.linalg.eigh(D)
         keep = w > RANK_TOL * max(w[-1], 0.0)

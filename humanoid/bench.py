@@ -1,0 +1,132 @@
+"""``humanoid bench step``: the cost of one simulation step against Pinocchio doing the same.
+
+For every shipped scene, one step of the project's simulator (semi-implicit Euler: one dynamics
+evaluation and one ``integrate``) is timed against the equivalent Pinocchio calls measured in
+the same run, interleaved: ``pin.aba`` + ``pin.integrate`` for contact-free scenes,
+``pin.constraintDynamics`` + ``pin.integrate`` for scenes with contacts. Three variants of ours:
+the scene as shipped (with its effects and controller), the dynamics only (no effects, the
+like-for-like comparison), and the dynamics only through the Pinocchio backend. Each figure is
+the best of several rounds (the machine is shared and noisy); ratios are what to read.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["run_step_benchmark"]
+
+SCENES = Path(__file__).resolve().parent.parent / "models" / "scenes"
+
+
+def _best(fn, n: int, rounds: int) -> float:
+    """Best per-call time [s] over ``rounds`` rounds of ``n`` calls."""
+    best = float("inf")
+    for _ in range(rounds):
+        start = time.perf_counter()
+        for _ in range(n):
+            fn()
+        best = min(best, (time.perf_counter() - start) / n)
+    return best
+
+
+def _pinocchio_step(sim, q, v, dt):
+    """The equivalent Pinocchio work: dynamics + integrate, plain calls."""
+    model = sim.model
+    data = model.createData()
+    tau = np.zeros(model.nv)
+    constraints = sim.active_constraints()
+    if not constraints:
+
+        def step():
+            a = pin.aba(model, data, q, v, tau)
+            pin.integrate(model, q, (v + dt * a) * dt)
+
+        return step
+    from .constraints import Weld
+
+    cms = pin.StdVec_RigidConstraintModel()
+    for c in constraints:
+        fr = model.frames[c.frame_id]
+        if isinstance(c, Weld):
+            kind, ref, anchor = pin.ContactType.CONTACT_6D, pin.ReferenceFrame.LOCAL, c.anchor
+        else:
+            kind, ref = pin.ContactType.CONTACT_3D, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+            anchor = pin.SE3(np.eye(3), c.anchor)
+        cms.append(
+            pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0, anchor, ref)
+        )
+    cds = pin.StdVec_RigidConstraintData()
+    for cm in cms:
+        cds.append(cm.createData())
+    pin.initConstraintDynamics(model, data, cms, cds)
+    redundant = sum(cm.residualSize() for cm in cms) > 12
+    prox = pin.ProximalSettings(1e-10, 1e-10, 1e-2 if redundant else 0.0, 50 if redundant else 1)
+
+    def step():
+        a = pin.constraintDynamics(model, data, q, v, tau, cms, cds, prox)
+        pin.integrate(model, q, (v + dt * a) * dt)
+
+    return step
+
+
+def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
+    """Time one step per shipped scene; print a table and write ``step.csv``."""
+    from .scene import Effects, Scene, Stabilisation
+    from .simulate import Simulation
+
+    n, rounds = (200, 3) if quick else (1000, 7)
+    rows = []
+    for path in sorted(SCENES.glob("*.toml")):
+        scene = Scene.load(path).replace(integrator="semi_implicit_euler")
+        bare = scene.replace(
+            effects=Effects(gravity=scene.effects.gravity, contacts=scene.effects.contacts),
+            controller=type(scene.controller)(),
+        )
+        pin_backend = bare.replace(
+            stabilisation=Stabilisation(baumgarte=bare.stabilisation.baumgarte, backend="pinocchio")
+        )
+        variants = {}
+        for label, sc in (("as shipped", scene), ("dynamics", bare), ("pin backend", pin_backend)):
+            sim = Simulation(sc)
+            q, v = sim.q0.copy(), sim.v0.copy()
+            sim._first = None
+            sim.update_contacts(0.0, q, v)
+            variants[label] = (sim, q, v)
+        sim0, q0, v0 = variants["dynamics"]
+        reference = _pinocchio_step(sim0, q0, v0, scene.dt)
+        times = {"pinocchio": _best(reference, n, rounds)}
+        for label, (sim, q, v) in variants.items():
+            times[label] = _best(
+                lambda s=sim, q=q, v=v, dt=scene.dt: s.step(0.0, q, v, dt), n, rounds
+            )
+            times["pinocchio"] = min(times["pinocchio"], _best(reference, n, 1))
+        contacts = "+".join(f"{c.foot}:{c.kind}" for c in scene.effects.contacts) or "none"
+        rows.append({"scene": scene.name, "contacts": contacts} | times)
+
+    header = ["scene", "contacts", "pinocchio", "dynamics", "pin backend", "as shipped"]
+    print(
+        f"{'scene':<10} {'contacts':<24} {'pinocchio':>10} {'ours':>10} {'ratio':>6} "
+        f"{'pin backend':>12} {'ratio':>6} {'as shipped':>11} {'ratio':>6}   [us per step]"
+    )
+    for r in rows:
+        p = r["pinocchio"]
+        print(
+            f"{r['scene']:<10} {r['contacts']:<24} {p * 1e6:>10.1f} {r['dynamics'] * 1e6:>10.1f} "
+            f"{r['dynamics'] / p:>6.2f} {r['pin backend'] * 1e6:>12.1f} "
+            f"{r['pin backend'] / p:>6.2f} {r['as shipped'] * 1e6:>11.1f} "
+            f"{r['as shipped'] / p:>6.2f}"
+        )
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / "step.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=header)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: r[k] for k in header})
+    print(f"wrote {folder / 'step.csv'}")
+    return 0
