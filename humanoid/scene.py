@@ -253,7 +253,12 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The TOML structure of this scene (inverse of :meth:`from_dict`)."""
-        d = {k: v for k, v in asdict(self).items() if k not in ("source", "body", "ball_joints")}
+        skip = ("source", "body", "ball_joints")
+        d = {
+            f.name: asdict(v) if hasattr(v, "__dataclass_fields__") else v
+            for f in fields(self)
+            if f.name not in skip and (v := getattr(self, f.name)) is not None
+        }
         if isinstance(self.body, BodyParameters):
             body = {"height": self.body.height, "mass": self.body.mass, "sex": self.body.sex}
             if self.body.segment_lengths:

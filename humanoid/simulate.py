@@ -251,11 +251,11 @@ class Simulation:
         self._pin_backend = None
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
-        """Jacobian of the contacts scheduled at t = 0, at q0."""
+        """Jacobian at q0 of the contacts that attach at t = 0 (scheduled and on the ground)."""
         self._kinematics(q0)
         rows = []
         for c in self.contacts:
-            if c.spec.start == 0.0:
+            if c.spec.start == 0.0 and c.lowest(self.data) <= GROUND_TOLERANCE:
                 c.attach(self.data)
                 rows += [k.jacobian(self.model, self.data) for k in c.constraints]
                 c.release()
@@ -406,6 +406,8 @@ class Simulation:
             a = f(t_, q_, v_)
             if self._first is None:
                 self._first = self.last
+                if isinstance(self.last[1], _PinSolution):
+                    self.last[1].freeze()  # later stages overwrite Pinocchio's contact data
             return a
 
         if self.adaptive is not None:
@@ -417,20 +419,27 @@ class Simulation:
         v = np.zeros(self.model.nv) if v is None else v
         update_kinematics(self.model, self.data, q, v)
 
-    def attach(self, contact: ContactState, t: float, q, v, reason: str):
-        """Attach a contact where the foot is, with the impulse that stops it (J v+ = 0)."""
+    def attach(self, contacts, t: float, q, v, reason: str):
+        """Attach contacts where the feet are, with the one impulse that stops them.
+
+        The impulse dv = M^-1 J^T Lambda makes J v+ = 0 for every active constraint (an
+        inelastic impact), so the velocity is consistent with the new constraint set.
+        """
         self._kinematics(q, v)
-        contact.attach(self.data)
+        for contact in contacts:
+            speed = max(0.0, -min(
+                pin.getFrameVelocity(self.model, self.data, p, pin.LOCAL_WORLD_ALIGNED).linear[2]
+                for p in contact.points
+            ))  # fmt: skip
+            contact.attach(self.data)
+            self.events.append(
+                {"t": t, "contact": contact.side, "event": "attach", "reason": reason,
+                 "impact_speed": float(speed)}
+            )  # fmt: skip
         self._active = None
-        J, _ = stack(self.model, self.data, contact.constraints, v, Baumgarte())
-        J_all, _ = stack(self.model, self.data, self.active_constraints(), v, Baumgarte())
+        J, _ = stack(self.model, self.data, self.active_constraints(), v, Baumgarte())
         Minv = pin.computeMinverse(self.model, self.data, q)
-        dv = solve_kkt(Minv, np.zeros(self.model.nv), J_all, -(J_all @ v)).a
-        self.events.append(
-            {"t": t, "contact": contact.side, "event": "attach", "reason": reason,
-             "impact_speed": float(np.abs(J @ v).max())}
-        )  # fmt: skip
-        return v + dv
+        return v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
 
     def project(self, q, v):
         """Put q and v back on the manifold of the active constraints (Gauss-Newton, 3 its)."""
@@ -472,13 +481,20 @@ class Simulation:
                     self.events.append(
                         {"t": t, "contact": c.side, "event": "release", "reason": why}
                     )
-            elif c.spec.start <= t < c.spec.end:
+        landing = {"scheduled": [], "touchdown": []}
+        for c in self.contacts:
+            if not c.attached and c.spec.start <= t < c.spec.end:
                 self._kinematics(q, v)
                 height = c.lowest(self.data)
                 if not c.ever_attached and height <= GROUND_TOLERANCE:
-                    v = self.attach(c, t, q, v, "scheduled")
+                    landing[
+                        "scheduled" if t < c.spec.start + self.scene.dt / 2 else "touchdown"
+                    ].append(c)
                 elif height <= 0.0 and c.sinking(self.model, self.data):
-                    v = self.attach(c, t, q, v, "touchdown")
+                    landing["touchdown"].append(c)
+        for reason, contacts in landing.items():
+            if contacts:
+                v = self.attach(contacts, t, q, v, reason)
         return v
 
     # -- the loop ------------------------------------------------------------------------
@@ -580,6 +596,10 @@ class _PinSolution:
                 ]
             )
         return self._forces
+
+    def freeze(self) -> None:
+        """Read the forces now (the constraint data is reused by the next evaluation)."""
+        _ = self.forces
 
     def split(self, constraints):
         return split_forces(self.forces, constraints)

@@ -1,0 +1,276 @@
+"""The run loop: only the effects a scene calls for, formulations, records, failures, contacts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import MODELS
+
+from humanoid.constraints import constrained_dynamics
+from humanoid.effects import JointDamping, Push
+from humanoid.scene import Contact, Controller, Effects, Initial, Scene, Stabilisation
+from humanoid.simulate import Simulation, Trajectory, _Recorder, simulate
+
+MALE = str(MODELS / "adult_male.urdf")
+SPIN = (0.0, 0.0, 0.0, 0.3, 2.0, 0.5)
+
+
+def _scene(**kw) -> Scene:
+    base = {"body": MALE, "duration": 0.2, "dt": 1e-3, "integrator": "rk4"}
+    return Scene(**(base | kw))
+
+
+class Spy:
+    """Counts calls to Pinocchio functions through monkeypatch."""
+
+    def __init__(self, monkeypatch, names):
+        self.calls = dict.fromkeys(names, 0)
+        for name in names:
+            original = getattr(pin, name)
+
+            def wrapper(*args, _name=name, _original=original, **kw):
+                self.calls[_name] += 1
+                return _original(*args, **kw)
+
+            monkeypatch.setattr(pin, name, wrapper)
+
+
+WATCHED = [
+    "aba", "nle", "rnea", "computeGeneralizedGravity", "computeJointJacobians",
+    "computeMinverse", "constraintDynamics", "getFrameJacobian", "computeFrameJacobian",
+]  # fmt: skip
+
+
+def test_no_contacts_means_no_jacobian_and_no_kkt(monkeypatch):
+    sim = Simulation(_scene(initial=Initial(base_velocity=SPIN)))
+    spy = Spy(monkeypatch, WATCHED)
+    traj = sim.run(quiet=True)
+    assert traj.status == "completed"
+    assert spy.calls["aba"] > 0
+    for name in WATCHED[1:]:
+        assert spy.calls[name] == 0, f"{name} called {spy.calls[name]} times"
+    assert sim.counters["kkt"] == 0
+
+
+def test_no_gravity_means_no_gravity_term(monkeypatch):
+    scene = _scene(
+        effects=Effects(gravity=(0.0, 0.0, 0.0), coriolis=False, contacts=(Contact("left"),)),
+        initial=Initial(base_velocity=SPIN),
+    )
+    sim = Simulation(scene)
+    spy = Spy(monkeypatch, WATCHED)
+    sim.run(quiet=True)
+    assert spy.calls["computeGeneralizedGravity"] == 0
+    assert spy.calls["nle"] == 0 and spy.calls["rnea"] == 0  # no velocity terms either
+    assert sim.counters["kkt"] > 0
+    # gravity without velocity terms: only the gravity term is computed
+    sim = Simulation(scene.replace(effects=Effects(coriolis=False, contacts=(Contact("left"),))))
+    spy = Spy(monkeypatch, WATCHED)
+    sim.run(quiet=True)
+    assert spy.calls["computeGeneralizedGravity"] > 0 and spy.calls["nle"] == 0
+
+
+def test_no_velocity_terms_means_aba_at_zero_velocity(monkeypatch):
+    scene = _scene(effects=Effects(coriolis=False), initial=Initial(base_velocity=SPIN))
+    seen = []
+    original = pin.aba
+
+    def aba(model, data, q, v, tau, *args):
+        seen.append(np.abs(v).max())
+        return original(model, data, q, v, tau, *args)
+
+    monkeypatch.setattr(pin, "aba", aba)
+    traj = simulate(scene, quiet=True)
+    assert seen and max(seen) == 0.0
+    # and the motion differs from the full pipeline (the spin's gyroscopic terms are real)
+    monkeypatch.setattr(pin, "aba", original)
+    full = simulate(scene.replace(effects=Effects()), quiet=True)
+    assert np.abs(full.q[-1] - traj.q[-1]).max() > 1e-4
+
+
+def test_switched_off_effect_equals_zeroed_effect():
+    """A scene without damping and pushes == the full pipeline with both present but zero."""
+    scene = _scene(
+        effects=Effects(contacts=(Contact("left"), Contact("right"))),
+        controller=Controller("posture", frequency=4.0),
+        initial=Initial(joint_velocity=0.2),
+        stabilisation=Stabilisation(baumgarte=20.0),
+    )
+    lean = Simulation(scene).run(quiet=True)
+    full = Simulation(scene)
+    full.effects += [
+        JointDamping(full.model, 0.0),
+        Push(full.model.getFrameId("thorax"), (0.0, 0.0, 0.0), 0.0, 1.0),
+    ]
+    full._forced = True
+    fat = full.run(quiet=True)
+    assert np.array_equal(lean.q, fat.q)
+    assert np.array_equal(lean.forces["left"], fat.forces["left"])
+
+
+def test_plain_aba_equals_the_kkt_path_without_constraints():
+    sim = Simulation(_scene(initial=Initial(base_velocity=SPIN)))
+    rng = np.random.default_rng(40)
+    q = pin.integrate(sim.model, sim.q0, 0.1 * rng.normal(size=sim.model.nv))
+    v = rng.normal(size=sim.model.nv)
+    a = sim.acceleration(0.0, q, v)
+    ref = constrained_dynamics(sim.model, sim.model.createData(), q, v, np.zeros(sim.model.nv), [])
+    assert np.abs(a - ref.a).max() < 1e-9
+
+
+@pytest.mark.parametrize("contacts", [(), (Contact("left"), Contact("right"))])
+def test_quaternion_formulations_give_the_same_motion(contacts):
+    """Lie group (pin.integrate) vs the seeds' norm-constrained coordinates: same motion."""
+    effects = Effects(gravity=(0.0, 0.0, -9.81) if contacts else (0.0, 0.0, 0.0), contacts=contacts)
+    scene = _scene(
+        duration=0.3,
+        effects=effects,
+        initial=Initial(base_velocity=(0, 0, 0, 0.0, 0.0, 0.0) if contacts else SPIN,
+                        joint_velocity=0.3),
+    )  # fmt: skip
+    results = {}
+    for quats in ("lie", "coordinates"):
+        stab = Stabilisation(baumgarte=0.0, quaternions=quats)
+        results[quats] = simulate(scene.replace(stabilisation=stab), quiet=True)
+    lie, coords = results["lie"], results["coordinates"]
+    model = Simulation(scene).model
+    err = max(
+        np.abs(pin.difference(model, a, b)).max() for a, b in zip(lie.q, coords.q, strict=True)
+    )
+    assert err < 1e-6, f"Lie vs coordinate formulation differ by {err:.2e}"
+    assert np.abs(lie.v - coords.v).max() < 1e-5
+
+
+def test_coordinate_formulation_drifts_without_stabilisation_and_not_with_it():
+    scene = _scene(duration=0.5, dt=5e-3, integrator="euler",
+                   effects=Effects(gravity=(0, 0, 0)), initial=Initial(base_velocity=SPIN))  # fmt: skip
+    drift = {}
+    for label, stab in (
+        ("none", Stabilisation(quaternions="coordinates")),
+        ("baumgarte", Stabilisation(quaternions="coordinates", baumgarte=2.0)),
+        ("projection", Stabilisation(quaternions="coordinates", projection=True)),
+    ):
+        sim = Simulation(scene.replace(stabilisation=stab))
+        x, xd = sim.cmap.from_tangent(sim.q0, sim.v0)
+        for k in range(100):
+            x, xd = sim.step(k * scene.dt, x, xd, scene.dt)
+            if stab.projection:
+                q = sim.cmap.configuration(x)
+                x, xd = sim.cmap.from_tangent(q, sim.cmap.H(x) @ xd)
+        drift[label] = np.abs(sim.norm.residual(x)).max()
+    assert drift["none"] > 1e-4, drift  # explicit Euler leaves the unit sphere
+    assert drift["baumgarte"] < drift["none"] / 10, drift
+    assert drift["projection"] < 1e-14, drift
+
+
+def test_record_rate_and_trajectory_file(tmp_path):
+    scene = _scene(duration=0.5, record_rate=50.0, effects=Effects(contacts=(Contact("left"),)))
+    traj = simulate(scene, quiet=True)
+    assert len(traj.t) == 26 and traj.t[1] == pytest.approx(0.02)
+    assert traj.q.shape == (26, 47) and traj.v.shape == (26, 39) and traj.tau.shape == (26, 39)
+    assert traj.forces["left"].shape == (26, 6)
+    with pytest.raises(ValueError):
+        traj.q[0, 0] = 1.0  # read-only
+    path = traj.save(tmp_path / "run.npz")
+    back = Trajectory.load(path)
+    assert np.array_equal(back.q, traj.q) and np.array_equal(
+        back.forces["left"], traj.forces["left"]
+    )
+    assert back.metadata["joint_names"][1] == "root_joint"
+    assert back.metadata["scene"]["dt"] == 1e-3
+    # the free-flyer part of the applied force is exactly zero
+    assert np.all(traj.tau[:, :6] == 0.0)
+
+
+def test_ten_minutes_at_1khz_fit_in_100_mb():
+    """Records are preallocated from the duration: 10 min at 1 kHz, recorded at 100 Hz."""
+    sim = Simulation(_scene(effects=Effects(contacts=(Contact("left"), Contact("right")))))
+    n = int(600 / 1e-3) // int(1 / (100 * 1e-3)) + 1
+    rec = _Recorder(n, sim.model, sim.contacts)
+    total = sum(a.nbytes for a in (rec.t, rec.q, rec.v, rec.tau, rec.energy, rec.residual))
+    total += sum(a.nbytes for a in rec.forces.values())
+    assert total < 100e6, f"{total / 1e6:.1f} MB"
+
+
+def test_divergence_stops_with_a_message_and_keeps_the_good_part():
+    scene = _scene(
+        duration=1.0, dt=0.01, integrator="euler",
+        effects=Effects(contacts=(Contact("left"), Contact("right"))),
+        controller=Controller("posture", kp=1e6, kd=1e4),
+    )  # fmt: skip
+    traj = simulate(scene, quiet=True)
+    assert traj.status == "diverged"
+    assert "exploding" in traj.metadata["message"] or "non-finite" in traj.metadata["message"]
+    assert 0 < len(traj.t) < 101
+    assert np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.v))
+
+
+def test_ctrl_c_keeps_what_was_computed(monkeypatch):
+    sim = Simulation(_scene(duration=0.5, initial=Initial(base_velocity=SPIN)))
+    original, calls = sim.step, [0]
+
+    def step(*args):
+        calls[0] += 1
+        if calls[0] == 120:
+            raise KeyboardInterrupt
+        return original(*args)
+
+    monkeypatch.setattr(sim, "step", step)
+    traj = sim.run(quiet=True)
+    assert traj.status == "interrupted" and "interrupted" in traj.metadata["message"]
+    assert len(traj.t) == 12 and np.all(np.isfinite(traj.q))
+
+
+def test_unilateral_contacts_release_and_touch_down_with_an_impulse():
+    """Dropped from 2 cm: the feet touch down (impulse), and pulling feet are released."""
+    q0 = Simulation(_scene()).q0.copy()
+    q0[2] += 0.02
+    scene = _scene(
+        duration=0.15,
+        initial=Initial(configuration=tuple(q0)),
+        effects=Effects(contacts=(Contact("left", unilateral=True), Contact("right", unilateral=True))),
+        controller=Controller("posture", frequency=4.0),
+    )  # fmt: skip
+    traj = simulate(scene, quiet=True)
+    events = traj.metadata["events"]
+    touch = [e for e in events if e["reason"] == "touchdown"]
+    assert {e["contact"] for e in touch} == {"left", "right"}
+    t_expected = np.sqrt(2 * 0.02 / 9.81)
+    assert all(abs(e["t"] - t_expected) < 2e-3 for e in touch), touch
+    assert all(e["impact_speed"] == pytest.approx(9.81 * t_expected, rel=0.05) for e in touch)
+    # after touchdown the soles do not move (velocity made consistent by the impulse)
+    after = traj.t > t_expected + 0.01
+    assert np.nanmin(traj.forces["left"][after, 2]) > 0.0
+
+
+def test_contact_checks_report_and_release():
+    """The passive collapse on unilateral point contacts: toes pull, so they are released."""
+    scene = Scene.load(MODELS / "scenes" / "collapse.toml").replace(duration=1.3)
+    bilateral = simulate(scene, quiet=True)
+    assert bilateral.metadata["violations"], "bilateral points report the pulling toes"
+    assert not [e for e in bilateral.metadata["events"] if e["event"] == "release"]
+    contacts = tuple(Contact(c.foot, c.kind, c.mu, unilateral=True) for c in scene.effects.contacts)
+    effects = Effects(**(vars(scene.effects) | {"contacts": contacts}))
+    unilateral = simulate(scene.replace(effects=effects), quiet=True)
+    released = [e for e in unilateral.metadata["events"] if e["event"] == "release"]
+    assert released and "normal force" in released[0]["reason"]
+
+
+def test_pinocchio_backend_matches_the_reference_solve():
+    scene = Scene.load(MODELS / "scenes" / "push.toml").replace(duration=0.7)
+    ref = simulate(scene, quiet=True)
+    stab = Stabilisation(baumgarte=scene.stabilisation.baumgarte, backend="pinocchio")
+    fast = simulate(scene.replace(stabilisation=stab), quiet=True)
+    assert np.abs(ref.q - fast.q).max() < 1e-7
+    assert np.nanmax(np.abs(ref.forces["left"] - fast.forces["left"])) < 1e-5
+
+
+def test_standing_scene_holds_and_forces_carry_the_weight():
+    scene = Scene.load(MODELS / "scenes" / "standing.toml").replace(duration=0.5)
+    traj = simulate(scene, quiet=True)
+    weight = 75.0 * 9.81
+    fz = traj.forces["left"][:, 2] + traj.forces["right"][:, 2]
+    assert np.allclose(fz, weight, rtol=1e-9)
+    assert traj.metadata["max_residual"] < 1e-9
+    assert np.abs(traj.q[-1] - traj.q[0]).max() < 1e-9
