@@ -143,8 +143,13 @@ def test_quaternion_formulations_give_the_same_motion(contacts):
 
 
 def test_coordinate_formulation_drifts_without_stabilisation_and_not_with_it():
-    scene = _scene(duration=0.5, dt=5e-3, integrator="euler",
-                   effects=Effects(gravity=(0, 0, 0)), initial=Initial(base_velocity=SPIN))  # fmt: skip
+    scene = _scene(
+        duration=0.5,
+        dt=5e-3,
+        integrator="euler",
+        effects=Effects(gravity=(0, 0, 0)),
+        initial=Initial(base_velocity=SPIN),
+    )
     drift = {}
     for label, stab in (
         ("none", Stabilisation(quaternions="coordinates")),
@@ -226,12 +231,13 @@ def test_unilateral_contacts_release_and_touch_down_with_an_impulse():
     """Dropped from 2 cm: the feet touch down (impulse), and pulling feet are released."""
     q0 = Simulation(_scene()).q0.copy()
     q0[2] += 0.02
+    feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
     scene = _scene(
         duration=0.15,
         initial=Initial(configuration=tuple(q0)),
-        effects=Effects(contacts=(Contact("left", unilateral=True), Contact("right", unilateral=True))),
+        effects=Effects(contacts=feet),
         controller=Controller("posture", frequency=4.0),
-    )  # fmt: skip
+    )
     traj = simulate(scene, quiet=True)
     events = traj.metadata["events"]
     touch = [e for e in events if e["reason"] == "touchdown"]
