@@ -132,20 +132,23 @@ class Push(Effect):
 
 
 class PostureController(Effect):
-    """PD hold of a posture: tau = Kp (q_ref - q) - Kd v on the joints.
+    """PD hold of a posture on the joints: tau = tau_ff + Kp (q_ref - q) - Kd v.
 
     Either absolute gains (``kp`` [N m/rad], ``kd`` [N m s/rad], the same on every joint), or a
-    closed-loop ``frequency`` [Hz] and ``damping_ratio``: then each joint j gets
-    Kp_j = w^2 m_j and Kd_j = 2 zeta w m_j with w = 2 pi frequency and m_j = 1 / (A)_jj the
-    inertia the joint sees at q_ref when every other joint is free, where A = M^-1 without
-    contacts and A = M^-1 - M^-1 J^T (J M^-1 J^T)^+ J M^-1 (the constrained inverse inertia)
-    with the contact Jacobian J: an ankle whose foot is welded carries the whole body. Equal
-    absolute gains on a 0.4 kg hand and a 30 kg trunk make the hand's loop far too stiff for an
-    explicit step; the scaled gains give every joint the same bandwidth.
+    closed-loop ``frequency`` [Hz] and ``damping_ratio``: then the gains are matrices,
+    Kp = w^2 L and Kd = 2 zeta w L with w = 2 pi frequency and L the joint-space inertia that
+    the body shows through its contacts at q_ref, L = (S A S^T)^+ with S the joint selection
+    and A = M^-1 - M^-1 J^T (J M^-1 J^T)^+ J M^-1 the constrained inverse inertia (A = M^-1
+    without contacts). Linearised at q_ref, every mode of the held body then has the natural
+    frequency w and the damping ratio zeta. Per-joint scalar gains cannot do this on a human:
+    equal gains on a 0.4 kg hand and a 30 kg trunk are far too stiff for one and too weak for
+    the other, and in a closed chain (both feet on the ground) a light link between stiff
+    joints (the pelvis between the hips and the lumbar joint) makes a mode that is stiff even
+    when every joint's own gain is modest.
 
-    With contacts, a constant feed-forward holds q_ref in static equilibrium: the joint part
-    of g(q_ref) - J^T f, with f the minimum-norm contact forces that balance the base,
-    J_base^T f = g_base(q_ref). Without it a PD posture sags until the loop gain balances gravity.
+    With contacts, a constant feed-forward holds q_ref in static equilibrium: the joint part of
+    g(q_ref) - J^T f, with f the minimum-norm contact forces that balance the base,
+    J_base^T f = g_base(q_ref).
     """
 
     name = "controller"
@@ -155,24 +158,29 @@ class PostureController(Effect):
         self, model, q_ref, kp=0.0, kd=0.0, frequency=0.0, damping_ratio=1.0, contact_jacobian=None
     ):
         mask = joint_mask(model)
+        self.joints = np.flatnonzero(mask)
         self.q_ref = np.array(q_ref, dtype=float)
         self.feedforward = np.zeros(model.nv)
-        if contact_jacobian is not None and len(contact_jacobian):
+        J = contact_jacobian if contact_jacobian is not None else np.zeros((0, model.nv))
+        if len(J):
             g = pin.computeGeneralizedGravity(model, model.createData(), self.q_ref)
-            f = np.linalg.lstsq(contact_jacobian[:, :6].T, g[:6], rcond=None)[0]
-            self.feedforward = (g - contact_jacobian.T @ f) * mask
+            f = np.linalg.lstsq(J[:, :6].T, g[:6], rcond=None)[0]
+            self.feedforward = (g - J.T @ f) * mask
         if frequency > 0:
             A = pin.computeMinverse(model, model.createData(), self.q_ref)
-            if contact_jacobian is not None and len(contact_jacobian):
-                J = contact_jacobian
+            if len(J):
                 AJt = A @ J.T
                 A = A - AJt @ np.linalg.pinv(J @ AJt, rcond=1e-10) @ AJt.T
-            inertia = 1.0 / np.maximum(np.diag(A), 1e-12)
+            sel = np.ix_(self.joints, self.joints)
+            L = np.linalg.pinv(A[sel], rcond=1e-9, hermitian=True)
             w = 2.0 * np.pi * frequency
-            self.kp = w**2 * inertia * mask
-            self.kd = 2.0 * damping_ratio * w * inertia * mask
+            self.kp, self.kd = w**2 * L, 2.0 * damping_ratio * w * L
         else:
-            self.kp, self.kd = kp * mask, kd * mask
+            n = len(self.joints)
+            self.kp, self.kd = kp * np.eye(n), kd * np.eye(n)
 
     def force(self, model, data, t, q, v):
-        return self.feedforward + self.kp * pin.difference(model, q, self.q_ref) - self.kd * v
+        e = pin.difference(model, q, self.q_ref)[self.joints]
+        tau = self.feedforward.copy()
+        tau[self.joints] += self.kp @ e - self.kd @ v[self.joints]
+        return tau

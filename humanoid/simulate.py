@@ -221,10 +221,10 @@ class Simulation:
         self.controller = None
         if scene.controller.kind == "posture":
             ctl = scene.controller
+            J = self._initial_contact_jacobian(q0)
             self.controller = PostureController(
-                self.model, q0, ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio,
-                self._initial_contact_jacobian(q0),
-            )  # fmt: skip
+                self.model, q0, ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio, J
+            )
         tc = scene.stabilisation.baumgarte * scene.dt
         self.baumgarte = Baumgarte.from_time_constant(tc) if tc > 0 else Baumgarte()
         self.coordinates = scene.stabilisation.quaternions == "coordinates"
@@ -251,7 +251,7 @@ class Simulation:
         self._pin_backend = None
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
-        """Jacobian at q0 of the contacts that attach at t = 0 (scheduled and on the ground)."""
+        """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground)."""
         self._kinematics(q0)
         rows = []
         for c in self.contacts:
