@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models clean
+.PHONY: demo test lint format models bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,9 @@ lint: $(STAMP)
 format: $(STAMP)
 	$(VENV)/bin/ruff format humanoid tests scripts
 	$(VENV)/bin/ruff check --fix humanoid tests scripts
+
+bench: $(STAMP)
+	$(PY) -m humanoid bench step
 
 models: $(STAMP)
 	$(PY) scripts/make_models.py

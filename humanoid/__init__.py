@@ -16,8 +16,17 @@ from .dynamics import (
     potential_energy,
     projected_newton_euler,
 )
-from .errors import BodyParameterError, ConfigurationError, HumanoidError, ModelError
+from .errors import (
+    BodyParameterError,
+    ConfigurationError,
+    DivergenceError,
+    HumanoidError,
+    ModelError,
+    SceneError,
+)
 from .model import Humanoid, example_robot_names, load, load_example
+from .scene import Scene
+from .simulate import Trajectory, simulate
 
 __version__ = "0.1.0"
 
@@ -25,10 +34,14 @@ __all__ = [
     "BodyParameterError",
     "BodyParameters",
     "ConfigurationError",
+    "DivergenceError",
     "Humanoid",
     "HumanoidError",
     "ModelError",
+    "Scene",
+    "SceneError",
     "Segment",
+    "Trajectory",
     "bias_forces",
     "body_dimensions",
     "build_urdf",
@@ -43,5 +56,6 @@ __all__ = [
     "potential_energy",
     "projected_newton_euler",
     "segments",
+    "simulate",
     "write_urdf",
 ]

@@ -154,6 +154,8 @@ HORIZONTAL = frozenset({"foot"})
 
 
 def _check_finite_range(name: str, value: float, lo: float, hi: float, unit: str) -> float:
+    if isinstance(value, bool | str | bytes):  # float(True) and float("1.75") would pass
+        raise BodyParameterError(f"{name} must be a number in [{lo}, {hi}] {unit}, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):

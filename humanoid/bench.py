@@ -64,8 +64,9 @@ def _pinocchio_step(sim, q, v, dt):
     for cm in cms:
         cds.append(cm.createData())
     pin.initConstraintDynamics(model, data, cms, cds)
-    redundant = sum(cm.residualSize() for cm in cms) > 12
-    prox = pin.ProximalSettings(1e-10, 1e-10, 1e-2 if redundant else 0.0, 50 if redundant else 1)
+    from .simulate import proximal_settings
+
+    prox = proximal_settings(sum(cm.residualSize() for cm in cms) > 6 * len(sim.contacts))
 
     def step():
         a = pin.constraintDynamics(model, data, q, v, tau, cms, cds, prox)

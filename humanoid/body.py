@@ -36,7 +36,6 @@ from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
-import yourdfpy
 from lxml import etree
 
 from .anthropometry import (
@@ -141,6 +140,13 @@ COLORS = MappingProxyType(
 )
 
 
+def _urdf():
+    """yourdfpy, imported on first use (it pulls in trimesh: half a second at import)."""
+    import yourdfpy
+
+    return yourdfpy
+
+
 def contact_point_names(side: str) -> tuple[str, ...]:
     """Names of the four sole contact frames of one foot (``side`` is left or right)."""
     return tuple(f"{side}_{corner}" for corner in CONTACT_CORNERS)
@@ -170,10 +176,10 @@ class _Builder:
     def __init__(self, params: BodyParameters) -> None:
         self.params = params
         self.mass_scale = params.mass / 75.0
-        self.links: list[yourdfpy.Link] = []
-        self.joints: list[yourdfpy.Joint] = []
+        self.links = []
+        self.joints = []
         self.materials = [
-            yourdfpy.Material(name=k, color=yourdfpy.Color(rgba=np.array(c)))
+            _urdf().Material(name=k, color=_urdf().Color(rgba=np.array(c)))
             for k, c in COLORS.items()
         ]
 
@@ -181,11 +187,11 @@ class _Builder:
         inertial = None
         if segment is not None:
             T = _pose(com)
-            inertial = yourdfpy.Inertial(
+            inertial = _urdf().Inertial(
                 origin=T, mass=segment.mass, inertia=np.diag(segment.inertia)
             )
         self.links.append(
-            yourdfpy.Link(
+            _urdf().Link(
                 name=name, inertial=inertial, visuals=list(visuals), collisions=list(collisions)
             )
         )
@@ -194,14 +200,14 @@ class _Builder:
         axis, effort, velocity = AXES[kind]
         rng = JOINT_RANGES[kind]
         self.joints.append(
-            yourdfpy.Joint(
+            _urdf().Joint(
                 name=name,
                 type="revolute",
                 parent=parent,
                 child=child,
                 origin=_pose(xyz),
                 axis=_mirror_axis(axis, side),
-                limit=yourdfpy.Limit(
+                limit=_urdf().Limit(
                     effort=effort * self.mass_scale,
                     velocity=velocity,
                     lower=math.radians(rng.lower),
@@ -212,7 +218,7 @@ class _Builder:
 
     def fixed(self, name, parent, child, xyz):
         self.joints.append(
-            yourdfpy.Joint(name=name, type="fixed", parent=parent, child=child, origin=_pose(xyz))
+            _urdf().Joint(name=name, type="fixed", parent=parent, child=child, origin=_pose(xyz))
         )
 
     def ball(self, prefix, kind, side, parent, child, xyz):
@@ -231,30 +237,30 @@ class _Builder:
                 xyz if i == 0 else (0.0, 0.0, 0.0),
             )
 
-    def build(self) -> yourdfpy.URDF:
-        robot = yourdfpy.Robot(
+    def build(self):
+        robot = _urdf().Robot(
             name="humanoid_" + self.params.sex,
             links=self.links,
             joints=self.joints,
             materials=self.materials,
         )
-        return yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False)
+        return _urdf().URDF(robot=robot, build_scene_graph=False, load_meshes=False)
 
 
 def _visual(name, shape, xyz, material, collision=False):
-    geometry = yourdfpy.Geometry(**shape)
-    cls = yourdfpy.Collision if collision else yourdfpy.Visual
-    kwargs = {} if collision else {"material": yourdfpy.Material(name=material)}
+    geometry = _urdf().Geometry(**shape)
+    cls = _urdf().Collision if collision else _urdf().Visual
+    kwargs = {} if collision else {"material": _urdf().Material(name=material)}
     return cls(name=name, origin=_pose(xyz), geometry=geometry, **kwargs)
 
 
 def _cylinder(length, mass):
     radius = math.sqrt(mass / (TISSUE_DENSITY * math.pi * length))
-    return {"cylinder": yourdfpy.Cylinder(radius=radius, length=length)}
+    return {"cylinder": _urdf().Cylinder(radius=radius, length=length)}
 
 
 def _box(x, y, z):
-    return {"box": yourdfpy.Box(size=np.array([x, y, z]))}
+    return {"box": _urdf().Box(size=np.array([x, y, z]))}
 
 
 def _trunk_box(seg: Segment, width):
@@ -262,7 +268,7 @@ def _trunk_box(seg: Segment, width):
     return _box(depth, width, seg.length)
 
 
-def build_urdf_object(params: BodyParameters) -> yourdfpy.URDF:
+def build_urdf_object(params: BodyParameters):
     """The body as a yourdfpy ``URDF`` object (see the module docstring for its layout)."""
     seg = segments(params)
     d = body_dimensions(params)
@@ -315,13 +321,13 @@ def build_urdf_object(params: BodyParameters) -> yourdfpy.URDF:
         [
             _visual(
                 "head",
-                {"sphere": yourdfpy.Sphere(radius=head_r)},
+                {"sphere": _urdf().Sphere(radius=head_r)},
                 (0, 0, head.length - head_r),
                 "skin",
             ),
             _visual(
                 "neck",
-                {"cylinder": yourdfpy.Cylinder(radius=0.35 * head_r, length=neck_len)},
+                {"cylinder": _urdf().Cylinder(radius=0.35 * head_r, length=neck_len)},
                 (0, 0, neck_len / 2),
                 "skin",
             ),

@@ -402,12 +402,17 @@ class Simulation:
         f = self.coordinate_acceleration if self.coordinates else self.acceleration
         self._first = None
 
+        frozen = [False]
+
         def capture(t_, q_, v_):
+            if self._first is not None and not frozen[0]:
+                # a later stage is about to overwrite Pinocchio's contact data: read it now
+                if isinstance(self._first[1], _PinSolution):
+                    self._first[1].freeze()
+                frozen[0] = True
             a = f(t_, q_, v_)
             if self._first is None:
                 self._first = self.last
-                if isinstance(self.last[1], _PinSolution):
-                    self.last[1].freeze()  # later stages overwrite Pinocchio's contact data
             return a
 
         if self.adaptive is not None:
@@ -575,6 +580,14 @@ class Simulation:
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
+
+
+def proximal_settings(redundant: bool) -> pin.ProximalSettings:
+    """Settings of pin.constraintDynamics: one exact solve, or proximal iterations (mu = 1e-2)
+    for redundant sets such as point contacts (12 rows per foot), where mu = 0 gives NaN."""
+    if redundant:
+        return pin.ProximalSettings(1e-12, 1e-12, 1e-2, 50)
+    return pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
 
 
 class _PinSolution:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import resource
 import time
-import tracemalloc
 from pathlib import Path
 
 import numpy as np
@@ -47,22 +46,22 @@ def main() -> None:
         return original(t, q, v)
 
     sim.update_contacts = timed
-    tracemalloc.start()
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     traj = sim.run()
-    _, peak = tracemalloc.get_traced_memory()
-    tracemalloc.stop()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     traj.save(out / "standing_long.npz")
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     laps = np.array(lap_times)
+    arrays = [traj.t, traj.q, traj.v, traj.tau, traj.energy, traj.residual, *traj.forces.values()]
+    nbytes = sum(a.nbytes for a in arrays)
     lines = [
         f"status             {traj.status} {traj.metadata['message']}",
         f"simulated          {traj.t[-1]:.1f} s, {traj.metadata['steps']} steps, "
         f"{len(traj.t)} records",
         f"wall time          {traj.metadata['wall_time']:.1f} s",
-        f"python peak alloc  {peak / 1e6:.1f} MB during the run (tracemalloc)",
-        f"process max RSS    {rss:.0f} MB (whole process, incl. libraries)",
+        f"trajectory arrays  {nbytes / 1e6:.1f} MB",
+        f"process max RSS    {rss:.0f} MB (before the run {rss_before:.0f} MB; incl. libraries)",
         f"minute wall times  first {laps[0]:.2f} s, last {laps[-1]:.2f} s, "
         f"ratio last/first {laps[-1] / laps[0]:.2f}"
         if len(laps)

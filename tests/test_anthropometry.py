@@ -339,3 +339,9 @@ def test_foot_inertia_has_its_long_axis_forward(sex, height, mass):
         assert _close(got, want), f"I{axis}{axis}: {got} != {want}"
     # the smallest moment is about the foot's long (forward) axis
     assert foot.inertia[0] == min(foot.inertia)
+
+
+@pytest.mark.parametrize("value", [True, False, "1.75", b"1.75"])
+def test_booleans_and_strings_are_not_numbers(value):
+    with pytest.raises(BodyParameterError, match=r"height must be a number in \[0.5, 2.5\] m"):
+        BodyParameters(value, 70.0, "male")

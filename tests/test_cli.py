@@ -94,3 +94,46 @@ def test_import_is_light():
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.strip() == "[]"
+
+
+def test_simulate_command_writes_the_run_and_a_summary(tmp_path, capsys):
+    out = tmp_path / "run.npz"
+    scene = str(MODELS / "scenes" / "standing.toml")
+    assert main(["simulate", scene, "-o", str(out), "--duration", "0.05", "--quiet"]) == 0
+    text = capsys.readouterr().out
+    for word in ("simulated", "wall time", "real-time factor", "residual", "energy"):
+        assert word in text
+    from humanoid.simulate import Trajectory
+
+    traj = Trajectory.load(out)
+    assert traj.t[-1] == pytest.approx(0.05) and traj.status == "completed"
+
+
+def test_simulate_command_saves_a_diverged_run_and_fails(tmp_path, capsys):
+    scene = tmp_path / "stiff.toml"
+    scene.write_text(
+        'dt = 0.01\nduration = 1.0\nintegrator = "euler"\n'
+        '[controller]\nkind = "posture"\nkp = 1e6\nkd = 1e4\n'
+        '[[effects.contacts]]\nfoot = "left"\n[[effects.contacts]]\nfoot = "right"\n'
+        f'[body]\nurdf = "{MODELS / "adult_male.urdf"}"\n'
+    )
+    out = tmp_path / "run.npz"
+    assert main(["simulate", str(scene), "-o", str(out), "--quiet"]) == 3
+    captured = capsys.readouterr()
+    assert "diverged" in captured.err and "Traceback" not in captured.err
+    assert out.is_file()
+
+
+def test_simulate_command_rejects_a_bad_scene(tmp_path, capsys):
+    scene = tmp_path / "bad.toml"
+    scene.write_text("dt = -1\n")
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "x.npz")]) == 2
+    assert "dt: must be a finite number > 0" in capsys.readouterr().err
+
+
+def test_bench_step_quick(tmp_path, capsys):
+    assert main(["bench", "step", "--quick", "-o", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "standing" in out and "tumble" in out
+    rows = (tmp_path / "step.csv").read_text().splitlines()
+    assert rows[0].startswith("scene,contacts,pinocchio") and len(rows) == 5

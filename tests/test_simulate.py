@@ -284,3 +284,20 @@ def test_standing_scene_holds_and_forces_carry_the_weight():
     assert np.allclose(fz, weight, rtol=1e-9)
     assert traj.metadata["max_residual"] < 1e-9
     assert np.abs(traj.q[-1] - traj.q[0]).max() < 1e-9
+
+
+def test_progress_bar_is_quiet_off_a_terminal_or_when_asked(monkeypatch):
+    from humanoid.simulate import _Progress
+
+    assert not _Progress(100, quiet=True).enabled
+    monkeypatch.setattr("sys.stderr.isatty", lambda: False)
+    assert not _Progress(100, quiet=False).enabled
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True)
+    bar = _Progress(100, quiet=False)
+    assert bar.enabled
+    bar.update(64)  # before 2 s of wall time: no bar yet
+    assert bar.bar is None
+    bar.start -= 3.0
+    bar.update(64)
+    assert bar.bar is not None
+    bar.close()

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import lapack
 
 from .base import Constraint, update_kinematics
 
@@ -88,6 +87,14 @@ def split_forces(forces: np.ndarray, constraints: Sequence[Constraint]) -> dict[
     return out
 
 
+def _lapack():
+    """LAPACK's Cholesky factor and solve, imported on first use (scipy.linalg is slow to
+    import and `import humanoid` stays light)."""
+    from scipy.linalg import lapack
+
+    return lapack.dpotrf, lapack.dpotrs
+
+
 def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray):
     """Solve M a = f + J^T lambda, J a = gamma, given M^-1.
 
@@ -101,11 +108,12 @@ def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray)
     D = J @ MJt
     rhs = gamma - J @ a_free
     lam, rank, method = None, J.shape[0], "cholesky"
-    factor, info = lapack.dpotrf(D)  # LAPACK directly: numpy's wrappers cost more than m = 12
+    potrf, potrs = _lapack()
+    factor, info = potrf(D)  # LAPACK directly: numpy's wrappers cost more than the work here
     if info == 0:
         pivots = np.diag(factor) ** 2
         if pivots.min() > CHOLESKY_MIN_PIVOT * pivots.max():
-            lam = lapack.dpotrs(factor, rhs)[0]
+            lam = potrs(factor, rhs)[0]
     if lam is None:
         w, V = np.linalg.eigh(D)
         keep = w > RANK_TOL * max(w[-1], 0.0)
