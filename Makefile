@@ -18,7 +18,9 @@ demo: $(STAMP)
 	$(PY) -m humanoid build --height 1.62 --mass 62 --sex female -o results/adult_female.urdf
 	$(PY) -m humanoid info results/adult_male.urdf | tee results/adult_male.txt
 	$(PY) -m humanoid info results/adult_female.urdf | tee results/adult_female.txt
-	@echo "demo: results written to results/"
+	$(PY) -m humanoid simulate models/scenes/push.toml -o results/push.npz
+	$(PY) -m humanoid view results/push.npz --html results/push.html
+	@echo "demo: results written to results/ (open results/push.html in a browser)"
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q

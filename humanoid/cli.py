@@ -55,6 +55,16 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, help="override the scene's duration [s]")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
 
+    v = sub.add_parser("view", help="show a model or a run in the browser (live, or as HTML)")
+    v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
+    v.add_argument("--html", help="write one self-contained HTML file instead of serving")
+    v.add_argument("--speed", type=float, default=1.0, help="playback speed (1 = real time)")
+    v.add_argument("--fps", type=float, default=30.0, help="animation frames per second")
+    v.add_argument("--force-scale", type=float, default=0.5, help="arrow length per body weight")
+    for name in ("forces", "com", "footprints", "ground"):
+        v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
+    v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+
     bench = sub.add_parser("bench", help="benchmarks: step cost against Pinocchio")
     bench.add_argument("kind", choices=("step",))
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
@@ -72,6 +82,8 @@ def main(argv: list[str] | None = None) -> int:
             return _info(args)
         if args.command == "simulate":
             return _simulate(args)
+        if args.command == "view":
+            return _view(args)
         if args.command == "bench":
             from .bench import run_step_benchmark
 
@@ -120,6 +132,52 @@ def _simulate(args) -> int:
     if traj.status != "completed":
         print(f"humanoid simulate: {traj.status}: {traj.metadata['message']}", file=sys.stderr)
         return 3
+    return 0
+
+
+def _view(args) -> int:
+    from .viewer import LiveViewer, Overlays, SceneView, export_html, humanoid_for
+
+    overlays = Overlays(
+        forces=not args.no_forces,
+        com=not args.no_com,
+        footprints=not args.no_footprints,
+        ground=not args.no_ground,
+        force_scale=args.force_scale,
+    )
+    traj = None
+    if args.target.endswith(".npz"):
+        from .simulate import Trajectory
+
+        traj = Trajectory.load(args.target)
+        h = humanoid_for(traj)
+    else:
+        h = load_any(args.target, args.ball_joints)
+    title = Path(args.target).stem
+    if args.html:
+        path = export_html(h, args.html, traj=traj, overlays=overlays, speed=args.speed,
+                           fps=args.fps, title=title)  # fmt: skip
+        print(f"wrote {path} (open it in a browser; no server needed)")
+        return 0
+    import signal
+    import time
+
+    def stop(*_):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, stop)
+    with LiveViewer() as live:
+        view = SceneView(live.vis, h, overlays)
+        if traj is not None:
+            view.animate(traj, speed=args.speed, fps=args.fps)
+        else:
+            view.show(h.standing_configuration())
+        print(f"viewer at {live.url} (127.0.0.1 only); Ctrl-C to stop", flush=True)
+        try:
+            while live.proc.poll() is None:
+                time.sleep(0.5)
+        except KeyboardInterrupt:
+            print("stopped")
     return 0
 
 

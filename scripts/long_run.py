@@ -48,10 +48,10 @@ def main() -> None:
     sim.update_contacts = timed
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     traj = sim.run()
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # peak, before saving
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     traj.save(out / "standing_long.npz")
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     laps = np.array(lap_times)
     arrays = [traj.t, traj.q, traj.v, traj.tau, traj.energy, traj.residual, *traj.forces.values()]
     nbytes = sum(a.nbytes for a in arrays)
@@ -61,7 +61,8 @@ def main() -> None:
         f"{len(traj.t)} records",
         f"wall time          {traj.metadata['wall_time']:.1f} s",
         f"trajectory arrays  {nbytes / 1e6:.1f} MB",
-        f"process max RSS    {rss:.0f} MB (before the run {rss_before:.0f} MB; incl. libraries)",
+        f"process peak RSS   {rss:.0f} MB after the run, {rss_before:.0f} MB before it: "
+        f"the run added {rss - rss_before:.0f} MB",
         f"minute wall times  first {laps[0]:.2f} s, last {laps[-1]:.2f} s, "
         f"ratio last/first {laps[-1] / laps[0]:.2f}"
         if len(laps)

@@ -63,3 +63,22 @@ def random_state(h: hm.Humanoid, rng: np.random.Generator, inside_limits: bool =
             q[jm.idx_q : jm.idx_q + 4] = pin.Quaternion(pin.exp3(rng.normal(size=3))).coeffs()
     v = rng.normal(size=m.nv)
     return q, v
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_viewer_process_outlives_the_tests():
+    """After the whole session, no meshcat server started by the tests may still run."""
+    yield
+    import subprocess
+    import time
+
+    for _ in range(50):
+        ps = subprocess.run(["ps", "-eo", "pid,stat,args"], capture_output=True, text=True).stdout
+        left = [
+            line for line in ps.splitlines()
+            if "humanoid._meshcat_server" in line and " Z" not in line
+        ]  # fmt: skip
+        if not left:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"viewer processes left after the tests: {left}")

@@ -137,3 +137,35 @@ def test_bench_step_quick(tmp_path, capsys):
     assert "standing" in out and "tumble" in out
     rows = (tmp_path / "step.csv").read_text().splitlines()
     assert rows[0].startswith("scene,contacts,pinocchio") and len(rows) == 5
+
+
+def test_view_writes_html_for_a_model_and_a_run(tmp_path, capsys):
+    out = tmp_path / "model.html"
+    assert main(["view", str(MODELS / "adult_female.urdf"), "--html", str(out)]) == 0
+    assert out.is_file() and "humanoidCommands" in out.read_text()
+    run = tmp_path / "run.npz"
+    scene = str(MODELS / "scenes" / "standing.toml")
+    assert main(["simulate", scene, "-o", str(run), "--duration", "0.1", "--quiet"]) == 0
+    page = tmp_path / "run.html"
+    assert main(["view", str(run), "--html", str(page), "--speed", "0.5", "--no-com"]) == 0
+    assert "0.10 s at 0.5x" in page.read_text()
+
+
+def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
+    import signal
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "humanoid", "view", str(MODELS / "adult_male.urdf")],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("viewer at http://127.0.0.1:"), line
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=15) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    ps = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
+    assert "humanoid._meshcat_server" not in ps

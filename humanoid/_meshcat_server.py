@@ -1,0 +1,47 @@
+"""A meshcat server that listens on 127.0.0.1 only and exits with its parent.
+
+meshcat 0.3.2's own server binds its web port on every interface and outlives a killed parent.
+This launcher binds both ports to 127.0.0.1 and exits when its standard input closes (which
+happens when the parent exits, however it exits). Run as ``python -m humanoid._meshcat_server``;
+it prints ``zmq_url=...`` and ``web_url=...`` lines.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+
+
+def main() -> None:
+    from meshcat.servers.zmqserver import ZMQWebSocketBridge
+
+    class LocalBridge(ZMQWebSocketBridge):
+        def make_app(self):
+            app = super().make_app()
+            listen = app.listen
+
+            def local_listen(port, **kwargs):
+                kwargs["address"] = "127.0.0.1"
+                return listen(port, **kwargs)
+
+            app.listen = local_listen
+            return app
+
+    bridge = LocalBridge(host="127.0.0.1")
+    print(f"zmq_url={bridge.zmq_url}", flush=True)
+    print(f"web_url={bridge.web_url}", flush=True)
+
+    def watch_parent() -> None:
+        sys.stdin.read()  # returns at EOF: the parent closed the pipe or died
+        os._exit(0)
+
+    threading.Thread(target=watch_parent, daemon=True).start()
+    try:
+        bridge.run()
+    except KeyboardInterrupt:
+        pass
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,452 @@
+"""A browser 3D viewer on meshcat: a model, a pose, or a recorded run with its overlays.
+
+Two outputs, one scene description:
+
+- a live viewer (:class:`LiveViewer`): a meshcat server bound to 127.0.0.1 only, in a child
+  process that dies with its parent (:mod:`humanoid._meshcat_server`);
+- one self-contained HTML file (:func:`export_html`): meshcat's JavaScript inlined and the
+  scene commands embedded, so it opens from disk with no server and no network.
+
+Both are fed by the same commands: a meshcat ``Visualizer`` writes into a window object, either
+the live server's or a :class:`CommandRecorder` (which also makes the scene testable without a
+browser). Overlays: contact forces as arrows (length ``force_scale`` metres per body weight),
+the centre of mass and its ground projection, the footprints of the attached feet, the ground
+grid; each can be switched off. Nothing here is imported by ``import humanoid``.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import HumanoidError
+
+__all__ = ["CommandRecorder", "LiveViewer", "Overlays", "SceneView", "export_html", "humanoid_for"]
+
+
+def _meshcat():
+    try:
+        import meshcat
+        import meshcat.animation
+        import meshcat.geometry
+    except ImportError as exc:  # pragma: no cover - meshcat is a dependency
+        raise HumanoidError(f"the viewer needs meshcat (pip install meshcat): {exc}") from None
+    return meshcat
+
+
+@dataclass(frozen=True)
+class Overlays:
+    """Which overlays to draw, and the force arrows' scale [m per body weight]."""
+
+    forces: bool = True
+    com: bool = True
+    footprints: bool = True
+    ground: bool = True
+    force_scale: float = 0.5
+
+
+class CommandRecorder:
+    """A meshcat window that keeps the commands instead of sending them to a server."""
+
+    def __init__(self) -> None:
+        self.commands: list[dict] = []
+
+    def send(self, command) -> None:
+        self.commands.append(command.lower())
+
+    def packed(self) -> list[bytes]:
+        import umsgpack
+
+        return [umsgpack.packb(c) for c in self.commands]
+
+
+ROOT = "humanoid"
+COLORS = {"com": 0xD62728, "force": 0xFF7F0E, "footprint": 0x2CA02C, "ground": 0xB0B0B0}
+
+
+def _rgb(rgba) -> int:
+    r, g, b = (int(round(255 * float(np.clip(x, 0, 1)))) for x in rgba[:3])
+    return (r << 16) | (g << 8) | b
+
+
+def _geometry(g):
+    """A meshcat geometry for a Pinocchio geometry object, and the fixed transform it needs."""
+    mc = _meshcat()
+    G = mc.geometry
+    shape = g.geometry
+    kind = type(shape).__name__
+    fix = np.eye(4)
+    if kind == "Box":
+        return G.Box(2.0 * np.asarray(shape.halfSide)), fix
+    if kind == "Sphere":
+        return G.Sphere(shape.radius), fix
+    if kind in ("Cylinder", "Capsule"):  # meshcat cylinders lie along +Y
+        fix[:3, :3] = pin.utils.rotate("x", np.pi / 2)
+        return G.Cylinder(2.0 * shape.halfLength, shape.radius), fix
+    path = Path(g.meshPath)
+    loaders = {".stl": G.StlMeshGeometry, ".dae": G.DaeMeshGeometry, ".obj": G.ObjMeshGeometry}
+    loader = loaders.get(path.suffix.lower())
+    if loader is None or not path.is_file():
+        raise HumanoidError(f"cannot show geometry {g.name!r}: unsupported or missing {path}")
+    fix[:3, :3] = np.diag(np.asarray(g.meshScale, dtype=float))
+    return loader.from_file(str(path)), fix
+
+
+def _arrow_rotation(f: np.ndarray) -> np.ndarray:
+    """Rotation taking +Z to the direction of f."""
+    n = np.linalg.norm(f)
+    if n < 1e-12:
+        return np.eye(3)
+    return pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), f / n).toRotationMatrix()
+
+
+class SceneView:
+    """The meshcat scene of one humanoid: body, overlays, poses and animations.
+
+    Args:
+        vis: A meshcat ``Visualizer`` (live, or on a :class:`CommandRecorder`).
+        h: The :class:`~humanoid.model.Humanoid` to show.
+        overlays: What to draw besides the body.
+        feet: Contact names that can carry forces (``left``, ``right``), default both.
+    """
+
+    def __init__(self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right")) -> None:
+        self.vis, self.h, self.overlays, self.feet = vis, h, overlays, tuple(feet)
+        self.model = h.model
+        self.data = h.model.createData()
+        self.gdata = pin.GeometryData(h.visual_model)
+        self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
+        self._build()
+
+    # -- scene ---------------------------------------------------------------------------
+    def node(self, *path: str):
+        return self.vis[ROOT + "/" + "/".join(path)]
+
+    def _build(self) -> None:
+        mc = _meshcat()
+        G = mc.geometry
+        self.vis[ROOT].delete()
+        for g in self.h.visual_model.geometryObjects:
+            geometry, fix = _geometry(g)
+            color = np.asarray(g.meshColor)
+            material = G.MeshLambertMaterial(color=_rgb(color), opacity=0.6, transparent=True)
+            self.node("body", g.name, "shape").set_object(geometry, material)
+            self.node("body", g.name, "shape").set_transform(fix)
+        # camera: orbit about the pelvis height, from the front left
+        self.vis["/Cameras/default"].set_transform(
+            pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.9])).homogeneous
+        )
+        self.vis["/Cameras/default/rotated/<object>"].set_property("position", [2.3, 0.9, 1.3])
+        ov = self.overlays
+        self.vis["/Grid"].set_property("visible", ov.ground)
+        if ov.ground:
+            ground = G.Box([3.0, 3.0, 0.01])
+            self.node("ground").set_object(
+                ground,
+                G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True),
+            )
+            self.node("ground").set_transform(
+                pin.SE3(np.eye(3), np.array([0, 0, -0.006])).homogeneous
+            )
+        if ov.com:
+            red = G.MeshLambertMaterial(color=COLORS["com"])
+            self.node("com").set_object(G.Sphere(0.035), red)
+            disc = G.Cylinder(0.004, 0.04)
+            self.node("com_ground", "disc").set_object(disc, red)
+            self.node("com_ground", "disc").set_transform(self._along_z())
+        if ov.forces:
+            orange = G.MeshLambertMaterial(color=COLORS["force"])
+            for side in self.feet:
+                shaft = self.node("forces", side, "length", "shaft")
+                shaft.set_object(G.Cylinder(1.0, 0.018), orange)
+                shaft.set_transform(self._along_z(0.5))
+                head = self.node("forces", side, "length", "head")
+                head.set_object(G.Cylinder(0.12, 0.0, radiusTop=0.0, radiusBottom=0.045), orange)
+                head.set_transform(self._along_z(1.0))
+                self.node("forces", side).set_property("visible", False)
+        if ov.footprints:
+            green = G.MeshLambertMaterial(color=COLORS["footprint"], opacity=0.5, transparent=True)
+            for side in self.feet:
+                lo, hi = self._sole_box(side)
+                box = G.Box([hi[0] - lo[0], hi[1] - lo[1], 0.004])
+                self.node("footprints", side, "box").set_object(box, green)
+                centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.002])
+                self.node("footprints", side, "box").set_transform(
+                    pin.SE3(np.eye(3), centre).homogeneous
+                )
+                self.node("footprints", side).set_property("visible", False)
+
+    @staticmethod
+    def _along_z(offset: float = 0.0) -> np.ndarray:
+        """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
+        return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
+
+    def _sole_box(self, side: str):
+        """The sole rectangle in the sole frame (from the contact points at the standing pose)."""
+        q = self.h.standing_configuration()
+        pin.framesForwardKinematics(self.model, self.data, q)
+        sole = self.data.oMf[self.h.frame_id(self.h.feet[SIDES.index(side)])]
+        pts = np.array(
+            [
+                sole.actInv(self.data.oMf[self.h.frame_id(n)].translation)
+                for n in self.h.contact_points[side]
+            ]
+        )
+        return pts.min(axis=0), pts.max(axis=0)
+
+    # -- poses ---------------------------------------------------------------------------
+    def frame(self, q, forces: dict | None = None) -> dict[str, tuple]:
+        """Transforms and properties of every animated node for one state.
+
+        Returns:
+            {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z])}, as a
+            list of (path, kind, value) tuples.
+        """
+        out = []
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
+        for i, g in enumerate(self.h.visual_model.geometryObjects):
+            out.append((("body", g.name), "transform", self.gdata.oMg[i].homogeneous))
+        ov = self.overlays
+        if ov.com:
+            c = pin.centerOfMass(self.model, self.data, q)
+            out.append((("com",), "transform", pin.SE3(np.eye(3), c).homogeneous))
+            ground = np.array([c[0], c[1], 0.002])
+            out.append((("com_ground",), "transform", pin.SE3(np.eye(3), ground).homogeneous))
+        forces = forces or {}
+        for side in self.feet:
+            w = forces.get(side)
+            attached = w is not None and np.all(np.isfinite(w))
+            sole = self.data.oMf[self.h.frame_id(self.h.feet[SIDES.index(side)])]
+            if ov.footprints:
+                out.append((("footprints", side), "visible", bool(attached)))
+                if attached:
+                    out.append((("footprints", side), "transform", sole.homogeneous))
+            if ov.forces:
+                show = bool(attached and w[2] > 1e-6)
+                out.append((("forces", side), "visible", show))
+                if show:
+                    f, tau = np.asarray(w[:3]), np.asarray(w[3:6])
+                    o = sole.translation
+                    cop = np.array([o[0] - tau[1] / f[2], o[1] + tau[0] / f[2], o[2]])
+                    T = pin.SE3(_arrow_rotation(f), cop).homogeneous
+                    length = ov.force_scale * np.linalg.norm(f) / self.weight
+                    out.append((("forces", side), "transform", T))
+                    out.append((("forces", side, "length"), "scale", [1.0, 1.0, max(length, 1e-3)]))
+        return out
+
+    def show(self, q, forces: dict | None = None) -> None:
+        """Put the scene in one state."""
+        for path, kind, value in self.frame(q, forces):
+            node = self.node(*path)
+            if kind == "transform":
+                node.set_transform(value)
+            else:
+                node.set_property(kind, value)
+
+    def animate(self, traj, speed: float = 1.0, fps: float = 30.0, loop: bool = True) -> int:
+        """Send a Trajectory as a meshcat animation, played ``speed`` times real time.
+
+        Returns:
+            The number of animation frames.
+        """
+        mc = _meshcat()
+        if speed <= 0 or fps <= 0:
+            raise HumanoidError(f"speed and fps must be > 0, got speed {speed}, fps {fps}")
+        t = np.asarray(traj.t)
+        if len(t) < 2:
+            raise HumanoidError("a trajectory needs at least two records to animate")
+        n = int(math.floor((t[-1] - t[0]) / speed * fps)) + 1
+        anim = mc.animation.Animation(default_framerate=fps)
+        for k in range(n):
+            time_sim = t[0] + k * speed / fps
+            q, forces = _sample(self.model, traj, time_sim, self.feet)
+            for path, kind, value in self.frame(q, forces):
+                target = anim.at_frame(self.vis, k)[ROOT + "/" + "/".join(path)]
+                if kind == "transform":
+                    target.set_transform(value)
+                elif kind == "visible":
+                    target.set_property("visible", "boolean", value)
+                else:
+                    target.set_property("scale", "vector3", value)
+        self.show(*_sample(self.model, traj, t[0], self.feet))
+        self.vis.set_animation(anim, play=True, repetitions=0 if loop else 1)
+        return n
+
+
+SIDES = ("left", "right")
+
+
+def _sample(model, traj, time_sim: float, feet):
+    """State and foot wrenches at a time, interpolated between records on the Lie group."""
+    t = np.asarray(traj.t)
+    i = int(np.clip(np.searchsorted(t, time_sim, side="right") - 1, 0, len(t) - 2))
+    s = float(np.clip((time_sim - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0))
+    q = pin.interpolate(model, traj.q[i], traj.q[i + 1], s)
+    forces = {}
+    for side in feet:
+        if side in traj.forces:
+            a, b = traj.forces[side][i], traj.forces[side][i + 1]
+            forces[side] = (
+                (1 - s) * a + s * b if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else a
+            )
+    return q, forces
+
+
+def humanoid_for(traj):
+    """The Humanoid a trajectory was recorded on (from its metadata)."""
+    from .anthropometry import BodyParameters
+    from .body import build_urdf
+    from .model import load
+
+    meta = traj.metadata
+    mode = meta.get("ball_joints", "quaternion")
+    body = meta.get("scene", {}).get("body", {})
+    if meta.get("model", "<string>") != "<string>":
+        return load(Path(meta["model"]), ball_joints=mode)
+    if "height" in body:
+        params = BodyParameters(
+            body["height"], body["mass"], body["sex"], body.get("segment_lengths", {})
+        )
+        return load(build_urdf(params), ball_joints=mode)
+    raise HumanoidError("the trajectory's metadata does not say which body it was recorded on")
+
+
+HTML = """<!DOCTYPE html>
+<html>
+<head><meta charset="utf-8"><title>{title}</title>
+<style>body {{ margin: 0; }} #meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
+#caption {{ position: absolute; left: 8px; bottom: 8px; font: 12px sans-serif; color: #333;
+background: rgba(255,255,255,0.7); padding: 4px 8px; }}</style>
+</head>
+<body>
+<div id="meshcat-pane"></div>
+<div id="caption">{caption}</div>
+<script>{mainjs}</script>
+<script>
+var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
+var humanoidCommands = [{commands}];
+function humanoidDecode(b64) {{
+  var bin = atob(b64); var out = new Uint8Array(bin.length);
+  for (var i = 0; i < bin.length; i++) out[i] = bin.charCodeAt(i);
+  return out;
+}}
+humanoidCommands.forEach(function (c) {{ viewer.handle_command_bytearray(humanoidDecode(c)); }});
+window.humanoidReady = true;
+</script>
+</body>
+</html>
+"""
+
+
+def export_html(
+    h,
+    path,
+    traj=None,
+    q=None,
+    overlays: Overlays = Overlays(),
+    speed: float = 1.0,
+    fps: float = 30.0,
+    title: str = "humanoid",
+) -> Path:
+    """Write one self-contained HTML file: the body, posed at ``q`` or animating ``traj``.
+
+    The file inlines meshcat's viewer (about 0.9 MB) and the scene; it needs no server and
+    loads nothing from the network.
+    """
+    mc = _meshcat()
+    recorder = CommandRecorder()
+    vis = mc.Visualizer(window=recorder)
+    view = SceneView(vis, h, overlays)
+    if traj is not None:
+        frames = view.animate(traj, speed=speed, fps=fps)
+        caption = (
+            f"{title}: {traj.t[-1] - traj.t[0]:.2f} s at {speed:g}x, {frames} frames; "
+            f"arrows: {overlays.force_scale:g} m per body weight"
+        )
+    else:
+        view.show(h.standing_configuration() if q is None else q)
+        caption = title
+    mainjs = (Path(mc.__file__).parent / "viewer" / "dist" / "main.min.js").read_text(
+        encoding="utf-8"
+    )
+    commands = ",".join('"' + base64.b64encode(b).decode("ascii") + '"' for b in recorder.packed())
+    html = HTML.format(
+        title=title,
+        caption=caption,
+        mainjs=mainjs.replace("</script>", "<\\/script>"),
+        commands=commands,
+    )
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(html, encoding="utf-8")
+    return path
+
+
+class LiveViewer:
+    """A meshcat server on 127.0.0.1 only, in a child process that dies with this process.
+
+    Use as a context manager; ``url`` is the page to open, ``vis`` the meshcat Visualizer.
+    """
+
+    def __init__(self, timeout: float = 20.0) -> None:
+        import subprocess
+        import sys
+
+        mc = _meshcat()
+        self.proc = subprocess.Popen(
+            [sys.executable, "-u", "-m", "humanoid._meshcat_server"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        import threading
+
+        # the server prints two lines; a watchdog stops the wait if it never does
+        watchdog = threading.Timer(timeout, self.proc.kill)
+        watchdog.start()
+        zmq_url = web_url = None
+        try:
+            for line in self.proc.stdout:
+                if line.startswith("zmq_url="):
+                    zmq_url = line.split("=", 1)[1].strip()
+                elif line.startswith("web_url="):
+                    web_url = line.split("=", 1)[1].strip()
+                if zmq_url and web_url:
+                    break
+        finally:
+            watchdog.cancel()
+        if zmq_url is None or web_url is None:
+            self.close()
+            raise HumanoidError("the meshcat server did not start")
+        self.url = web_url
+        import contextlib
+        import io
+
+        with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself
+            self.vis = mc.Visualizer(zmq_url=zmq_url)
+
+    def close(self) -> None:
+        """Stop the server (closing its stdin makes it exit; then make sure)."""
+        if self.proc.poll() is None:
+            try:
+                self.proc.stdin.close()
+                self.proc.wait(timeout=5)
+            except Exception:  # noqa: BLE001 - make sure it is gone below
+                pass
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+    def __enter__(self) -> LiveViewer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

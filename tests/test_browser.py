@@ -1,0 +1,210 @@
+"""The viewer in a real headless browser (Debian's chromium driven by Playwright).
+
+Skipped where chromium or Playwright is missing, except under CI (the CI variable set), where a
+missing browser is a failure: `.ci/run` installs it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import time
+from urllib.parse import urlparse
+
+import numpy as np
+import pytest
+from conftest import MODELS, get_model
+
+import humanoid as hm
+from humanoid.scene import Contact, Controller, Effects, Initial, Scene
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = [
+    "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--disable-quic",
+    "--no-first-run", "--disable-background-networking", "--disable-component-update",
+    "--disable-sync",
+]  # fmt: skip
+
+
+def _require_browser():
+    missing = []
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        missing.append("playwright")
+    if not os.path.exists(CHROMIUM):
+        missing.append("chromium")
+    if missing:
+        if os.environ.get("CI"):
+            pytest.fail(f"browser tests need {', '.join(missing)} (CI must install them)")
+        pytest.skip(f"no {', '.join(missing)} on this machine")
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    _require_browser()
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        ctx = p.chromium.launch_persistent_context(
+            str(tmp_path_factory.mktemp("profile")),
+            executable_path=CHROMIUM,
+            headless=True,
+            args=FLAGS,
+            viewport={"width": 640, "height": 480},
+        )
+        yield ctx
+        ctx.close()
+
+
+@pytest.fixture(scope="module")
+def landing():
+    q0 = get_model("male", "quaternion").standing_configuration()
+    q0[2] += 0.05
+    feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
+    scene = Scene(
+        body=str(MODELS / "adult_male.urdf"),
+        duration=0.6,
+        dt=1e-3,
+        initial=Initial(configuration=tuple(q0)),
+        effects=Effects(contacts=feet),
+        controller=Controller("posture", frequency=8.0),
+    )
+    return hm.simulate(scene, quiet=True)
+
+
+class Page:
+    """A page with its console errors and requests recorded."""
+
+    def __init__(self, context, url: str) -> None:
+        self.page = context.new_page()
+        self.errors, self.requests = [], []
+        self.page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+        self.page.on("request", lambda r: self.requests.append(r.url))
+        # the browser asks every server for a favicon; meshcat has none (a 404 is no error of ours)
+        self.page.route("**/favicon.ico", lambda route: route.fulfill(status=204, body=""))
+        self.page.goto(url)
+        self.page.wait_for_function(
+            "() => window.viewer && viewer.scene_tree.find(['meshcat','humanoid','body'])"
+            ".object.children.length > 5",
+            timeout=60_000,
+        )
+        time.sleep(1.0)  # a few rendered frames
+
+    def shot(self) -> np.ndarray:
+        from io import BytesIO
+
+        from PIL import Image
+
+        return np.asarray(Image.open(BytesIO(self.page.screenshot())).convert("RGB"), dtype=int)
+
+    def command(self, path: str, prop: str, value) -> None:
+        js = (
+            "([p, k, v]) => viewer.handle_command("
+            "{type: 'set_property', path: p, property: k, value: v})"
+        )
+        self.page.evaluate(js, [path, prop, value])
+        time.sleep(0.5)
+
+    def seek(self, t: float) -> None:
+        self.page.evaluate(
+            "(t) => { viewer.animator.pause(); viewer.animator.seek(t); viewer.set_dirty(); }", t
+        )
+        time.sleep(0.5)
+
+    def screen_position(self, path: list[str]) -> np.ndarray:
+        js = """(path) => {
+            const o = viewer.scene_tree.find(path).object;
+            const v = o.position.clone(); o.getWorldPosition(v); v.project(viewer.camera);
+            return [v.x, v.y];
+        }"""
+        return np.array(self.page.evaluate(js, path))
+
+    def visible(self, path: list[str]) -> bool:
+        return self.page.evaluate("(p) => viewer.scene_tree.find(p).object.visible", path)
+
+    def close(self) -> None:
+        self.page.close()
+
+
+def _local_only(requests, allowed_scheme):
+    bad = []
+    for url in requests:
+        u = urlparse(url)
+        if u.scheme in ("data", "blob"):
+            continue
+        if u.scheme == allowed_scheme == "file":
+            continue
+        if u.scheme in ("http", "https", "ws") and u.hostname == "127.0.0.1":
+            continue
+        bad.append(url)
+    return bad
+
+
+def _changed_pixels(a: np.ndarray, b: np.ndarray) -> int:
+    return int((np.abs(a - b).sum(axis=2) > 30).sum())
+
+
+def test_html_export_in_the_browser(browser, landing, tmp_path):
+    h = get_model("male", "quaternion")
+    from humanoid.viewer import export_html
+
+    path = export_html(h, tmp_path / "landing.html", traj=landing)
+    page = Page(browser, path.as_uri())
+    try:
+        page.seek(0.0)
+        shown = page.shot()
+        page.command("/meshcat/humanoid/body", "visible", False)
+        hidden = page.shot()
+        assert _changed_pixels(shown, hidden) > 2000, "the body is not visibly drawn"
+        page.command("/meshcat/humanoid/body", "visible", True)
+        # the animation moves: the left foot is lower on screen after the fall
+        foot = ["meshcat", "humanoid", "body", "left_foot_0"]
+        page.seek(0.0)
+        before = page.screen_position(foot)
+        page.seek(0.5)
+        after = page.screen_position(foot)
+        assert np.abs(after - before).max() > 0.005, (before, after)
+        # force arrows: hidden in the air, shown in stance
+        arrow = ["meshcat", "humanoid", "forces", "left"]
+        page.seek(0.02)
+        assert not page.visible(arrow)
+        page.seek(0.45)
+        assert page.visible(arrow)
+        assert not page.errors, page.errors
+        assert not _local_only(page.requests, "file"), page.requests
+    finally:
+        page.close()
+
+
+def test_live_viewer_in_the_browser(browser):
+    from humanoid.viewer import LiveViewer, SceneView
+
+    h = get_model("male", "quaternion")
+    with LiveViewer() as live:
+        view = SceneView(live.vis, h)
+        view.show(h.standing_configuration())
+        page = Page(browser, live.url)
+        try:
+            shown = page.shot()
+            live.vis["humanoid/body"].set_property("visible", False)
+            time.sleep(1.0)
+            hidden = page.shot()
+            assert _changed_pixels(shown, hidden) > 2000
+            assert not page.errors, page.errors
+            assert not _local_only(page.requests, "http"), page.requests
+        finally:
+            page.close()
+        server = live.proc.pid
+    assert live.proc.poll() is not None
+    assert (
+        not os.path.exists(f"/proc/{server}") or "zombie" in open(f"/proc/{server}/status").read()
+    )
+
+
+def test_no_viewer_process_is_left():
+    out = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
+    servers = [line for line in out.splitlines() if "humanoid._meshcat_server" in line]
+    assert not servers, servers
