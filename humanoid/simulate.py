@@ -249,6 +249,7 @@ class Simulation:
         self._forced = bool(self.effects) or self.controller is not None
         self.tau_last = np.zeros(self.model.nv)
         self._pin_backend = None
+        self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
         """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground)."""
@@ -399,25 +400,23 @@ class Simulation:
     # -- one step ------------------------------------------------------------------------
     def step(self, t: float, q, v, dt: float):
         """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
-        f = self.coordinate_acceleration if self.coordinates else self.acceleration
         self._first = None
-
-        frozen = [False]
-
-        def capture(t_, q_, v_):
-            if self._first is not None and not frozen[0]:
-                # a later stage is about to overwrite Pinocchio's contact data: read it now
-                if isinstance(self._first[1], _PinSolution):
-                    self._first[1].freeze()
-                frozen[0] = True
-            a = f(t_, q_, v_)
-            if self._first is None:
-                self._first = self.last
-            return a
-
+        self._frozen = False
         if self.adaptive is not None:
-            return self.adaptive.advance(self.space, capture, t, q, v, t + dt)
-        return self.step_fn(self.space, capture, t, q, v, dt)
+            return self.adaptive.advance(self.space, self._capture, t, q, v, t + dt)
+        return self.step_fn(self.space, self._capture, t, q, v, dt)
+
+    def _capture(self, t, q, v):
+        """The dynamics, keeping the first evaluation of a step (the state at its start)."""
+        if self._first is not None and not self._frozen:
+            # a later stage is about to overwrite Pinocchio's contact data: read it now
+            if isinstance(self._first[1], _PinSolution):
+                self._first[1].freeze()
+            self._frozen = True
+        a = self._dynamics(t, q, v)
+        if self._first is None:
+            self._first = self.last
+        return a
 
     # -- contacts ------------------------------------------------------------------------
     def _kinematics(self, q, v=None):
@@ -706,11 +705,13 @@ class _Recorder:
         self.n += 1
 
     def trajectory(self, meta) -> Trajectory:
+        """The records as a Trajectory: views of the preallocated arrays, no copy (a copy
+        would double the memory of a long run at its very end)."""
         n = self.n
-        forces = {k: a[:n].copy() for k, a in self.forces.items()}
+        forces = {k: a[:n] for k, a in self.forces.items()}
         return Trajectory(
-            self.t[:n].copy(), self.q[:n].copy(), self.v[:n].copy(), self.tau[:n].copy(),
-            forces, self.energy[:n].copy(), self.residual[:n].copy(), meta,
+            self.t[:n], self.q[:n], self.v[:n], self.tau[:n], forces, self.energy[:n],
+            self.residual[:n], meta,
         )  # fmt: skip
 
 
