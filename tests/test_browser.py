@@ -46,9 +46,10 @@ def browser(tmp_path_factory):
     _require_browser()
     from playwright.sync_api import sync_playwright
 
+    profile = str(tmp_path_factory.mktemp("profile"))
     with sync_playwright() as p:
         ctx = p.chromium.launch_persistent_context(
-            str(tmp_path_factory.mktemp("profile")),
+            profile,
             executable_path=CHROMIUM,
             headless=True,
             args=FLAGS,
@@ -56,6 +57,8 @@ def browser(tmp_path_factory):
         )
         yield ctx
         ctx.close()
+    ps = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
+    assert profile not in ps, "a browser process outlived the tests"
 
 
 @pytest.fixture(scope="module")

@@ -193,3 +193,12 @@ def test_live_server_dies_with_a_killed_parent(tmp_path):
         os.path.exists(f"/proc/{server}") and "zombie" not in open(f"/proc/{server}/status").read()
     )
     assert not alive, "the meshcat server outlived its killed parent"
+
+
+def test_talos_is_drawn_from_its_meshes():
+    h = get_model("talos", "quaternion")
+    rec, _ = _recorded(h)
+    meshes = [c for c in rec.commands if c["type"] == "set_object" and "/body/" in c["path"]]
+    assert len(meshes) == h.visual_model.ngeoms > 20
+    kinds = {c["object"]["geometries"][0]["type"] for c in meshes}
+    assert "_meshfile" in kinds and kinds <= {"_meshfile", "CylinderGeometry", "BoxGeometry"}
