@@ -1,0 +1,194 @@
+"""Gait plan: footsteps, timing, the ZMP reference, and swing-foot trajectories.
+
+The walk starts and ends standing with the feet side by side. Steps alternate, right foot
+first; footstep k (k = 1..n) lands at x = k L, except the last, which brings the feet together.
+Timing: an initial double support (the centre of mass moves over the left foot), then for every
+step a single support of ``t_single`` (the swing) and a double support of ``t_double`` (the load
+moves to the new foot), then a final double support back to the middle of the feet.
+The ZMP reference sits at the stance sole's centre in single support and moves linearly in
+double support. Swing feet follow a quintic in x/y and a raised cosine in z (zero velocity and
+acceleration at both ends: they land softly).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import HumanoidError
+
+__all__ = ["FootstepPlan", "GaitParameters"]
+
+
+@dataclass(frozen=True)
+class GaitParameters:
+    """Parameters of a straight walk.
+
+    Attributes:
+        steps: Number of steps (>= 2; the last brings the feet together).
+        step_length: Distance between consecutive footsteps [m].
+        t_single: Single-support (swing) duration [s].
+        t_double: Double-support duration [s].
+        step_height: Swing-foot clearance [m].
+        t_start: Initial double support [s]. t_end: final double support [s].
+    """
+
+    steps: int = 10
+    step_length: float = 0.35
+    t_single: float = 0.5
+    t_double: float = 0.15
+    step_height: float = 0.05
+    t_start: float = 2.0
+    t_end: float = 1.2
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.steps, int) and self.steps >= 2):
+            raise HumanoidError(f"steps must be an integer >= 2, got {self.steps!r}")
+        for name in ("step_length", "t_single", "t_double", "step_height", "t_start", "t_end"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise HumanoidError(f"{name} must be > 0, got {value!r}")
+        if self.step_length > 1.0:
+            raise HumanoidError(f"step_length must be at most 1 m, got {self.step_length}")
+
+    @property
+    def period(self) -> float:
+        """Time per step [s]."""
+        return self.t_single + self.t_double
+
+    @property
+    def speed(self) -> float:
+        """Average forward speed in steady walking [m/s]."""
+        return self.step_length / self.period
+
+    @classmethod
+    def for_speed(cls, speed: float, **kw) -> GaitParameters:
+        """Parameters with the step length that gives ``speed`` [m/s] at the default timing."""
+        base = cls(**kw)
+        return cls(**(kw | {"step_length": speed * base.period}))
+
+
+@dataclass(frozen=True)
+class Footstep:
+    side: str  # the swinging foot
+    start: np.ndarray  # where it lifts off (sole centre, x y) [m]
+    target: np.ndarray  # where it lands [m]
+    t_lift: float  # [s]
+    t_land: float  # [s]
+
+
+class FootstepPlan:
+    """Footsteps and references of a walk.
+
+    Args:
+        gait: The gait parameters.
+        left, right: Sole centres (x, y) of the feet at the start [m].
+    """
+
+    def __init__(self, gait: GaitParameters, left, right) -> None:
+        self.gait = gait
+        g = gait
+        pos = {"left": np.array(left, dtype=float)[:2], "right": np.array(right, dtype=float)[:2]}
+        self.initial = {k: v.copy() for k, v in pos.items()}
+        self.steps: list[Footstep] = []
+        t = g.t_start
+        for k in range(1, g.steps + 1):
+            side = "right" if k % 2 else "left"
+            other = "left" if side == "right" else "right"
+            x = (k if k < g.steps else k - 1) * g.step_length + self.initial[side][0]
+            if k == g.steps:
+                x = pos[other][0]  # feet together
+            target = np.array([x, self.initial[side][1]])
+            self.steps.append(Footstep(side, pos[side].copy(), target, t, t + g.t_single))
+            pos[side] = target
+            t += g.period
+        self.final = pos
+        self.duration = self.steps[-1].t_land + g.t_end
+
+    # -- phases --------------------------------------------------------------------------
+    def swing(self, t: float) -> Footstep | None:
+        """The step whose foot is in the air at time t, if any."""
+        for s in self.steps:
+            if s.t_lift <= t < s.t_land:
+                return s
+        return None
+
+    def stance(self, t: float) -> set[str]:
+        """Feet on the ground at time t."""
+        s = self.swing(t)
+        return {"left", "right"} - ({s.side} if s else set())
+
+    def feet_at(self, t: float) -> dict[str, np.ndarray]:
+        """Planned sole centres (x, y) at time t (swinging feet where they will land)."""
+        pos = {k: v.copy() for k, v in self.initial.items()}
+        for s in self.steps:
+            if s.t_lift <= t:
+                pos[s.side] = s.target.copy()
+        return pos
+
+    # -- references ----------------------------------------------------------------------
+    def zmp(self, t: float) -> np.ndarray:
+        """ZMP reference (x, y) [m]."""
+        g = self.gait
+        first = self.steps[0]
+        mid0 = (self.initial["left"] + self.initial["right"]) / 2
+        if t < first.t_lift:
+            stance0 = self.initial["left" if first.side == "right" else "right"]
+            s = np.clip((t - 0.2 * g.t_start) / (0.8 * g.t_start), 0.0, 1.0)
+            return mid0 + _smooth(s) * (stance0 - mid0)
+        for i, step in enumerate(self.steps):
+            stance_side = "left" if step.side == "right" else "right"
+            stance = self._position_before(stance_side, i)
+            if step.t_lift <= t < step.t_land:
+                return stance
+            t_next = step.t_land + g.t_double
+            if step.t_land <= t < t_next:
+                if i == len(self.steps) - 1:
+                    break
+                s = (t - step.t_land) / g.t_double
+                return stance + _smooth(s) * (step.target - stance)
+        last = self.steps[-1]
+        stance = self._position_before("left" if last.side == "right" else "right", len(self.steps))
+        mid = (self.final["left"] + self.final["right"]) / 2
+        s = np.clip((t - last.t_land) / (0.6 * g.t_end), 0.0, 1.0)
+        return stance + _smooth(s) * (mid - stance)
+
+    def _position_before(self, side: str, i: int) -> np.ndarray:
+        pos = self.initial[side].copy()
+        for s in self.steps[:i]:
+            if s.side == side:
+                pos = s.target.copy()
+        return pos
+
+    def swing_reference(self, t: float):
+        """(position, velocity, acceleration) of the swinging sole centre [m, m/s, m/s^2]."""
+        step = self.swing(t)
+        if step is None:
+            return None
+        T = step.t_land - step.t_lift
+        tau = (t - step.t_lift) / T
+        s, ds, dds = _quintic(tau)
+        ds, dds = ds / T, dds / T**2
+        d = step.target - step.start
+        h = self.gait.step_height
+        z = h * (1 - np.cos(2 * np.pi * s)) / 2
+        dz = h * np.pi * np.sin(2 * np.pi * s) * ds
+        ddz = h * np.pi * (2 * np.pi * np.cos(2 * np.pi * s) * ds**2 + np.sin(2 * np.pi * s) * dds)
+        p = np.array([*(step.start + s * d), z])
+        v = np.array([*(ds * d), dz])
+        a = np.array([*(dds * d), ddz])
+        return p, v, a
+
+
+def _smooth(s):
+    """A smooth 0 -> 1 ramp with zero slope at both ends (the quintic)."""
+    return _quintic(np.clip(s, 0.0, 1.0))[0]
+
+
+def _quintic(tau):
+    tau = np.clip(tau, 0.0, 1.0)
+    s = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    ds = 30 * tau**2 - 60 * tau**3 + 30 * tau**4
+    dds = 60 * tau - 180 * tau**2 + 120 * tau**3
+    return s, ds, dds
