@@ -1,0 +1,254 @@
+"""Whole-body walking controller: a task-space inverse-dynamics QP that outputs joint torques.
+
+Variables: the generalised acceleration dv (nv) and three force components at each of the four
+sole corners of every stance foot. Solved with ProxQP through qpsolvers at every control tick:
+
+- equalities: the six floating-base rows of M dv + h = J_c^T f (the base is not actuated), and
+  for each stance foot the same acceleration constraint the simulator enforces on its weld,
+  J dv + J'v = -2 alpha J v - beta^2 e (identical Baumgarte terms, so that the simulated
+  accelerations equal the controller's when the model is right);
+- inequalities: a friction pyramid per corner, |f_x|, |f_y| <= (mu / sqrt 2) f_z and f_z >= 0
+  (together: unilateral contact, friction, and the centre of pressure inside the sole);
+- costs: centre-of-mass tracking (preview-control reference), swing-foot pose, an upright
+  pelvis and torso, a posture, and a small force regularisation.
+
+Only tau = (M dv + h - J_c^T f)[6:] leaves the controller: the simulator integrates its own
+constrained dynamics; nothing is placed kinematically.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..effects import Effect
+from ..errors import HumanoidError
+
+__all__ = ["ControllerGains", "WalkingController"]
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+LOCAL = pin.ReferenceFrame.LOCAL
+
+
+@dataclass(frozen=True)
+class ControllerGains:
+    """Task gains [1/s^2 for kp, 1/s for kd] and weights of the walking QP."""
+
+    com_kp: float = 100.0
+    com_kd: float = 20.0
+    swing_kp: float = 400.0
+    swing_kd: float = 40.0
+    trunk_kp: float = 100.0
+    trunk_kd: float = 20.0
+    posture_kp: float = 25.0
+    posture_kd: float = 10.0
+    w_com: float = 1.0
+    w_swing: float = 1.0
+    w_trunk: float = 0.3
+    w_posture: float = 1e-2
+    w_force: float = 1e-6
+    mu: float = 0.6  # the controller's friction coefficient (below the checked one)
+
+
+class WalkingController(Effect):
+    """Joint torques that walk a humanoid along a plan (see the module docstring).
+
+    Args:
+        h: The Humanoid. model: the simulator's model (with its gravity).
+        plan: The :class:`~humanoid.walking.plan.FootstepPlan`.
+        com: ``(t, c, dc, ddc)`` horizontal CoM reference from preview control.
+        z_c: CoM height [m]. q_posture: posture reference.
+        baumgarte: The simulator's Baumgarte gains, used in the stance-foot constraints.
+    """
+
+    name = "walking"
+    velocity_dependent = True
+
+    def __init__(self, h, model, plan, com, z_c, q_posture, baumgarte, gains=None):
+        self.h, self.model, self.plan = h, model, plan
+        self.data = model.createData()
+        self.t_ref, self.c_ref, self.dc_ref, self.ddc_ref = com
+        self.z_c = z_c
+        self.q_posture = np.array(q_posture, dtype=float)
+        self.alpha, self.beta = baumgarte.alpha, baumgarte.beta
+        self.gains = gains or ControllerGains()
+        self.sole = {s: h.frame_id(h.feet[i]) for i, s in enumerate(("left", "right"))}
+        self.corners = {s: [h.frame_id(n) for n in h.contact_points[s]] for s in self.sole}
+        self.tau = np.zeros(model.nv)
+        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+        self.last = None  # (dv, forces by side) of the last solve
+        self.failures = 0
+
+    def force(self, model, data, t, q, v):
+        return self.tau
+
+    # -- references ----------------------------------------------------------------------
+    def com_reference(self, t):
+        k = float(
+            np.clip((t - self.t_ref[0]) / (self.t_ref[1] - self.t_ref[0]), 0, len(self.t_ref) - 1)
+        )
+        i = min(int(k), len(self.t_ref) - 2)
+        s = k - i
+
+        def lerp(a):
+            return (1 - s) * a[i] + s * a[i + 1]
+
+        c, dc, ddc = lerp(self.c_ref), lerp(self.dc_ref), lerp(self.ddc_ref)
+        return np.array([*c, self.z_c]), np.array([*dc, 0.0]), np.array([*ddc, 0.0])
+
+    # -- the QP ----------------------------------------------------------------------------
+    def update(self, t: float, q, v, welds: dict) -> np.ndarray:
+        """Solve the QP at (t, q, v) with the plant's stance welds; returns and holds tau."""
+        model, data, g = self.model, self.data, self.gains
+        nv = model.nv
+        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        hvec = pin.nle(model, data, q, v)
+        stance = [s for s in ("left", "right") if s in welds]
+        nf = 12 * len(stance)
+        n = nv + nf
+        rows, rhs, weights = [], [], []
+
+        def task(J, a, w):
+            rows.append(np.hstack([J, np.zeros((J.shape[0], nf))]))
+            rhs.append(a)
+            weights.append(np.full(J.shape[0], w))
+
+        # centre of mass
+        c_ref, dc_ref, ddc_ref = self.com_reference(t)
+        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
+        dc, drift = data.vcom[0].copy(), data.acom[0].copy()
+        Jcom = pin.jacobianCenterOfMass(model, data, q)
+        a_com = ddc_ref + g.com_kp * (c_ref - c) + g.com_kd * (dc_ref - dc)
+        task(Jcom, a_com - drift, g.w_com)
+        # swing foot
+        ref = self.plan.swing_reference(t)
+        swing = self.plan.swing(t)
+        if ref is not None and swing.side not in welds:
+            fid = self.sole[swing.side]
+            p_ref, v_ref, a_ref = ref
+            J = pin.getFrameJacobian(model, data, fid, LWA)
+            vel = pin.getFrameVelocity(model, data, fid, LWA)
+            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
+            M_f = data.oMf[fid]
+            a_lin = (
+                a_ref + g.swing_kp * (p_ref - M_f.translation) + g.swing_kd * (v_ref - vel.linear)
+            )
+            a_ang = -g.swing_kp * pin.log3(M_f.rotation) - g.swing_kd * vel.angular
+            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_swing)
+        # upright pelvis and torso (orientation only, world axes)
+        for frame in self.trunk_frames():
+            J = pin.getFrameJacobian(model, data, frame, LWA)[3:]
+            vel = pin.getFrameVelocity(model, data, frame, LWA).angular
+            acc = pin.getFrameAcceleration(model, data, frame, LWA).angular
+            R = data.oMf[frame].rotation
+            yaw = np.arctan2(R[1, 0], R[0, 0])
+            err = pin.log3(pin.utils.rotate("z", yaw).T @ R)  # tilt only; yaw left free
+            task(J, -g.trunk_kp * (R @ err) - g.trunk_kd * vel - acc, g.w_trunk)
+        # posture
+        e = pin.difference(model, q, self.q_posture)
+        Jp = np.eye(nv)[6:]
+        task(Jp, g.posture_kp * e[6:] - g.posture_kd * v[6:], g.w_posture)
+        A_cost = np.vstack(rows)
+        b_cost = np.concatenate(rhs)
+        W = np.concatenate(weights)
+        P = A_cost.T @ (W[:, None] * A_cost)
+        qv = -A_cost.T @ (W * b_cost)
+        P[nv:, nv:] += g.w_force * np.eye(nf)
+        P[np.diag_indices(n)] += 1e-9
+
+        # equalities: base rows of the dynamics, stance-foot accelerations
+        Jc = np.zeros((nf, nv))
+        for k, s in enumerate(stance):
+            for j, fid in enumerate(self.corners[s]):
+                Jc[12 * k + 3 * j : 12 * k + 3 * j + 3] = pin.getFrameJacobian(
+                    model, data, fid, LWA
+                )[:3]
+        # forces are solved in body weights (O(1), like the accelerations): f = weight * f'
+        weight = self.weight
+        A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
+        b_eq = [-hvec[:6]]
+        for s in stance:
+            weld = welds[s]
+            J = pin.getFrameJacobian(model, data, weld.frame_id, LOCAL)
+            gamma = -pin.getFrameAcceleration(model, data, weld.frame_id, LOCAL).vector
+            gamma -= 2 * self.alpha * (J @ v) + self.beta**2 * weld.residual(model, data)
+            A_eq.append(np.hstack([J, np.zeros((6, nf))]))
+            b_eq.append(gamma)
+        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
+        # inequalities: friction pyramids
+        mu = g.mu / np.sqrt(2.0)
+        pyramid = np.array([[0, 0, -1.0], [1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu]])
+        G = np.zeros((5 * 4 * len(stance), n))
+        for i in range(4 * len(stance)):
+            G[5 * i : 5 * i + 5, nv + 3 * i : nv + 3 * i + 3] = pyramid
+        h_ineq = np.zeros(G.shape[0])
+        x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+        if x is None or not np.all(np.isfinite(x)):
+            self.failures += 1
+            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s")
+        dv, f = x[:nv], weight * x[nv:]
+        tau = M @ dv + hvec - Jc.T @ f
+        self.tau = np.concatenate([np.zeros(6), tau[6:]])
+        self.last = (dv, {s: f[12 * k : 12 * k + 12].reshape(4, 3) for k, s in enumerate(stance)})
+        return self.tau
+
+    def _solve(self, P, qv, A, b, G, h):
+        """ProxQP (dense), kept between ticks of the same contact set and warm-started.
+
+        Its infeasibility detection is switched off: the walking QP is always feasible (zero
+        forces and a falling base satisfy every constraint), and ProxQP's default test
+        declared false infeasibility on near-degenerate single-support problems.
+        """
+        import proxsuite
+
+        dims = (P.shape[0], A.shape[0], G.shape[0])
+        qp = self._qp if getattr(self, "_qp_dims", None) == dims else None
+        lower = np.full(len(h), -1e20)
+        if qp is None:
+            qp = proxsuite.proxqp.dense.QP(*dims)
+            qp.settings.eps_abs = 1e-8
+            qp.settings.eps_rel = 0.0
+            qp.settings.max_iter = 10_000
+            qp.settings.eps_primal_inf = 1e-30
+            qp.settings.eps_dual_inf = 1e-30
+            qp.settings.initial_guess = (
+                proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+            )
+            qp.init(P, qv, A, b, G, lower, h)
+            self._qp, self._qp_dims = qp, dims
+        else:
+            qp.update(P, qv, A, b, G, lower, h)
+        qp.solve()
+        status = qp.results.info.status
+        info = qp.results.info
+        solved = status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
+        # at the iteration limit, accept a primal-feasible point (the constraints are what
+        # the physics needs; the dual residual only measures optimality of the weights)
+        usable = status == proxsuite.proxqp.QPSolverOutput.PROXQP_MAX_ITER_REACHED and (
+            info.pri_res < 1e-8 and info.dua_res < 1e-5
+        )
+        self.iterations = info.iter
+        if not (solved or usable):
+            return None
+        return qp.results.x.copy()
+
+    def trunk_frames(self) -> list[int]:
+        """Frames kept upright: the pelvis (root joint) and, if the model has one, the torso."""
+        if not hasattr(self, "_trunk"):
+            model = self.model
+            frames = [model.getFrameId(model.names[1], pin.FrameType.JOINT)]
+            torso = [n for n in TORSO_NAMES if model.existFrame(n)]
+            if torso:
+                frames.append(model.getFrameId(torso[0]))
+            self._trunk = frames
+        return self._trunk
+
+
+# Torso link names of the supported models (ours, example-robot-data's human and Talos).
+TORSO_NAMES = ("thorax", "middle_thorax", "torso_2_link", "torso")

@@ -1,0 +1,350 @@
+"""A walk as a simulation: the plan and controller drive the project's constrained dynamics.
+
+Per tick: the plan says which feet are on the ground; a foot that leaves it is released (the
+controller has moved its load away during double support), a foot that lands is welded where it
+is with the impulse that stops it; the controller solves its QP and holds its joint torques;
+the simulator integrates (semi-implicit Euler, 1 ms). After every step the checks of the
+acceptance criteria run on the simulated state and forces, and are kept as time series.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import DivergenceError, HumanoidError
+from ..model import Humanoid
+from ..scene import Contact, Effects, Initial, Scene, Stabilisation
+from ..simulate import Simulation, Trajectory, _guard, _Progress, _Recorder
+from .controller import ControllerGains, WalkingController
+from .plan import FootstepPlan, GaitParameters
+from .preview import com_trajectory
+
+__all__ = ["WalkResult", "crouch", "walk"]
+
+SIDES = ("left", "right")
+
+# Typical adult gait (see shared/reference/walking.md: Bohannon 1997, Murray 1964/1970,
+# Perry & Burnfield, Winter, Powers 2002, Cooper 2008).
+HUMAN = {
+    "speed": "1.27-1.46 m/s",
+    "step_length": "0.66-0.79 m",
+    "cadence": "100-120 steps/min",
+    "double_support": "~20 % of the cycle",
+    "peak_vertical_grf": "1.1-1.2 BW",
+    "peak_friction": "0.17-0.25",
+    "com_vertical_excursion": "4-5 cm",
+}
+
+
+@dataclass(frozen=True)
+class WalkResult:
+    """A simulated walk: the trajectory, the per-tick checks, and the gait summary."""
+
+    trajectory: Trajectory
+    checks: dict
+    summary: dict
+    series: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return all(c["ok"] for c in self.checks.values())
+
+
+def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
+    """The standing configuration with the pelvis lowered by ``drop`` [m] (and moved forward),
+    the soles flat where they were: leg inverse kinematics (each leg's 6 joints against its
+    sole's 6D placement, Gauss-Newton)."""
+    model = h.model
+    data = model.createData()
+    q = h.standing_configuration()
+    pin.framesForwardKinematics(model, data, q)
+    targets = {s: data.oMf[h.frame_id(h.feet[i])].copy() for i, s in enumerate(SIDES)}
+    q[2] -= drop
+    q[0] += forward
+    for j in range(2, model.njoints):  # start the leg IK on the flexed branch of the knees
+        jm = model.joints[j]
+        if "knee" in model.names[j].lower() and jm.nq == 1:
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            q[jm.idx_q] = 0.3 if hi >= 0.3 else max(lo, -0.3)
+    for _ in range(100):
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        errs, rows = [], []
+        for i, s in enumerate(SIDES):
+            fid = h.frame_id(h.feet[i])
+            err = targets[s].actInv(data.oMf[fid])
+            errs.append(pin.log6(err).vector)
+            rows.append(
+                pin.Jlog6(err) @ pin.getFrameJacobian(model, data, fid, pin.ReferenceFrame.LOCAL)
+            )
+        e = np.concatenate(errs)
+        if np.abs(e).max() < 1e-12:
+            break
+        J = np.vstack(rows)
+        J[:, :6] = 0.0  # the pelvis stays where it was put
+        dq = -J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(len(e)), e)  # damped least squares
+        q = pin.integrate(model, q, dq)
+    else:
+        raise HumanoidError(f"cannot lower the pelvis by {drop} m with the soles flat")
+    for jm in model.joints[2:]:
+        if jm.nq == 1:
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if not lo - 1e-9 <= q[jm.idx_q] <= hi + 1e-9:
+                raise HumanoidError(
+                    f"lowering the pelvis by {drop} m puts {model.names[jm.id]} out of its limits"
+                )
+    return q
+
+
+def walk(
+    h: Humanoid,
+    gait: GaitParameters | None = None,
+    dt: float = 1e-3,
+    mu: float = 0.8,
+    drop: float = 0.04,
+    gains: ControllerGains | None = None,
+    quiet: bool = False,
+    record_rate: float = 100.0,
+) -> WalkResult:
+    """Walk ``h`` along a straight plan in forward simulation.
+
+    Args:
+        h: The humanoid (quaternion ball joints recommended).
+        gait: Steps, step length and timing.
+        dt: Simulation and control step [s].
+        mu: Friction coefficient of the checks (the controller uses a smaller one).
+        drop: How far the pelvis is lowered from standing before walking [m] (bent knees).
+        gains: Controller gains.
+        quiet: No progress bar.
+        record_rate: Records per second in the trajectory [Hz].
+    """
+    gait = gait or GaitParameters()
+    model = h.model
+    q0 = crouch(h, drop)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    soles = {s: data.oMf[h.frame_id(h.feet[i])].translation.copy() for i, s in enumerate(SIDES)}
+    plan = FootstepPlan(gait, soles["left"][:2], soles["right"][:2])
+    c0 = pin.centerOfMass(model, data, q0)
+    feet = tuple(Contact(s, "weld", mu=mu) for s in SIDES)
+    scene = Scene(
+        name="walk", body=h.source, ball_joints=h.ball_joints, duration=plan.duration, dt=dt,
+        integrator="semi_implicit_euler", record_rate=record_rate,
+        initial=Initial(configuration=tuple(q0)), effects=Effects(contacts=feet),
+        stabilisation=Stabilisation(baumgarte=20.0),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    t_ref, c_ref, dc_ref, ddc_ref, zmp_model, zmp_ref = com_trajectory(plan, c0[2], c0[:2])
+    ctl = WalkingController(
+        h, sim.model, plan, (t_ref, c_ref, dc_ref, ddc_ref), c0[2], q0, sim.baumgarte,
+        gains or ControllerGains(mu=min(0.6, 0.75 * mu)),
+    )  # fmt: skip
+    sim.controller = ctl
+    sim._forced = True
+    n_steps = int(round(plan.duration / dt))
+    every = max(1, int(round(1.0 / (record_rate * dt))))
+    rec = _Recorder(n_steps // every + 1, sim.model, sim.contacts)
+    series = {k: np.full(n_steps, np.nan) for k in (
+        "t", "pelvis_z", "tilt", "consistency", "drift", "fz_left", "fz_right", "friction",
+        "cop_margin", "com_x", "com_y", "com_z", "com_ref_x", "com_ref_y", "zmp_x", "zmp_y",
+        "tau_base", "impulse",
+    )}  # fmt: skip
+    weight = h.mass * 9.81
+    q, v = q0.copy(), np.zeros(model.nv)
+    sim._first = None
+    v = sim.update_contacts(0.0, q, v)  # both feet welded where they stand
+    pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+    z_start = q[2]
+    status, message = "completed", ""
+    progress = _Progress(n_steps, quiet)
+    start = time.perf_counter()
+    k = 0
+    try:
+        for k in range(n_steps):
+            t = k * dt
+            v = _switch_contacts(sim, plan, t, q, v, series, k)
+            welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
+            ctl.update(t, q, v, welds)
+            q_new, v_new = sim.step(t, q, v, dt)
+            if k % every == 0:
+                rec.add(sim, t, q, v)
+            _check(sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref)
+            _guard(t + dt, q_new, v_new)
+            q, v = q_new, v_new
+            if q[2] < 0.8 * z_start or series["tilt"][k] > 30.0:
+                raise DivergenceError(
+                    f"fall at t = {t:.3f} s: pelvis {q[2]:.3f} m (start {z_start:.3f} m), "
+                    f"trunk tilt {series['tilt'][k]:.1f} deg"
+                )
+            progress.update(k + 1)
+    except KeyboardInterrupt:
+        status, message = "interrupted", f"interrupted by the user at t = {k * dt:.3f} s"
+    except (DivergenceError, HumanoidError) as exc:
+        status, message = "failed", str(exc)
+    finally:
+        progress.close()
+    wall = time.perf_counter() - start
+    n = k + 1 if status == "completed" else k
+    for key in series:
+        series[key] = series[key][:n]
+    meta = {
+        "status": status, "message": message, "model": h.source, "ball_joints": h.ball_joints,
+        "nq": model.nq, "nv": model.nv, "joint_names": list(model.names), "feet": list(h.feet),
+        "dt": dt, "record_rate": record_rate, "scene": scene.to_dict(), "events": sim.events,
+        "violations": sim.violations, "counters": sim.counters, "steps": n, "wall_time": wall,
+        "max_residual": float(np.nanmax(series["drift"], initial=0.0)),
+        "gait": {f: getattr(gait, f) for f in gait.__dataclass_fields__},
+        "footsteps": [[s.side, *s.target.tolist(), s.t_lift, s.t_land] for s in plan.steps],
+        "initial_soles": {s: soles[s].tolist() for s in SIDES},
+    }  # fmt: skip
+    traj = rec.trajectory(meta)
+    checks = _acceptance(series, plan, status, message, weight, mu)
+    summary = _summary(series, plan, gait, weight, status, wall, n * dt)
+    series["zmp_ref"] = zmp_ref
+    series["t_ref"] = t_ref
+    series["com_ref"] = c_ref
+    return WalkResult(traj, checks, summary, series)
+
+
+def _switch_contacts(sim, plan, t, q, v, series, k):
+    """Release the feet the plan lifts, weld the feet it lands (with the impulse)."""
+    stance = plan.stance(t)
+    landing = []
+    for c in sim.contacts:
+        if c.attached and c.side not in stance:
+            c.release()
+            sim._active = None
+            sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
+        elif not c.attached and c.side in stance:
+            landing.append(c)
+    if landing:
+        v_new = sim.attach(landing, t, q, v, "touchdown")
+        series["impulse"][k] = float(np.abs(v_new - v).max())
+        return v_new
+    return v
+
+
+def _check(sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref):
+    """The acceptance quantities at this tick (from the plant's own solve)."""
+    model, data = sim.model, sim.data
+    series["t"][k] = t
+    series["pelvis_z"][k] = q[2]
+    R = pin.Quaternion(q[3:7]).toRotationMatrix()
+    series["tilt"][k] = math.degrees(math.acos(np.clip(R[2, 2], -1.0, 1.0)))
+    series["tau_base"][k] = np.abs(sim._first[0][:6]).max()
+    c = pin.centerOfMass(model, data, q)
+    series["com_x"][k], series["com_y"][k], series["com_z"][k] = c
+    cr = ctl.com_reference(t)[0]
+    series["com_ref_x"][k], series["com_ref_y"][k] = cr[0], cr[1]
+    sol = sim._first[1]
+    if sol is None or not sim.active_constraints():
+        return
+    dv = ctl.last[0]
+    series["consistency"][k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
+    sim._kinematics(q, v)
+    split = sol.split(sim.active_constraints())
+    fz_total, moment_x, moment_y = 0.0, 0.0, 0.0
+    worst_friction, worst_margin, drift = 0.0, np.inf, 0.0
+    for cst in sim.contacts:
+        if not cst.attached:
+            continue
+        w = cst.constraints[0]
+        cst.store(model, data, split[w.name])
+        f, tau = cst.wrench[:3], cst.wrench[3:]
+        series[f"fz_{cst.side}"][k] = f[2] / weight
+        o = data.oMf[cst.sole].translation
+        fz_total += f[2]
+        moment_x += o[1] * f[2] + tau[0]
+        moment_y += -o[0] * f[2] + tau[1]
+        if f[2] > 0.2 * weight:
+            worst_friction = max(worst_friction, math.hypot(f[0], f[1]) / f[2])
+        if f[2] > 1e-6:
+            Rs = data.oMf[cst.sole].rotation
+            local_tau, local_f = Rs.T @ tau, Rs.T @ f
+            cop = np.array([-local_tau[1], local_tau[0]]) / local_f[2]
+            lo, hi = cst.cop_box
+            worst_margin = min(worst_margin, np.min(cop - lo), np.min(hi - cop))
+        r = w.residual(model, data)
+        drift = max(drift, np.linalg.norm(r[:3]))
+    series["friction"][k] = worst_friction
+    series["cop_margin"][k] = worst_margin if np.isfinite(worst_margin) else np.nan
+    series["drift"][k] = drift
+    if fz_total > 1e-6:
+        series["zmp_x"][k] = -moment_y / fz_total
+        series["zmp_y"][k] = moment_x / fz_total
+
+
+def _acceptance(s, plan, status, message, weight, mu) -> dict:
+    """The acceptance criteria, each with its measured value, limit and verdict."""
+
+    def worst(key, fn=np.nanmax, empty=0.0):
+        values = s[key][np.isfinite(s[key])]
+        return float(fn(values)) if len(values) else empty
+
+    fz = np.concatenate([s["fz_left"], s["fz_right"]])
+    fz = fz[np.isfinite(fz)]
+    z = s["pelvis_z"]
+    rows = [
+        # name, value, limit text, passes, unit
+        ("free_flyer_torque", worst("tau_base"), "== 0", worst("tau_base") == 0.0, "N, N m"),
+        ("min_normal_force", float(fz.min()) if len(fz) else 0.0, ">= -1e-6",
+         (fz.min() if len(fz) else 0.0) >= -1e-6, "BW"),
+        ("friction_ratio", worst("friction"), f"<= {mu} (feet > 20 % BW)",
+         worst("friction") <= mu, ""),
+        ("cop_margin", worst("cop_margin", np.nanmin), ">= -1e-4",
+         worst("cop_margin", np.nanmin) >= -1e-4, "m inside the sole"),
+        ("weld_drift", worst("drift"), "< 1e-3", worst("drift") < 1e-3, "m"),
+        ("pelvis_height", float(np.nanmin(z) / z[0]) if len(z) else 0.0, "> 0.8",
+         bool(len(z)) and np.nanmin(z) > 0.8 * z[0], "x start"),
+        ("trunk_tilt", worst("tilt"), "< 30", worst("tilt") < 30.0, "deg"),
+        ("consistency", worst("consistency"), "<= 1e-6", worst("consistency") <= 1e-6,
+         "relative (plant vs controller accelerations)"),
+        ("steps", float(len(plan.steps)), ">= 10", len(plan.steps) >= 10, ""),
+    ]  # fmt: skip
+    checks = {"completed": {"value": status, "limit": "completed", "ok": status == "completed",
+                            "unit": message}}  # fmt: skip
+    for name, value, limit, ok, unit in rows:
+        checks[name] = {"value": value, "limit": limit, "ok": bool(ok), "unit": unit}
+    return checks
+
+
+def _summary(s, plan, gait, weight, status, wall, simulated) -> dict:
+    t = s["t"]
+    first, last = plan.steps[0], plan.steps[-1]
+    window = (t >= first.t_lift) & (t <= last.t_land)
+    # speed over the steady steps (the first and last steps are half steps)
+    inner = plan.steps[1:-1] or plan.steps
+    steady = (t >= inner[0].t_land) & (t <= inner[-1].t_land)
+    x = s["com_x"]
+    speed = (
+        (x[steady][-1] - x[steady][0]) / (t[steady][-1] - t[steady][0])
+        if steady.sum() > 2
+        else float("nan")
+    )
+    fz = np.nansum(np.stack([s["fz_left"], s["fz_right"]]), axis=0)
+    z = s["com_z"][window]
+    err = np.hypot(s["com_x"] - s["com_ref_x"], s["com_y"] - s["com_ref_y"])
+    nan = float("nan")
+    peak_grf = float(np.nanmax(fz[window])) if window.any() else nan
+    lateral = float(np.ptp(s["com_y"][window])) if window.any() else nan
+    return {
+        "status": status,
+        "speed": float(speed),
+        "step_length": gait.step_length,
+        "cadence": 60.0 / gait.period,
+        "double_support": gait.t_double / gait.period,
+        "peak_vertical_grf": peak_grf,
+        "peak_friction": float(np.nanmax(s["friction"], initial=0.0)),
+        "com_vertical_excursion": float(np.ptp(z)) if len(z) else float("nan"),
+        "com_lateral_excursion": lateral,
+        "com_error_rms": float(np.sqrt(np.nanmean(err**2))),
+        "com_error_max": float(np.nanmax(err)),
+        "real_time_factor": simulated / wall if wall > 0 else float("inf"),
+        "wall_time": wall,
+        "simulated": simulated,
+    }  # fmt: skip
