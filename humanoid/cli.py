@@ -55,6 +55,18 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--duration", type=float, help="override the scene's duration [s]")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
 
+    w = sub.add_parser("walk", help="walk a body in forward simulation (torque control)")
+    w.add_argument("--model", default=None, help="URDF or example-robot-data name "
+                   "(default: models/adult_male.urdf)")  # fmt: skip
+    w.add_argument("--steps", type=int, default=10, help="number of steps (>= 2)")
+    w.add_argument("--speed", type=float, help="walking speed [m/s] (sets the step length)")
+    w.add_argument("--step-length", type=float, help="step length [m]")
+    w.add_argument("--mu", type=float, default=0.8, help="friction coefficient of the checks")
+    w.add_argument("-o", "--output", default="walk.npz", help="trajectory file to write")
+    w.add_argument("--html", help="also write the viewer as one HTML file")
+    w.add_argument("--figure", help="figure file (PNG); default: next to the trajectory")
+    w.add_argument("--quiet", action="store_true", help="no progress bar")
+
     v = sub.add_parser("view", help="show a model or a run in the browser (live, or as HTML)")
     v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
     v.add_argument("--html", help="write one self-contained HTML file instead of serving")
@@ -82,6 +94,8 @@ def main(argv: list[str] | None = None) -> int:
             return _info(args)
         if args.command == "simulate":
             return _simulate(args)
+        if args.command == "walk":
+            return _walk(args)
         if args.command == "view":
             return _view(args)
         if args.command == "bench":
@@ -131,6 +145,34 @@ def _simulate(args) -> int:
     print(f"saved        {path}")
     if traj.status != "completed":
         print(f"humanoid simulate: {traj.status}: {traj.metadata['message']}", file=sys.stderr)
+        return 3
+    return 0
+
+
+def _walk(args) -> int:
+    from .walking import GaitParameters, format_summary, plot_walk, walk
+
+    model = args.model or str(Path(__file__).resolve().parent.parent / "models" / "adult_male.urdf")
+    h = load_any(model, "quaternion")
+    kw = {"steps": args.steps}
+    if args.step_length is not None and args.speed is not None:
+        raise HumanoidError("give --speed or --step-length, not both")
+    if args.step_length is not None:
+        kw["step_length"] = args.step_length
+    gait = GaitParameters.for_speed(args.speed, **kw) if args.speed else GaitParameters(**kw)
+    result = walk(h, gait, mu=args.mu, quiet=args.quiet)
+    path = result.trajectory.save(args.output)
+    figure = plot_walk(result, args.figure or Path(args.output).with_suffix(".png"))
+    print(format_summary(result))
+    print(f"\nsaved        {path}\nfigure       {figure}")
+    if args.html:
+        from .viewer import export_html
+
+        page = export_html(h, args.html, traj=result.trajectory, title="walk")
+        print(f"viewer       {page}")
+    if not result.ok:
+        failed = [k for k, c in result.checks.items() if not c["ok"]]
+        print(f"humanoid walk: checks failed: {', '.join(failed)}", file=sys.stderr)
         return 3
     return 0
 

@@ -181,6 +181,28 @@ class SceneView:
                 )
                 self.node("footprints", side).set_property("visible", False)
 
+    def _frame_path(self, xy: np.ndarray) -> None:
+        """Ground and camera that cover a path (x, y of the pelvis) longer than the default."""
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        centre, span = (lo + hi) / 2, hi - lo
+        if max(span) < 1.0:
+            return
+        if self.overlays.ground:
+            G = _meshcat().geometry
+            box = G.Box([span[0] + 3.0, span[1] + 3.0, 0.01])
+            material = G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True)
+            self.node("ground").set_object(box, material)
+            self.node("ground").set_transform(
+                pin.SE3(np.eye(3), np.array([centre[0], centre[1], -0.006])).homogeneous
+            )
+        self.vis["/Cameras/default"].set_transform(
+            pin.SE3(np.eye(3), np.array([centre[0], centre[1], 0.9])).homogeneous
+        )
+        distance = 1.0 + 0.6 * max(span)
+        self.vis["/Cameras/default/rotated/<object>"].set_property(
+            "position", [distance, 0.5 * distance, 1.5 * distance]
+        )
+
     @staticmethod
     def _along_z(offset: float = 0.0) -> np.ndarray:
         """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
@@ -276,6 +298,7 @@ class SceneView:
                 else:
                     target.set_property("scale", "vector3", value)
         self.show(*_sample(self.model, traj, t[0], self.feet))
+        self._frame_path(np.asarray(traj.q)[:, :2])
         self.vis.set_animation(anim, play=True, repetitions=0 if loop else 1)
         return n
 

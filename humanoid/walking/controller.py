@@ -48,7 +48,7 @@ class ControllerGains:
     w_swing: float = 1.0
     w_trunk: float = 0.3
     w_posture: float = 1e-2
-    w_force: float = 1e-6
+    w_force: float = 1e-2  # pull of the corner forces towards the planned load sharing
     mu: float = 0.6  # the controller's friction coefficient (below the checked one)
 
 
@@ -159,7 +159,13 @@ class WalkingController(Effect):
         W = np.concatenate(weights)
         P = A_cost.T @ (W[:, None] * A_cost)
         qv = -A_cost.T @ (W * b_cost)
+        # load sharing: the stance feet share the weight as the ZMP reference says, so that a
+        # foot is unloaded when the plan lifts it (forces are in body weights, see below)
+        f_ref = np.zeros(nf)
+        for k, share in enumerate(self.shares(t, stance, data)):
+            f_ref[12 * k + 2 : 12 * k + 12 : 3] = share / 4.0
         P[nv:, nv:] += g.w_force * np.eye(nf)
+        qv[nv:] -= g.w_force * f_ref
         P[np.diag_indices(n)] += 1e-9
 
         # equalities: base rows of the dynamics, stance-foot accelerations
@@ -197,6 +203,15 @@ class WalkingController(Effect):
         self.tau = np.concatenate([np.zeros(6), tau[6:]])
         self.last = (dv, {s: f[12 * k : 12 * k + 12].reshape(4, 3) for k, s in enumerate(stance)})
         return self.tau
+
+    def shares(self, t, stance, data) -> list[float]:
+        """Planned fraction of the weight on each stance foot, from the ZMP reference."""
+        if len(stance) == 1:
+            return [1.0]
+        a, b = (data.oMf[self.sole[s]].translation[:2] for s in stance)
+        d = b - a
+        x = float(np.clip((self.plan.zmp(t) - a) @ d / max(d @ d, 1e-12), 0.0, 1.0))
+        return [1.0 - x, x]
 
     def _solve(self, P, qv, A, b, G, h):
         """ProxQP (dense), kept between ticks of the same contact set and warm-started.

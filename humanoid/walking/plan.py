@@ -5,9 +5,10 @@ first; footstep k (k = 1..n) lands at x = k L, except the last, which brings the
 Timing: an initial double support (the centre of mass moves over the left foot), then for every
 step a single support of ``t_single`` (the swing) and a double support of ``t_double`` (the load
 moves to the new foot), then a final double support back to the middle of the feet.
-The ZMP reference sits at the stance sole's centre in single support and moves linearly in
-double support. Swing feet follow a quintic in x/y and a raised cosine in z (zero velocity and
-acceleration at both ends: they land softly).
+The ZMP reference sits at the stance sole's centre in single support and moves smoothly to the
+new foot during the first 80 % of each double support (and of the initial one's last 80 %), so
+that a foot carries no load when it lifts off. Swing feet follow a quintic in x/y and a raised
+cosine in z (zero velocity and acceleration at both ends: they land softly).
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import numpy as np
 from ..errors import HumanoidError
 
 __all__ = ["FootstepPlan", "GaitParameters"]
+
+TRANSFER = 0.8  # fraction of a double support over which the ZMP moves to the new foot
 
 
 @dataclass(frozen=True)
@@ -135,7 +138,7 @@ class FootstepPlan:
         mid0 = (self.initial["left"] + self.initial["right"]) / 2
         if t < first.t_lift:
             stance0 = self.initial["left" if first.side == "right" else "right"]
-            s = np.clip((t - 0.2 * g.t_start) / (0.8 * g.t_start), 0.0, 1.0)
+            s = np.clip((t - 0.2 * g.t_start) / (0.6 * g.t_start), 0.0, 1.0)
             return mid0 + _smooth(s) * (stance0 - mid0)
         for i, step in enumerate(self.steps):
             stance_side = "left" if step.side == "right" else "right"
@@ -146,7 +149,8 @@ class FootstepPlan:
             if step.t_land <= t < t_next:
                 if i == len(self.steps) - 1:
                     break
-                s = (t - step.t_land) / g.t_double
+                # the load is on the new foot before the old one lifts off
+                s = (t - step.t_land) / (TRANSFER * g.t_double)
                 return stance + _smooth(s) * (step.target - stance)
         last = self.steps[-1]
         stance = self._position_before("left" if last.side == "right" else "right", len(self.steps))

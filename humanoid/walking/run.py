@@ -27,6 +27,7 @@ from .preview import com_trajectory
 __all__ = ["WalkResult", "crouch", "walk"]
 
 SIDES = ("left", "right")
+COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
 
 # Typical adult gait (see shared/reference/walking.md: Bohannon 1997, Murray 1964/1970,
 # Perry & Burnfield, Winter, Powers 2002, Cooper 2008).
@@ -201,6 +202,8 @@ def walk(
         "gait": {f: getattr(gait, f) for f in gait.__dataclass_fields__},
         "footsteps": [[s.side, *s.target.tolist(), s.t_lift, s.t_land] for s in plan.steps],
         "initial_soles": {s: soles[s].tolist() for s in SIDES},
+        "weight": weight,
+        "sole_size": [float(x) for x in sim.contacts[0].cop_box[1] - sim.contacts[0].cop_box[0]],
     }  # fmt: skip
     traj = rec.trajectory(meta)
     checks = _acceptance(series, plan, status, message, weight, mu)
@@ -263,7 +266,7 @@ def _check(sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref):
         moment_y += -o[0] * f[2] + tau[1]
         if f[2] > 0.2 * weight:
             worst_friction = max(worst_friction, math.hypot(f[0], f[1]) / f[2])
-        if f[2] > 1e-6:
+        if f[2] > COP_MIN_LOAD * weight:  # the CoP of an (almost) unloaded foot is undefined
             Rs = data.oMf[cst.sole].rotation
             local_tau, local_f = Rs.T @ tau, Rs.T @ f
             cop = np.array([-local_tau[1], local_tau[0]]) / local_f[2]
@@ -296,7 +299,7 @@ def _acceptance(s, plan, status, message, weight, mu) -> dict:
          (fz.min() if len(fz) else 0.0) >= -1e-6, "BW"),
         ("friction_ratio", worst("friction"), f"<= {mu} (feet > 20 % BW)",
          worst("friction") <= mu, ""),
-        ("cop_margin", worst("cop_margin", np.nanmin), ">= -1e-4",
+        ("cop_margin", worst("cop_margin", np.nanmin), ">= -1e-4 (feet > 1 % BW)",
          worst("cop_margin", np.nanmin) >= -1e-4, "m inside the sole"),
         ("weld_drift", worst("drift"), "< 1e-3", worst("drift") < 1e-3, "m"),
         ("pelvis_height", float(np.nanmin(z) / z[0]) if len(z) else 0.0, "> 0.8",
@@ -304,7 +307,6 @@ def _acceptance(s, plan, status, message, weight, mu) -> dict:
         ("trunk_tilt", worst("tilt"), "< 30", worst("tilt") < 30.0, "deg"),
         ("consistency", worst("consistency"), "<= 1e-6", worst("consistency") <= 1e-6,
          "relative (plant vs controller accelerations)"),
-        ("steps", float(len(plan.steps)), ">= 10", len(plan.steps) >= 10, ""),
     ]  # fmt: skip
     checks = {"completed": {"value": status, "limit": "completed", "ok": status == "completed",
                             "unit": message}}  # fmt: skip
