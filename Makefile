@@ -20,7 +20,8 @@ demo: $(STAMP)
 	$(PY) -m humanoid info results/adult_female.urdf | tee results/adult_female.txt
 	$(PY) -m humanoid simulate models/scenes/push.toml -o results/push.npz
 	$(PY) -m humanoid view results/push.npz --html results/push.html
-	@echo "demo: results written to results/ (open results/push.html in a browser)"
+	$(PY) -m humanoid walk -o results/walk.npz --html results/walk.html --figure results/walk.png
+	@echo "demo: results in results/: walk.npz, walk.png, walk.html (open it in a browser)"
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q
