@@ -42,6 +42,7 @@ from .scene import Scene
 __all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
 
 MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
+GIMBAL_TOLERANCE = 1e-3  # |cos(middle angle)| below this: a hinge triplet is at gimbal lock
 GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
 
 
@@ -250,6 +251,8 @@ class Simulation:
         self.tau_last = np.zeros(self.model.nv)
         self._pin_backend = None
         self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
+        self.gimbal = _gimbal_monitor(h)
+        self._locked: set[str] = set()
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
         """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground)."""
@@ -463,6 +466,21 @@ class Simulation:
         Minv = pin.computeMinverse(self.model, self.data, q)
         return q, v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
 
+    def watch_gimbal_lock(self, t: float, q) -> None:
+        """Report hinge triplets (Euler mode) whose middle angle is at +-90 deg (gimbal lock):
+        there the triplet loses a degree of freedom and M becomes singular."""
+        for name, iq in self.gimbal:
+            locked = abs(math.cos(q[iq])) < GIMBAL_TOLERANCE
+            if locked and name not in self._locked:
+                self._locked.add(name)
+                self.events.append(
+                    {"t": t, "contact": "", "event": "gimbal_lock", "joint": name,
+                     "reason": f"middle angle {q[iq]:.6f} rad: the hinge triplet {name} is "
+                     "singular here (use ball_joints='quaternion')"}
+                )  # fmt: skip
+            elif not locked:
+                self._locked.discard(name)
+
     def update_contacts(self, t: float, q, v):
         """Store and check the last forces; release, attach on schedule or at touchdown."""
         sol = self._first[1] if self._first is not None else None
@@ -536,6 +554,8 @@ class Simulation:
                     if scene.stabilisation.projection:
                         x, xd = self.project(x, xd)
                     q, v = x, xd
+                if self.gimbal:
+                    self.watch_gimbal_lock(t, q)
                 v_new = self.update_contacts(t, q, v)
                 if v_new is not v:
                     v = v_new
@@ -615,6 +635,19 @@ class _PinSolution:
 
     def split(self, constraints):
         return split_forces(self.forces, constraints)
+
+
+def _gimbal_monitor(h: Humanoid) -> list[tuple[str, int]]:
+    """(name, q index of the middle hinge) of every hinge triplet of an Euler-mode model."""
+    if h.ball_joints != "euler":
+        return []
+    from .fusion import _ball_name, _find_triplets
+
+    model = h.model
+    return [
+        (_ball_name(model, t), model.joints[t[1]].idx_q)
+        for t in _find_triplets(model, (h.visual_model, h.collision_model))
+    ]
 
 
 def _guard(t, q, v):
