@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models bench clean
+.PHONY: demo test lint format models bench bench-accuracy clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,9 @@ format: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m humanoid bench step
+
+bench-accuracy: $(STAMP)
+	$(PY) -m humanoid bench accuracy -o docs/bench
 
 models: $(STAMP)
 	$(PY) scripts/make_models.py

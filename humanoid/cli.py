@@ -77,8 +77,13 @@ def _parser() -> argparse.ArgumentParser:
         v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
     v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
 
-    bench = sub.add_parser("bench", help="benchmarks: step cost against Pinocchio")
-    bench.add_argument("kind", choices=("step",))
+    x = sub.add_parser("export", help="export a model to another simulator's format")
+    x.add_argument("model", help="a URDF or an example-robot-data name")
+    x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
+    x.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+
+    bench = sub.add_parser("bench", help="benchmarks: step cost, work-precision (accuracy)")
+    bench.add_argument("kind", choices=("step", "accuracy"))
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
     return p
@@ -98,7 +103,17 @@ def main(argv: list[str] | None = None) -> int:
             return _walk(args)
         if args.command == "view":
             return _view(args)
+        if args.command == "export":
+            from .export import write_mjcf
+
+            path = write_mjcf(load_any(args.model, args.ball_joints), args.mjcf)
+            print(f"wrote {path}")
+            return 0
         if args.command == "bench":
+            if args.kind == "accuracy":
+                from .accuracy import run_accuracy_benchmark
+
+                return run_accuracy_benchmark(quick=args.quick, out=args.output)
             from .bench import run_step_benchmark
 
             return run_step_benchmark(quick=args.quick, out=args.output)

@@ -245,6 +245,7 @@ class Simulation:
         self.violations: dict[str, int] = {}
         self.last = None  # the last solve (stage 1 of the last step)
         self._active = None
+        self._tick = 0.0
         self._zero = np.zeros(self.model.nv)
         self._zero.flags.writeable = False
         self._forced = bool(self.effects) or self.controller is not None
@@ -269,9 +270,15 @@ class Simulation:
 
     # -- forces --------------------------------------------------------------------------
     def applied(self, t, q, v) -> np.ndarray:
-        """Generalised force of the effects and the controller, zero on the free flyer."""
+        """Generalised force of the effects and the controller, zero on the free flyer.
+
+        Time-dependent effects (pushes) are sampled at the start of the step, like a
+        controller: a push that ends exactly at a step boundary would otherwise switch off
+        inside the step's last stage, and an adaptive step could never resolve it.
+        """
         if not self._forced:
             return self._zero
+        t = self._tick
         tau = np.zeros(self.model.nv)
         for eff in self.effects:
             tau += eff.force(self.model, self.data, t, q, v)
@@ -405,6 +412,7 @@ class Simulation:
         """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
         self._first = None
         self._frozen = False
+        self._tick = t
         if self.adaptive is not None:
             return self.adaptive.advance(self.space, self._capture, t, q, v, t + dt)
         return self.step_fn(self.space, self._capture, t, q, v, dt)

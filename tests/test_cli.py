@@ -169,3 +169,29 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
             proc.kill()
     ps = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
     assert "humanoid._meshcat_server" not in ps
+
+
+def test_bench_accuracy_quick_measures_the_orders(tmp_path, capsys):
+    """The work-precision sweep (quick): files written, and the errors behave as the schemes
+    say (RK4 shrinks ~16x per halving of dt, the Euler schemes ~2x)."""
+    import csv
+
+    assert main(["bench", "accuracy", "--quick", "-o", str(tmp_path)]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "accuracy.csv")))
+    for scene in ("tumble", "swing", "stance"):
+        assert (tmp_path / f"accuracy_{scene}.png").is_file()
+
+    def error(scene, method, dt):
+        row = next(r for r in rows if (r["scene"], r["method"], r["setting"]) ==
+                   (scene, method, f"dt={dt:g}"))  # fmt: skip
+        return float(row["error"])
+
+    for scene in ("tumble", "swing"):
+        assert error(scene, "rk4", 4e-3) / error(scene, "rk4", 2e-3) > 10
+        ratio = error(scene, "semi_implicit_euler", 4e-3) / error(
+            scene, "semi_implicit_euler", 2e-3
+        )
+        assert 1.6 < ratio < 2.5
+    # both quaternion formulations converge to the same reference
+    assert error("tumble", "rk4, coordinates", 1e-3) < 1e-8
+    assert "reference convergence" in capsys.readouterr().out

@@ -1,0 +1,219 @@
+"""``humanoid bench accuracy``: what accuracy costs in time (work-precision diagrams).
+
+The ODE community's format (DifferentialEquations.jl's WorkPrecisionSet): for each scene, every
+method is swept over its step size (or tolerance); each run gives a point (wall time, error),
+where the error is measured against a reference solution computed with the tightest setting of
+the adaptive integrator, on the manifold (``pin.difference``). Besides the state error, each
+run records the invariant drifts that the scene has: energy and angular momentum (conservative
+scenes), constraint drift (welded stance) and quaternion norm drift (coordinate formulation).
+
+Scenes:
+- ``tumble``: the body spinning in zero gravity, its joints moving (energy and momentum exact);
+- ``swing``: one leg swinging freely from the floating body in zero gravity (a pendulum-like
+  limb motion, energy exact);
+- ``stance``: both feet welded, posture hold, pushed at the thorax (constraint drift).
+
+The error of a run is the largest state difference from the reference over all records (25 Hz),
+on the manifold: max(|pin.difference(q_ref, q)|, |v - v_ref|).
+
+Sweeps: the integrators over dt; the adaptive one over rtol; the Lie-group against the seeds'
+coordinate quaternion formulation; no stabilisation against Baumgarte against projection; and
+the stance without its Coriolis terms (a slow motion), which saves time and costs accuracy.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["run_accuracy_benchmark"]
+
+ROOT = Path(__file__).resolve().parent.parent
+# Records at 25 Hz: a whole number of steps for every swept dt (8 ms ... 0.5 ms) and for the
+# adaptive integrator's 40 ms tick, so that every run is compared at the same instants.
+RECORD_RATE = 25.0
+MALE = str(ROOT / "models" / "adult_male.urdf")
+
+
+@dataclass(frozen=True)
+class Row:
+    scene: str
+    method: str
+    setting: str
+    wall: float  # [s]
+    error: float  # largest state error against the reference over the records
+    energy_drift: float  # relative
+    momentum_drift: float  # relative (angular momentum about the CoM)
+    constraint_drift: float  # [m or rad]
+    quaternion_drift: float  # max | |Q| - 1 |
+
+
+def _scenes(quick: bool) -> dict:
+    from .scene import Contact, Controller, Effects, Initial, PushSpec, Scene, Stabilisation
+
+    T = 0.5 if quick else 2.0
+    rate = RECORD_RATE
+    rng = np.random.default_rng(0)
+    joint_v = tuple(float(x) for x in 0.5 * rng.normal(size=33))
+    swing_v = [0.0] * 33
+    swing_v[0] = 3.0  # left hip flexion component of the hip's angular velocity
+    zero_g = (0.0, 0.0, 0.0)
+    return {
+        "tumble": Scene(
+            name="tumble", body=MALE, duration=T, dt=1e-3, record_rate=rate,
+            effects=Effects(gravity=zero_g),
+            initial=Initial(base_velocity=(0, 0, 0, 0.3, 2.0, 0.5), joint_velocity=joint_v),
+        ),
+        "swing": Scene(
+            name="swing", body=MALE, duration=T, dt=1e-3, record_rate=rate,
+            effects=Effects(gravity=zero_g),
+            initial=Initial(joint_velocity=tuple(swing_v)),
+        ),
+        "stance": Scene(
+            name="stance", body=MALE, duration=T, dt=1e-3, record_rate=rate,
+            effects=Effects(
+                contacts=(Contact("left"), Contact("right")),
+                # a window that is a whole number of every swept step (pushes are sampled per step)
+                pushes=(PushSpec("thorax", (80.0, 20.0, 0.0), 0.0, 0.4 * T),),
+            ),
+            controller=Controller("posture", frequency=8.0),
+            stabilisation=Stabilisation(baumgarte=20.0),
+        ),
+    }  # fmt: skip
+
+
+def _run(scene, h):
+    """(trajectory, wall time) of a scene."""
+    from .simulate import Simulation
+
+    sim = Simulation(scene, humanoid=h)
+    start = time.perf_counter()
+    traj = sim.run(quiet=True)
+    return traj, time.perf_counter() - start
+
+
+def _momentum(h, q, v) -> np.ndarray:
+    data = h.model.createData()
+    return pin.computeCentroidalMomentum(h.model, data, q, v).angular.copy()
+
+
+def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
+    model = h.model
+    q, v = traj.q[-1], traj.v[-1]
+    error = np.inf
+    if traj.status == "completed" and len(traj.t) == len(ref.t):
+        assert np.allclose(traj.t, ref.t), "runs must be recorded at the same instants"
+        error = max(
+            max(
+                np.abs(pin.difference(model, a, b)).max()
+                for a, b in zip(ref.q, traj.q, strict=True)
+            ),
+            float(np.abs(traj.v - ref.v).max()),
+        )
+    e = traj.energy
+    energy = abs(e[-1] - e[0]) / abs(e[0]) if conservative else np.nan
+    L0, L1 = _momentum(h, traj.q[0], traj.v[0]), _momentum(h, q, v)
+    momentum = np.linalg.norm(L1 - L0) / max(np.linalg.norm(L0), 1e-12) if conservative else np.nan
+    quats = [jm.idx_q + (3 if jm.nq == 7 else 0) for jm in model.joints[1:] if jm.nq in (4, 7)]
+    qd = max(abs(np.linalg.norm(traj.q[:, i : i + 4], axis=1) - 1.0).max() for i in quats)
+    drift = float(np.nanmax(traj.residual)) if len(traj.residual) else np.nan
+    return Row(name, method, setting, wall, float(error), float(energy), float(momentum), drift,
+               float(qd))  # fmt: skip
+
+
+def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
+    """Run the sweeps, write accuracy.csv and one work-precision PNG per scene."""
+    from .model import load
+    from .scene import Effects, Stabilisation
+
+    h = load(MALE)
+    dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
+    tols = (1e-3, 1e-5, 1e-7) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+    rows: list[Row] = []
+    convergence = {}
+    for name, scene in _scenes(quick).items():
+        conservative = name in ("tumble", "swing")
+        ref_scene = scene.replace(integrator="adaptive", rtol=1e-12, atol=1e-12, dt=min(dts))
+        ref, _ = _run(ref_scene, h)
+        check, _ = _run(ref_scene.replace(rtol=1e-10, atol=1e-10, dt=2 * min(dts)), h)
+        convergence[name] = float(np.abs(pin.difference(h.model, ref.q[-1], check.q[-1])).max())
+
+        def add(method, setting, sc, name=name, conservative=conservative, ref=ref):
+            traj, wall = _run(sc, h)
+            rows.append(_measure(name, method, setting, traj, wall, ref, h, conservative))
+            print(f"  {name:<7} {method:<28} {setting:<12} {wall:8.3f} s  "
+                  f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
+
+        for integrator in ("euler", "semi_implicit_euler", "rk4"):
+            for dt in dts:
+                add(integrator, f"dt={dt:g}", scene.replace(integrator=integrator, dt=dt))
+        # the adaptive integrator chooses its steps inside each tick (contacts and effects are
+        # updated per tick): long ticks where nothing switches, the reference's with contacts
+        tick = min(dts) if name == "stance" else 0.04
+        for tol in tols:
+            add("adaptive (DP5)", f"rtol={tol:g}",
+                scene.replace(integrator="adaptive", rtol=tol, atol=tol, dt=tick))  # fmt: skip
+        if name == "tumble":
+            for integrator in ("semi_implicit_euler", "rk4"):
+                stab = Stabilisation(quaternions="coordinates")
+                for dt in dts:
+                    variant = scene.replace(integrator=integrator, dt=dt, stabilisation=stab)
+                    add(f"{integrator}, coordinates", f"dt={dt:g}", variant)
+        if name == "stance":
+            for label, stab in (
+                ("no stabilisation", Stabilisation()),
+                ("baumgarte 20 dt", Stabilisation(baumgarte=20.0)),
+                ("projection", Stabilisation(projection=True)),
+            ):
+                for dt in dts:
+                    variant = scene.replace(
+                        integrator="semi_implicit_euler", dt=dt, stabilisation=stab
+                    )
+                    add(f"semi-implicit, {label}", f"dt={dt:g}", variant)
+            no_coriolis = Effects(**(vars(scene.effects) | {"coriolis": False}))
+            for dt in dts:
+                add("rk4, no Coriolis terms", f"dt={dt:g}",
+                    scene.replace(integrator="rk4", dt=dt, effects=no_coriolis))  # fmt: skip
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / "accuracy.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(Row.__dataclass_fields__)
+        for r in rows:
+            w.writerow([getattr(r, f) for f in Row.__dataclass_fields__])
+    for name in convergence:
+        _plot(name, [r for r in rows if r.scene == name], folder / f"accuracy_{name}.png")
+    print("reference convergence (DP5 at 1e-12 vs 1e-10 with twice the tick, final state):",
+          ", ".join(f"{k} {v:.1e}" for k, v in convergence.items()))  # fmt: skip
+    print(f"wrote {folder / 'accuracy.csv'} and accuracy_<scene>.png")
+    return 0
+
+
+def _plot(name: str, rows: list[Row], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    methods = sorted({r.method for r in rows}, key=lambda m: [r.method for r in rows].index(m))
+    second = "constraint_drift" if name == "stance" else "energy_drift"
+    labels = {"error": "state error vs reference", second: second.replace("_", " ")}
+    for ax, key in zip(axes, ("error", second), strict=True):
+        for m in methods:
+            pts = [(r.wall, getattr(r, key)) for r in rows if r.method == m]
+            pts = [(w, e) for w, e in pts if np.isfinite(e) and e > 0]
+            if pts:
+                w, e = zip(*pts, strict=True)
+                ax.loglog(w, e, "o-", label=m, ms=4)
+        ax.set(xlabel="wall time [s]", ylabel=labels[key], title=f"{name}: {labels[key]}")
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(fontsize=7)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)

@@ -1,0 +1,204 @@
+"""Export a loaded humanoid to MuJoCo's MJCF, and map states between the two.
+
+Every Pinocchio joint becomes a MuJoCo joint: the free flyer a ``freejoint``, spherical joints
+``ball`` joints, revolute joints ``hinge`` joints with their axes. MuJoCo refuses moving bodies
+without mass (URDF's massless intermediate links), so a joint whose body is massless is merged
+with its only child into one MuJoCo body with several joints (applied in order, as the hinge
+chain is), keeping every placement and inertia. Inertias are written explicitly (mass, CoM,
+full inertia tensor); geometry is visual only (no collisions, no mass from geometry).
+
+State maps: MuJoCo stores quaternions as (w, x, y, z) and the free joint's linear velocity in
+world axes; Pinocchio stores (x, y, z, w) and the linear velocity in the body frame.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import ModelError
+from .fusion import joint_axis
+
+__all__ = ["mujoco_state", "pinocchio_state", "to_mjcf", "write_mjcf"]
+
+
+def _fmt(x) -> str:
+    return " ".join(f"{float(v):.17g}" for v in np.ravel(x))
+
+
+def _quat_wxyz(R) -> np.ndarray:
+    c = pin.Quaternion(np.asarray(R)).coeffs()  # x y z w
+    return np.array([c[3], c[0], c[1], c[2]])
+
+
+def _massless(inertia) -> bool:
+    return inertia.mass <= 1e-12
+
+
+def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4") -> str:
+    """MJCF text of a Humanoid (see the module docstring).
+
+    Raises:
+        ModelError: a joint type that has no MuJoCo counterpart, or a massless body that cannot
+            be merged (it has several children or a child with an offset).
+    """
+    model = h.model
+    children = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        children[model.parents[j]].append(j)
+    names = {}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY and f.parentJoint not in names:
+            names[f.parentJoint] = f.name
+    geoms = {}
+    for g in h.visual_model.geometryObjects:
+        geoms.setdefault(g.parentJoint, []).append(g)
+
+    def joint_xml(j, placement: pin.SE3) -> str:
+        jm = model.joints[j]
+        kind = jm.shortname()
+        name = quoteattr(model.names[j])
+        if kind == "JointModelFreeFlyer":
+            return f"<freejoint name={name}/>"
+        if kind == "JointModelSpherical":
+            return f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"/>'
+        if jm.nq == 1 and jm.nv == 1:
+            axis = placement.rotation @ joint_axis(jm)
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            return (
+                f'<joint name={name} type="hinge" pos="{_fmt(placement.translation)}" '
+                f'axis="{_fmt(axis)}" range="{lo:.17g} {hi:.17g}" limited="false"/>'
+            )
+        raise ModelError(f"no MuJoCo joint for {kind} ({model.names[j]})")
+
+    def body(j, depth: int) -> list[str]:
+        pad = "  " * depth
+        chain = [j]
+        offsets = [pin.SE3.Identity()]
+        while _massless(model.inertias[chain[-1]]) and len(children[chain[-1]]) == 1:
+            nxt = children[chain[-1]][0]
+            P = model.jointPlacements[nxt]
+            if np.abs(P.translation).max() > 1e-12:
+                raise ModelError(f"cannot merge massless {model.names[chain[-1]]}: offset child")
+            chain.append(nxt)
+            offsets.append(offsets[-1] * P)
+        last = chain[-1]
+        if _massless(model.inertias[last]) and not children[last]:
+            return []  # a massless leaf carries nothing
+        P = model.jointPlacements[j]
+        name = quoteattr(names.get(last, model.names[last]))
+        # the MuJoCo body frame is the last joint's frame at zero angles
+        G = offsets[-1]
+        frame = P * G
+        lines = [f'{pad}<body name={name} pos="{_fmt(frame.translation)}" '
+                 f'quat="{_fmt(_quat_wxyz(frame.rotation))}">']  # fmt: skip
+        for k, jj in enumerate(chain):
+            rel = G.inverse() * offsets[k]  # the joint's frame in the body frame
+            lines.append(pad + "  " + joint_xml(jj, rel))
+        I = model.inertias[last]
+        if I.mass > 0:
+            M = I.inertia
+            full = [M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]]
+            lines.append(f'{pad}  <inertial pos="{_fmt(I.lever)}" mass="{I.mass:.17g}" '
+                         f'fullinertia="{_fmt(full)}"/>')  # fmt: skip
+        for g in geoms.get(last, []):
+            lines += [pad + "  " + x for x in _geom_xml(g)]
+        for child in children[last]:
+            lines += body(child, depth + 1)
+        lines.append(f"{pad}</body>")
+        return lines
+
+    if model.joints[1].shortname() != "JointModelFreeFlyer":
+        raise ModelError("MJCF export expects a free-flyer root")
+    g = model.gravity.linear
+    lines = [
+        f"<mujoco model={quoteattr(model.name or 'humanoid')}>",
+        '  <compiler angle="radian" inertiafromgeom="false" autolimits="false"/>',
+        f'  <option timestep="{timestep:g}" integrator="{integrator}" gravity="{_fmt(g)}"/>',
+        '  <default><geom contype="0" conaffinity="0" rgba="0.7 0.7 0.8 1"/></default>',
+        "  <worldbody>",
+        *body(1, 2),
+        "  </worldbody>",
+        "</mujoco>",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _geom_xml(g) -> list[str]:
+    shape = g.geometry
+    kind = type(shape).__name__
+    pos = _fmt(g.placement.translation)
+    quat = _fmt(_quat_wxyz(g.placement.rotation))
+    if kind == "Box":
+        size = _fmt(np.asarray(shape.halfSide))
+        return [f'<geom type="box" size="{size}" pos="{pos}" quat="{quat}"/>']
+    if kind == "Sphere":
+        return [f'<geom type="sphere" size="{shape.radius:.17g}" pos="{pos}" quat="{quat}"/>']
+    if kind == "Cylinder":
+        return [f'<geom type="cylinder" size="{shape.radius:.17g} {shape.halfLength:.17g}" '
+                f'pos="{pos}" quat="{quat}"/>']  # fmt: skip
+    return []  # meshes are left out: MuJoCo only needs them for looks here
+
+
+def write_mjcf(h, path) -> Path:
+    """Write :func:`to_mjcf` to a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(to_mjcf(h), encoding="utf-8")
+    return path
+
+
+def _layout(h, mj_model):
+    """For every Pinocchio joint: (pin idx_q, idx_v, MuJoCo qposadr, dofadr, kind)."""
+    import mujoco
+
+    model = h.model
+    out = []
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        mid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])
+        if mid < 0:
+            raise ModelError(f"joint {model.names[j]} is not in the MuJoCo model")
+        out.append((jm.idx_q, jm.idx_v, mj_model.jnt_qposadr[mid], mj_model.jnt_dofadr[mid],
+                    jm.shortname()))  # fmt: skip
+    return out
+
+
+def mujoco_state(h, mj_model, q, v):
+    """(qpos, qvel) of MuJoCo for a Pinocchio state (q, v)."""
+    qpos, qvel = np.zeros(mj_model.nq), np.zeros(mj_model.nv)
+    for iq, iv, aq, av, kind in _layout(h, mj_model):
+        if kind == "JointModelFreeFlyer":
+            R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
+            qpos[aq : aq + 3] = q[iq : iq + 3]
+            qpos[aq + 3 : aq + 7] = np.roll(q[iq + 3 : iq + 7], 1)
+            qvel[av : av + 3] = R @ v[iv : iv + 3]
+            qvel[av + 3 : av + 6] = v[iv + 3 : iv + 6]
+        elif kind == "JointModelSpherical":
+            qpos[aq : aq + 4] = np.roll(q[iq : iq + 4], 1)
+            qvel[av : av + 3] = v[iv : iv + 3]
+        else:
+            qpos[aq], qvel[av] = q[iq], v[iv]
+    return qpos, qvel
+
+
+def pinocchio_state(h, mj_model, qpos, qvel):
+    """(q, v) of Pinocchio for a MuJoCo state."""
+    model = h.model
+    q, v = np.zeros(model.nq), np.zeros(model.nv)
+    for iq, iv, aq, av, kind in _layout(h, mj_model):
+        if kind == "JointModelFreeFlyer":
+            q[iq : iq + 3] = qpos[aq : aq + 3]
+            q[iq + 3 : iq + 7] = np.roll(qpos[aq + 3 : aq + 7], -1)
+            R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
+            v[iv : iv + 3] = R.T @ qvel[av : av + 3]
+            v[iv + 3 : iv + 6] = qvel[av + 3 : av + 6]
+        elif kind == "JointModelSpherical":
+            q[iq : iq + 4] = np.roll(qpos[aq : aq + 4], -1)
+            v[iv : iv + 3] = qvel[av : av + 3]
+        else:
+            q[iq], v[iv] = qpos[aq], qvel[av]
+    return q, v
