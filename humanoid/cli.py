@@ -223,18 +223,18 @@ def _view(args) -> int:
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGTERM, stop)
-    with LiveViewer() as live:
-        view = SceneView(live.vis, h, overlays)
-        if traj is not None:
-            view.animate(traj, speed=args.speed, fps=args.fps)
-        else:
-            view.show(h.standing_configuration())
-        print(f"viewer at {live.url} (127.0.0.1 only); Ctrl-C to stop", flush=True)
-        try:
+    try:
+        with LiveViewer() as live:
+            view = SceneView(live.vis, h, overlays)
+            if traj is not None:
+                view.animate(traj, speed=args.speed, fps=args.fps)
+            else:
+                view.show(h.standing_configuration())
+            print(f"viewer at {live.url} (127.0.0.1 only); Ctrl-C to stop", flush=True)
             while live.proc.poll() is None:
                 time.sleep(0.5)
-        except KeyboardInterrupt:
-            print("stopped")
+    except KeyboardInterrupt:  # the server is stopped by LiveViewer's exit
+        print("stopped")
     return 0
 
 
