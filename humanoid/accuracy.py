@@ -121,6 +121,8 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
     momentum = np.linalg.norm(L1 - L0) / max(np.linalg.norm(L0), 1e-12) if conservative else np.nan
     quats = [jm.idx_q + (3 if jm.nq == 7 else 0) for jm in model.joints[1:] if jm.nq in (4, 7)]
     qd = max(abs(np.linalg.norm(traj.q[:, i : i + 4], axis=1) - 1.0).max() for i in quats)
+    # the coordinate formulation records normalised quaternions; its raw drift is kept apart
+    qd = max(qd, traj.metadata.get("quaternion_drift", 0.0))
     drift = float(np.nanmax(traj.residual)) if len(traj.residual) else np.nan
     return Row(name, method, setting, wall, float(error), float(energy), float(momentum), drift,
                float(qd))  # fmt: skip
@@ -192,6 +194,15 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
     print("reference convergence (DP5 at 1e-12 vs 1e-10 with twice the tick, final state):",
           ", ".join(f"{k} {v:.1e}" for k, v in convergence.items()))  # fmt: skip
     print(f"wrote {folder / 'accuracy.csv'} and accuracy_<scene>.png")
+    try:
+        import mujoco  # noqa: F401 - an optional extra
+    except ImportError:
+        print("MuJoCo is not installed (pip install humanoid[mujoco]): no peer comparison")
+        return 0
+    from .peers import run_peer_comparison
+
+    print("\nagainst MuJoCo, in the same run:")
+    run_peer_comparison(quick=quick, out=folder)
     return 0
 
 

@@ -131,6 +131,12 @@ class Push(Effect):
         return J[:3].T @ self.f
 
 
+# Relative cut-off of the pseudo-inverse of the constrained joint-space inverse inertia: the
+# directions the contacts block (near-zero eigenvalues) get no gain. With exact (rigid) welds
+# they cannot move anyway; with compliant ones (MuJoCo's) huge gains there would explode.
+PINV_RCOND = 1e-9
+
+
 class PostureController(Effect):
     """PD hold of a posture on the joints: tau = tau_ff + Kp (q_ref - q) - Kd v.
 
@@ -172,7 +178,7 @@ class PostureController(Effect):
                 AJt = A @ J.T
                 A = A - AJt @ np.linalg.pinv(J @ AJt, rcond=1e-10) @ AJt.T
             sel = np.ix_(self.joints, self.joints)
-            L = np.linalg.pinv(A[sel], rcond=1e-9, hermitian=True)
+            L = np.linalg.pinv(A[sel], rcond=PINV_RCOND, hermitian=True)
             w = 2.0 * np.pi * frequency
             self.kp, self.kd = w**2 * L, 2.0 * damping_ratio * w * L
         else:

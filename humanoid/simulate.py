@@ -543,6 +543,7 @@ class Simulation:
         start = time.perf_counter()
         progress = _Progress(n_steps, quiet)
         worst_residual = 0.0
+        norm_drift = 0.0  # largest | |Q|^2 - 1 | of the coordinate formulation's raw state
         k = 0
         try:
             for k in range(n_steps):
@@ -553,6 +554,7 @@ class Simulation:
                 t = (k + 1) * dt
                 x, xd = x_new, xd_new
                 if self.coordinates:
+                    norm_drift = max(norm_drift, float(np.abs(self.norm.residual(x)).max()))
                     if scene.stabilisation.projection:
                         x = self.cmap.configuration(x)
                         q, v = self.project(x, self.cmap.H(x) @ xd)
@@ -603,6 +605,7 @@ class Simulation:
             "steps": k + 1 if status == "completed" else k,
             "wall_time": wall,
             "max_residual": worst_residual,
+            "quaternion_drift": norm_drift,
         }
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)

@@ -171,12 +171,26 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
     assert "humanoid._meshcat_server" not in ps
 
 
-def test_bench_accuracy_quick_measures_the_orders(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def accuracy_run(tmp_path_factory):
+    """One quick `bench accuracy` run shared by the tests below (about 10 s)."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("bench")
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        code = main(["bench", "accuracy", "--quick", "-o", str(out)])
+    return code, out, text.getvalue()
+
+
+def test_bench_accuracy_quick_measures_the_orders(accuracy_run):
     """The work-precision sweep (quick): files written, and the errors behave as the schemes
     say (RK4 shrinks ~16x per halving of dt, the Euler schemes ~2x)."""
     import csv
 
-    assert main(["bench", "accuracy", "--quick", "-o", str(tmp_path)]) == 0
+    code, tmp_path, text = accuracy_run
+    assert code == 0
     rows = list(csv.DictReader(open(tmp_path / "accuracy.csv")))
     for scene in ("tumble", "swing", "stance"):
         assert (tmp_path / f"accuracy_{scene}.png").is_file()
@@ -194,4 +208,22 @@ def test_bench_accuracy_quick_measures_the_orders(tmp_path, capsys):
         assert 1.6 < ratio < 2.5
     # both quaternion formulations converge to the same reference
     assert error("tumble", "rk4, coordinates", 1e-3) < 1e-8
-    assert "reference convergence" in capsys.readouterr().out
+    assert "reference convergence" in text
+
+
+def test_peer_comparison_runs_the_same_tumble_in_mujoco(accuracy_run):
+    """Written by `bench accuracy` when MuJoCo is installed (it is, in the test extras)."""
+    import csv
+
+    pytest.importorskip("mujoco")
+    code, tmp_path, text = accuracy_run
+    rows = list(csv.DictReader(open(tmp_path / "peers.csv")))
+    mujoco_rk4 = [
+        float(r["error"]) for r in rows if r["engine"] == "mujoco" and r["method"] == "RK4"
+    ]
+    ours_rk4 = [float(r["error"]) for r in rows
+                if r["engine"] == "humanoid" and r["method"] == "rk4"]  # fmt: skip
+    assert len(mujoco_rk4) == len(ours_rk4) == 3
+    # same body, same motion: both RK4s conserve energy ever better as the step shrinks
+    assert mujoco_rk4[0] > mujoco_rk4[-1] and ours_rk4[0] > ours_rk4[-1]
+    assert "time to reach the target accuracy" in text
