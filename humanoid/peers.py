@@ -5,9 +5,9 @@ Two measures, each at several step sizes, for both engines, in the same run:
 - free tumble (zero gravity, spinning, joints moving): relative energy drift after T seconds;
 - welded stance (both feet welded, gravity, the standing scene's posture controller): the
   largest weld drift over T seconds, for the project's stabilisations. The MuJoCo side of this
-  scene is not in yet: in the exported model with two MJCF weld equalities the feet separated
-  from their anchors by 0.4 m within 0.2 s, even without control, which needs understanding
-  before any comparison.
+  scene is not in yet (see the README): its soft welds drift by centimetres within a second
+  without control, and the posture controller's gains, computed for rigid welds, make them
+  explode; a fair comparison needs a controller valid for both contact models.
 
 MuJoCo runs the exported model (:mod:`humanoid.export`). Reported: for each method, the
 smallest wall time that reaches a target accuracy (energy drift 1e-6 over the tumble; weld
