@@ -9,9 +9,13 @@ Two measures, each at several step sizes, for both engines, in the same run:
   without control, and the posture controller's gains, computed for rigid welds, make them
   explode; a fair comparison needs a controller valid for both contact models.
 
+- passive collapse on welded feet (gravity, no control, 1 s; the same scene in both engines):
+  the largest foot drift from the weld anchors, for MuJoCo's weld equalities (default solref
+  and solref = 2 dt) and for our rigid welds (Baumgarte, projection).
+
 MuJoCo runs the exported model (:mod:`humanoid.export`). Reported: for each method, the
 smallest wall time that reaches a target accuracy (energy drift 1e-6 over the tumble; weld
-drift 1e-6 m over the stance).
+drift 1e-6 m over the stance and the collapse).
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ __all__ = ["run_peer_comparison"]
 
 ROOT = Path(__file__).resolve().parent.parent
 MALE = str(ROOT / "models" / "adult_male.urdf")
-TARGETS = {"tumble": 1e-6, "stance": 1e-6}
+TARGETS = {"tumble": 1e-6, "stance": 1e-6, "collapse": 1e-6}
 STANCE_HZ = 8.0  # the posture controller of the shipped standing scene
 
 
@@ -99,6 +103,69 @@ def _ours_tumble(h, integrator, dt, T):
     return wall, abs(traj.energy[-1] - traj.energy[0]) / abs(traj.energy[0])
 
 
+def _welds_xml(h, q, solref: str) -> tuple[str, list[int], list[np.ndarray]]:
+    """MJCF weld equalities of both feet at their placement in q (and their joints, anchors)."""
+    import pinocchio as pin
+
+    data = h.model.createData()
+    pin.forwardKinematics(h.model, data, q)
+    lines, joints, anchors = ["<equality>"], [], []
+    for side, sole in zip(("left", "right"), h.feet, strict=True):
+        joint = h.model.frames[h.model.getFrameId(sole)].parentJoint
+        body = next(f.name for f in h.model.frames
+                    if f.parentJoint == joint and f.type == pin.FrameType.BODY)  # fmt: skip
+        M = data.oMi[joint].inverse()  # the world's pose in the foot body's frame
+        c = pin.Quaternion(M.rotation).coeffs()
+        rel = " ".join(f"{x:.17g}" for x in (*M.translation, c[3], c[0], c[1], c[2]))
+        lines.append(f'  <weld name="{side}" body1="{body}" solref="{solref}" relpose="{rel}"/>')
+        joints.append(joint)
+        anchors.append(data.oMi[joint].translation.copy())
+    lines.append("</equality>")
+    return "\n".join(lines), joints, anchors
+
+
+def _mujoco_collapse(h, integrator, dt, T, solref):
+    """The passive collapse on welded feet in MuJoCo: the largest foot drift [m]."""
+    import mujoco
+    import pinocchio as pin
+
+    from .export import mujoco_state, pinocchio_state
+
+    q0 = h.standing_configuration()
+    welds, joints, anchors = _welds_xml(h, q0, solref)
+    m = _mujoco_model(h, welds, integrator=integrator, dt=dt)
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = mujoco_state(h, m, q0, np.zeros(h.nv))
+    data = h.model.createData()
+    worst, wall = 0.0, 0.0
+    for _ in range(int(round(T / dt))):
+        start = time.perf_counter()
+        mujoco.mj_step(m, d)
+        wall += time.perf_counter() - start  # the drift bookkeeping below is not timed
+        pin.forwardKinematics(h.model, data, pinocchio_state(h, m, d.qpos, d.qvel)[0])
+        worst = max(worst, max(np.linalg.norm(data.oMi[j].translation - a)
+                               for j, a in zip(joints, anchors, strict=True)))  # fmt: skip
+    if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+        return wall, float("inf")
+    return wall, worst
+
+
+def _ours_collapse(h, dt, T, stabilisation):
+    from .scene import Contact, Effects, Scene
+    from .simulate import Simulation
+
+    scene = Scene(
+        body=MALE, duration=T, dt=dt, integrator="semi_implicit_euler", record_rate=1.0 / dt,
+        effects=Effects(contacts=(Contact("left"), Contact("right"))), stabilisation=stabilisation,
+    )  # fmt: skip
+    start = time.perf_counter()
+    traj = Simulation(scene, humanoid=h).run(quiet=True)
+    wall = time.perf_counter() - start
+    if traj.status != "completed":
+        return wall, float("inf")
+    return wall, float(np.nanmax(traj.residual))
+
+
 def _ours_stance(h, integrator, dt, T, stabilisation):
     from .scene import Contact, Controller, Effects, Scene
     from .simulate import Simulation
@@ -145,15 +212,27 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench") 
                              Stabilisation(baumgarte=20.0, backend="pinocchio"))):  # fmt: skip
             add("stance", "humanoid", f"semi-implicit, {label}", dt,
                 _ours_stance(h, "semi_implicit_euler", dt, T, stab))  # fmt: skip
+    T_collapse = 0.5 if quick else 1.0
+    for dt in dts:
+        for integrator in ("Euler", "implicitfast"):
+            for solref in ("0.02 1", f"{2 * dt:g} 1"):
+                add("collapse", "mujoco", f"{integrator}, weld solref {solref.split()[0]}", dt,
+                    _mujoco_collapse(h, integrator, dt, T_collapse, solref))  # fmt: skip
+        for label, stab in (("baumgarte 20 dt", Stabilisation(baumgarte=20.0)),
+                            ("projection", Stabilisation(projection=True))):  # fmt: skip
+            add("collapse", "humanoid", f"semi-implicit, {label}", dt,
+                _ours_collapse(h, dt, T_collapse, stab))  # fmt: skip
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     with open(folder / "peers.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"\ntime to reach the target accuracy over {T:g} s (fastest run that reaches it):")
+    print("\ntime to reach the target accuracy (fastest run that reaches it):")
     for scene, target in TARGETS.items():
         unit = "relative energy drift" if scene == "tumble" else "m weld drift"
+        span = f"{T_collapse:g} s" if scene == "collapse" else f"{T:g} s"
+        unit += f" over {span}"
         print(f"  {scene} (target {target:g} {unit}):")
         for key in sorted({(r["engine"], r["method"]) for r in rows if r["scene"] == scene}):
             ok = [r for r in rows if r["scene"] == scene and (r["engine"], r["method"]) == key
