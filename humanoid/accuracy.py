@@ -5,7 +5,8 @@ method is swept over its step size (or tolerance); each run gives a point (wall 
 where the error is measured against a reference solution computed with the tightest setting of
 the adaptive integrator, on the manifold (``pin.difference``). Besides the state error, each
 run records the invariant drifts that the scene has: energy and angular momentum (conservative
-scenes), constraint drift (welded stance) and quaternion norm drift (coordinate formulation).
+scenes), constraint drift in position and velocity (|e| and |J v|, welded stance and walk) and
+quaternion norm drift (coordinate formulation).
 
 Scenes:
 - ``tumble``: the body spinning in zero gravity, its joints moving (energy and momentum exact);
@@ -52,6 +53,7 @@ class Row:
     energy_drift: float  # relative
     momentum_drift: float  # relative (angular momentum about the CoM)
     constraint_drift: float  # [m or rad]
+    velocity_drift: float  # largest |J v| of the constraints [m/s or rad/s]
     quaternion_drift: float  # max | |Q| - 1 |
 
 
@@ -126,8 +128,9 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
     # the coordinate formulation records normalised quaternions; its raw drift is kept apart
     qd = max(qd, traj.metadata.get("quaternion_drift", 0.0))
     drift = float(np.nanmax(traj.residual)) if len(traj.residual) else np.nan
+    vdrift = float(traj.metadata.get("max_velocity_residual", np.nan))
     return Row(name, method, setting, wall, float(error), float(energy), float(momentum), drift,
-               float(qd))  # fmt: skip
+               vdrift, float(qd))  # fmt: skip
 
 
 def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
@@ -238,8 +241,9 @@ def _walking_rows(h, quick: bool) -> list[Row]:
                     for a, b in zip(rt.q, traj.q, strict=True)
                 )
             drift = float(np.nanmax(result.series["drift"], initial=0.0))
+            vdrift = float(traj.metadata.get("max_velocity_residual", np.nan))
             rows.append(Row("walk", integrator, f"dt={dt:g}", wall, float(error), np.nan, np.nan,
-                            drift, 0.0))  # fmt: skip
+                            drift, vdrift, 0.0))  # fmt: skip
             print(f"  walk    {integrator:<28} dt={dt:<9g} {wall:8.3f} s  error {error:.2e}",
                   flush=True)  # fmt: skip
     return rows

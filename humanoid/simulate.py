@@ -605,6 +605,7 @@ class Simulation:
             "steps": k + 1 if status == "completed" else k,
             "wall_time": wall,
             "max_residual": worst_residual,
+            "max_velocity_residual": rec.velocity_residual,
             "quaternion_drift": norm_drift,
         }
         if self.adaptive is not None:
@@ -702,6 +703,7 @@ class _Recorder:
 
     def __init__(self, n: int, model, contacts) -> None:
         self.n = 0
+        self.velocity_residual = 0.0  # largest |J v| of the active constraints at the records
         self.t = np.zeros(n)
         self.q = np.zeros((n, model.nq))
         self.v = np.zeros((n, model.nv))
@@ -738,6 +740,8 @@ class _Recorder:
                         c.store(model, data, np.concatenate([split[k.name] for k in c.constraints]))
             e = np.concatenate([c.residual(model, data) for c in constraints])
             self.residual[i] = np.abs(e).max()
+            Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])
+            self.velocity_residual = max(self.velocity_residual, float(np.abs(Jv).max()))
         for c in sim.contacts:
             if c.attached:
                 self.forces[c.side][i] = c.wrench

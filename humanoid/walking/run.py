@@ -212,6 +212,7 @@ def walk(
         "dt": dt, "record_rate": record_rate, "scene": scene.to_dict(), "events": sim.events,
         "violations": sim.violations, "counters": sim.counters, "steps": n, "wall_time": wall,
         "max_residual": float(np.nanmax(series["drift"], initial=0.0)),
+        "max_velocity_residual": rec.velocity_residual,
         "gait": {f: getattr(gait, f) for f in gait.__dataclass_fields__},
         "footsteps": [[s.side, *s.target.tolist(), s.t_lift, s.t_land] for s in plan.steps],
         "initial_soles": {s: soles[s].tolist() for s in SIDES},
