@@ -150,30 +150,15 @@ def _mujoco_collapse(h, integrator, dt, T, solref):
     return wall, worst
 
 
-def _ours_collapse(h, dt, T, stabilisation):
-    from .scene import Contact, Effects, Scene
-    from .simulate import Simulation
-
-    scene = Scene(
-        body=MALE, duration=T, dt=dt, integrator="semi_implicit_euler", record_rate=1.0 / dt,
-        effects=Effects(contacts=(Contact("left"), Contact("right"))), stabilisation=stabilisation,
-    )  # fmt: skip
-    start = time.perf_counter()
-    traj = Simulation(scene, humanoid=h).run(quiet=True)
-    wall = time.perf_counter() - start
-    if traj.status != "completed":
-        return wall, float("inf")
-    return wall, float(np.nanmax(traj.residual))
-
-
-def _ours_stance(h, integrator, dt, T, stabilisation):
+def _ours_welded(h, T, dt, integrator, stabilisation, controller=None, record_rate=None):
+    """Our run on both feet welded: (wall time, largest weld residual) or inf if it failed."""
     from .scene import Contact, Controller, Effects, Scene
     from .simulate import Simulation
 
     scene = Scene(
-        body=MALE, duration=T, dt=dt, integrator=integrator, record_rate=50.0,
+        body=MALE, duration=T, dt=dt, integrator=integrator, record_rate=record_rate or 1.0 / dt,
         effects=Effects(contacts=(Contact("left"), Contact("right"))),
-        controller=Controller("posture", frequency=STANCE_HZ), stabilisation=stabilisation,
+        controller=controller or Controller(), stabilisation=stabilisation,
     )  # fmt: skip
     start = time.perf_counter()
     traj = Simulation(scene, humanoid=h).run(quiet=True)
@@ -186,7 +171,7 @@ def _ours_stance(h, integrator, dt, T, stabilisation):
 def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench") -> list[dict]:
     """Run both scenes in both engines; print and write peers.csv."""
     from .model import load
-    from .scene import Stabilisation
+    from .scene import Controller, Stabilisation
 
     h = load(MALE)
     T = 2.0 if quick else 10.0
@@ -211,7 +196,8 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench") 
                             ("baumgarte, pin backend",
                              Stabilisation(baumgarte=20.0, backend="pinocchio"))):  # fmt: skip
             add("stance", "humanoid", f"semi-implicit, {label}", dt,
-                _ours_stance(h, "semi_implicit_euler", dt, T, stab))  # fmt: skip
+                _ours_welded(h, T, dt, "semi_implicit_euler", stab,
+                             Controller("posture", frequency=STANCE_HZ), 50.0))  # fmt: skip
     T_collapse = 0.5 if quick else 1.0
     for dt in dts:
         for integrator in ("Euler", "implicitfast"):
@@ -221,7 +207,7 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench") 
         for label, stab in (("baumgarte 20 dt", Stabilisation(baumgarte=20.0)),
                             ("projection", Stabilisation(projection=True))):  # fmt: skip
             add("collapse", "humanoid", f"semi-implicit, {label}", dt,
-                _ours_collapse(h, dt, T_collapse, stab))  # fmt: skip
+                _ours_welded(h, T_collapse, dt, "semi_implicit_euler", stab))  # fmt: skip
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     with open(folder / "peers.csv", "w", newline="") as fh:

@@ -82,3 +82,22 @@ def no_viewer_process_outlives_the_tests():
             return
         time.sleep(0.1)
     raise AssertionError(f"viewer processes left after the tests: {left}")
+
+
+def landing_run(duration: float):
+    """The male body dropped from 5 cm onto unilateral welds, holding its posture: the feet
+    move, land (touchdown impulses), then carry the body. Shared by the viewer tests."""
+    from humanoid.scene import Contact, Controller, Effects, Initial, Scene
+
+    q0 = get_model("male", "quaternion").standing_configuration()
+    q0[2] += 0.05
+    feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
+    scene = Scene(
+        body=str(MODELS / "adult_male.urdf"),
+        duration=duration,
+        dt=1e-3,
+        initial=Initial(configuration=tuple(q0)),
+        effects=Effects(contacts=feet),
+        controller=Controller("posture", frequency=8.0),
+    )
+    return hm.simulate(scene, quiet=True)

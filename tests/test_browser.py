@@ -14,10 +14,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 import pytest
-from conftest import MODELS, get_model
-
-import humanoid as hm
-from humanoid.scene import Contact, Controller, Effects, Initial, Scene
+from conftest import get_model, landing_run
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 FLAGS = [
@@ -63,18 +60,7 @@ def browser(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def landing():
-    q0 = get_model("male", "quaternion").standing_configuration()
-    q0[2] += 0.05
-    feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
-    scene = Scene(
-        body=str(MODELS / "adult_male.urdf"),
-        duration=0.6,
-        dt=1e-3,
-        initial=Initial(configuration=tuple(q0)),
-        effects=Effects(contacts=feet),
-        controller=Controller("posture", frequency=8.0),
-    )
-    return hm.simulate(scene, quiet=True)
+    return landing_run(0.6)
 
 
 class Page:

@@ -11,10 +11,10 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS, get_model
+from conftest import get_model, landing_run
 
 import humanoid as hm
-from humanoid.scene import Contact, Effects, Initial, Scene
+from humanoid.scene import Scene
 
 viewer = pytest.importorskip("humanoid.viewer")
 meshcat = pytest.importorskip("meshcat")
@@ -33,19 +33,7 @@ def _paths(rec, kind):
 
 @pytest.fixture(scope="module")
 def landing():
-    """Dropped from 5 cm onto unilateral welds: the feet move, land, then carry the body."""
-    q0 = get_model("male", "quaternion").standing_configuration()
-    q0[2] += 0.05
-    feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
-    scene = Scene(
-        body=str(MODELS / "adult_male.urdf"),
-        duration=0.5,
-        dt=1e-3,
-        initial=Initial(configuration=tuple(q0)),
-        effects=Effects(contacts=feet),
-        controller=hm.scene.Controller("posture", frequency=8.0),
-    )
-    return hm.simulate(scene, quiet=True)
+    return landing_run(0.5)
 
 
 def test_scene_has_every_visual_geometry_and_the_overlays():
