@@ -1,7 +1,8 @@
 """Whole-body walking controller: a task-space inverse-dynamics QP that outputs joint torques.
 
 Variables: the generalised acceleration dv (nv) and three force components at each of the four
-sole corners of every stance foot. Solved with ProxQP through qpsolvers at every control tick:
+sole corners of every stance foot. Solved with ProxQP (proxsuite's dense solver, kept between
+ticks and warm-started; qpsolvers' one-shot interface could not) at every control tick:
 
 - equalities: the six floating-base rows of M dv + h = J_c^T f (the base is not actuated), and
   for each stance foot the same acceleration constraint the simulator enforces on its weld,
