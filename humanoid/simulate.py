@@ -11,11 +11,8 @@ arrays, so memory is fixed by the duration and a run does not slow down as it go
 
 from __future__ import annotations
 
-import json
 import math
-import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +20,10 @@ import pinocchio as pin
 
 from .anthropometry import BodyParameters
 from .body import build_urdf
-from .constraints import Baumgarte, PointContact, Weld, solve_kkt, update_kinematics
+from .constraints import Baumgarte, Weld, solve_kkt, update_kinematics
 from .constraints.quaternion import CoordinateMap, QuaternionNorm
 from .constraints.solve import split_forces, stack
+from .contacts import ContactState
 from .effects import (
     JointDamping,
     JointLimits,
@@ -34,159 +32,18 @@ from .effects import (
     Push,
     joint_mask,
 )
-from .errors import DivergenceError, HumanoidError, ModelError, SceneError
+from .errors import DivergenceError, ModelError, SceneError
 from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
 from .model import Humanoid, load
 from .scene import Scene
+from .trajectory import Trajectory, _Progress, _Recorder
 
 __all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
+
 
 MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
 GIMBAL_TOLERANCE = 1e-3  # |cos(middle angle)| below this: a hinge triplet is at gimbal lock
 GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
-
-
-@dataclass(frozen=True)
-class Trajectory:
-    """A recorded run.
-
-    Attributes:
-        t: Record times [s], shape (N,).
-        q: Configurations, (N, nq). v: velocities, (N, nv). tau: applied joint torques, (N, nv).
-        forces: Contact forces by name, world axes: per foot a wrench (fx, fy, fz, tx, ty, tz)
-            about the sole frame origin; per point contact a force (fx, fy, fz); NaN while the
-            contact is released.
-        energy: Kinetic + potential energy [J], (N,).
-        residual: Largest constraint position residual [m or rad] at each record, (N,).
-        metadata: Model, joint and contact names, dt, scene, events, statistics, status.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    v: np.ndarray
-    tau: np.ndarray
-    forces: dict[str, np.ndarray]
-    energy: np.ndarray
-    residual: np.ndarray
-    metadata: dict = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        for a in (
-            self.t,
-            self.q,
-            self.v,
-            self.tau,
-            self.energy,
-            self.residual,
-            *self.forces.values(),
-        ):
-            a.flags.writeable = False
-
-    @property
-    def status(self) -> str:
-        return self.metadata.get("status", "completed")
-
-    def save(self, path: str | Path) -> Path:
-        """Write an .npz file (arrays, and the metadata as JSON)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        arrays = {"t": self.t, "q": self.q, "v": self.v, "tau": self.tau}
-        arrays |= {"energy": self.energy, "residual": self.residual}
-        arrays |= {f"force/{k}": a for k, a in self.forces.items()}
-        np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
-        return path
-
-    @classmethod
-    def load(cls, path: str | Path) -> Trajectory:
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                forces = {k[6:]: z[k] for k in z.files if k.startswith("force/")}
-                return cls(
-                    z["t"], z["q"], z["v"], z["tau"], forces, z["energy"], z["residual"],
-                    json.loads(str(z["metadata"])),
-                )  # fmt: skip
-        except (OSError, KeyError, ValueError) as exc:
-            raise HumanoidError(f"cannot read trajectory {path}: {exc}") from None
-
-
-class ContactState:
-    """One foot's contact: its constraints, whether it is attached, and its last forces."""
-
-    def __init__(self, h: Humanoid, spec, data: pin.Data) -> None:
-        self.spec = spec
-        self.side = spec.foot
-        self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
-        self.points = [h.frame_id(n) for n in h.contact_points[self.side]]
-        self.attached = False
-        self.ever_attached = False
-        self.constraints = []
-        self.wrench = np.full(6, np.nan)
-        self.point_forces = np.full((4, 3), np.nan)
-        # sole rectangle in the sole frame, for the centre-of-pressure check
-        local = np.array(
-            [(data.oMf[self.sole].actInv(data.oMf[p].translation)) for p in self.points]
-        )
-        self.cop_box = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
-
-    def attach(self, data: pin.Data) -> None:
-        if self.spec.kind == "weld":
-            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])]
-        else:
-            self.constraints = [
-                PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
-                for i, p in enumerate(self.points)
-            ]
-        self.attached = self.ever_attached = True
-
-    def release(self) -> None:
-        self.constraints = []
-        self.attached = False
-        self.wrench[:] = np.nan
-        self.point_forces[:] = np.nan
-
-    def store(self, model, data, forces: np.ndarray) -> None:
-        """World-axes wrench about the sole origin (and point forces) from the solve's lambda."""
-        o = data.oMf[self.sole].translation
-        if self.spec.kind == "weld":
-            self.wrench = self.constraints[0].wrench_world(model, data, forces)
-        else:
-            f = forces.reshape(4, 3)
-            self.point_forces = f
-            arms = np.array([data.oMf[p].translation - o for p in self.points])
-            self.wrench = np.concatenate([f.sum(axis=0), np.cross(arms, f).sum(axis=0)])
-
-    def check(self, data) -> list[str]:
-        """Violations of unilaterality, friction and the centre of pressure."""
-        out = []
-        fz = self.wrench[2]
-        mu = self.spec.mu
-        loads = [self.wrench[:3]] if self.spec.kind == "weld" else list(self.point_forces)
-        if min(f[2] for f in loads) < 0:
-            out.append(f"normal force {min(f[2] for f in loads):.1f} N < 0")
-        for f in loads:
-            if f[2] > 0 and math.hypot(f[0], f[1]) > mu * f[2] * (1 + 1e-9) + 1e-9:
-                out.append(f"friction |f_t| {math.hypot(f[0], f[1]):.1f} N > mu f_n")
-                break
-        if self.spec.kind == "weld" and fz > 1e-9:
-            R = data.oMf[self.sole].rotation
-            local = R.T @ self.wrench[3:]  # torque about the sole origin, sole axes
-            f_local = R.T @ self.wrench[:3]
-            cop = np.array([-local[1], local[0]]) / f_local[2]
-            lo, hi = self.cop_box
-            if np.any(cop < lo - 1e-9) or np.any(cop > hi + 1e-9):
-                out.append(f"centre of pressure {cop.round(3)} outside the sole")
-        return out
-
-    def lowest(self, data) -> float:
-        """Height of the lowest sole point [m]."""
-        return min(data.oMf[p].translation[2] for p in self.points)
-
-    def sinking(self, model, data) -> bool:
-        """Whether a sole point moves down (needs velocities in ``data``)."""
-        return any(
-            pin.getFrameVelocity(model, data, p, pin.LOCAL_WORLD_ALIGNED).linear[2] < 0.0
-            for p in self.points
-        )
 
 
 class Simulation:
@@ -671,96 +528,6 @@ def _guard(t, q, v):
             f"the state is exploding at t = {t:.6f} s (|v| = {speed:.3g} > {MAX_SPEED:g}): "
             "reduce the time step or the gains"
         )
-
-
-class _Progress:
-    """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
-
-    def __init__(self, total: int, quiet: bool) -> None:
-        self.total, self.bar = total, None
-        self.enabled = not quiet and sys.stderr.isatty()
-        self.start = time.perf_counter()
-
-    def update(self, n: int) -> None:
-        if not self.enabled or n % 64:
-            return
-        if self.bar is None:
-            if time.perf_counter() - self.start < 2.0:
-                return
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=self.total, unit="step", file=sys.stderr, initial=n)
-        self.bar.n = n
-        self.bar.refresh()
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-
-class _Recorder:
-    """Preallocated record arrays."""
-
-    def __init__(self, n: int, model, contacts) -> None:
-        self.n = 0
-        self.velocity_residual = 0.0  # largest |J v| of the active constraints at the records
-        self.t = np.zeros(n)
-        self.q = np.zeros((n, model.nq))
-        self.v = np.zeros((n, model.nv))
-        self.tau = np.zeros((n, model.nv))
-        self.energy = np.zeros(n)
-        self.residual = np.zeros(n)
-        self.forces = {}
-        for c in contacts:
-            self.forces[c.side] = np.full((n, 6), np.nan)
-            if c.spec.kind == "points":
-                for name in ("heel_inner", "heel_outer", "toe_inner", "toe_outer"):
-                    self.forces[f"{c.side}_{name}"] = np.full((n, 3), np.nan)
-
-    def add(self, sim: Simulation, t, q, v) -> None:
-        i = self.n
-        if i >= len(self.t):
-            return
-        model, data = sim.model, sim.data
-        self.t[i], self.q[i], self.v[i] = t, q, v
-        first = sim._first
-        if first is not None:
-            self.tau[i] = first[0]
-        self.energy[i] = pin.computeKineticEnergy(model, data, q, v) + pin.computePotentialEnergy(
-            model, data, q
-        )
-        constraints = sim.active_constraints()
-        if constraints:
-            sim._kinematics(q, v)
-            sol = first[1] if first is not None else None
-            if sol is not None:
-                split = sol.split(constraints)
-                for c in sim.contacts:
-                    if c.attached:
-                        c.store(model, data, np.concatenate([split[k.name] for k in c.constraints]))
-            e = np.concatenate([c.residual(model, data) for c in constraints])
-            self.residual[i] = np.abs(e).max()
-            Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])
-            self.velocity_residual = max(self.velocity_residual, float(np.abs(Jv).max()))
-        for c in sim.contacts:
-            if c.attached:
-                self.forces[c.side][i] = c.wrench
-                if c.spec.kind == "points":
-                    for j, name in enumerate(
-                        ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
-                    ):
-                        self.forces[f"{c.side}_{name}"][i] = c.point_forces[j]
-        self.n += 1
-
-    def trajectory(self, meta) -> Trajectory:
-        """The records as a Trajectory: views of the preallocated arrays, no copy (a copy
-        would double the memory of a long run at its very end)."""
-        n = self.n
-        forces = {k: a[:n] for k, a in self.forces.items()}
-        return Trajectory(
-            self.t[:n], self.q[:n], self.v[:n], self.tau[:n], forces, self.energy[:n],
-            self.residual[:n], meta,
-        )  # fmt: skip
 
 
 def load_body(scene: Scene) -> Humanoid:

@@ -1,0 +1,95 @@
+"""A foot's contact during a run: its constraints (a weld or four point contacts), whether it
+is attached, its last forces, and the checks of unilaterality, friction and centre of pressure.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from .constraints import PointContact, Weld
+from .model import Humanoid
+
+__all__ = ["ContactState"]
+
+
+class ContactState:
+    """One foot's contact: its constraints, whether it is attached, and its last forces."""
+
+    def __init__(self, h: Humanoid, spec, data: pin.Data) -> None:
+        self.spec = spec
+        self.side = spec.foot
+        self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
+        self.points = [h.frame_id(n) for n in h.contact_points[self.side]]
+        self.attached = False
+        self.ever_attached = False
+        self.constraints = []
+        self.wrench = np.full(6, np.nan)
+        self.point_forces = np.full((4, 3), np.nan)
+        # sole rectangle in the sole frame, for the centre-of-pressure check
+        local = np.array(
+            [(data.oMf[self.sole].actInv(data.oMf[p].translation)) for p in self.points]
+        )
+        self.cop_box = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
+
+    def attach(self, data: pin.Data) -> None:
+        if self.spec.kind == "weld":
+            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])]
+        else:
+            self.constraints = [
+                PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
+                for i, p in enumerate(self.points)
+            ]
+        self.attached = self.ever_attached = True
+
+    def release(self) -> None:
+        self.constraints = []
+        self.attached = False
+        self.wrench[:] = np.nan
+        self.point_forces[:] = np.nan
+
+    def store(self, model, data, forces: np.ndarray) -> None:
+        """World-axes wrench about the sole origin (and point forces) from the solve's lambda."""
+        o = data.oMf[self.sole].translation
+        if self.spec.kind == "weld":
+            self.wrench = self.constraints[0].wrench_world(model, data, forces)
+        else:
+            f = forces.reshape(4, 3)
+            self.point_forces = f
+            arms = np.array([data.oMf[p].translation - o for p in self.points])
+            self.wrench = np.concatenate([f.sum(axis=0), np.cross(arms, f).sum(axis=0)])
+
+    def check(self, data) -> list[str]:
+        """Violations of unilaterality, friction and the centre of pressure."""
+        out = []
+        fz = self.wrench[2]
+        mu = self.spec.mu
+        loads = [self.wrench[:3]] if self.spec.kind == "weld" else list(self.point_forces)
+        if min(f[2] for f in loads) < 0:
+            out.append(f"normal force {min(f[2] for f in loads):.1f} N < 0")
+        for f in loads:
+            if f[2] > 0 and math.hypot(f[0], f[1]) > mu * f[2] * (1 + 1e-9) + 1e-9:
+                out.append(f"friction |f_t| {math.hypot(f[0], f[1]):.1f} N > mu f_n")
+                break
+        if self.spec.kind == "weld" and fz > 1e-9:
+            R = data.oMf[self.sole].rotation
+            local = R.T @ self.wrench[3:]  # torque about the sole origin, sole axes
+            f_local = R.T @ self.wrench[:3]
+            cop = np.array([-local[1], local[0]]) / f_local[2]
+            lo, hi = self.cop_box
+            if np.any(cop < lo - 1e-9) or np.any(cop > hi + 1e-9):
+                out.append(f"centre of pressure {cop.round(3)} outside the sole")
+        return out
+
+    def lowest(self, data) -> float:
+        """Height of the lowest sole point [m]."""
+        return min(data.oMf[p].translation[2] for p in self.points)
+
+    def sinking(self, model, data) -> bool:
+        """Whether a sole point moves down (needs velocities in ``data``)."""
+        return any(
+            pin.getFrameVelocity(model, data, p, pin.LOCAL_WORLD_ALIGNED).linear[2] < 0.0
+            for p in self.points
+        )

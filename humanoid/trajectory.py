@@ -1,0 +1,171 @@
+"""Recorded runs: :class:`Trajectory` (saved as .npz), the preallocated recorder and the
+progress bar of long runs."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import HumanoidError
+
+__all__ = ["Trajectory"]
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A recorded run.
+
+    Attributes:
+        t: Record times [s], shape (N,).
+        q: Configurations, (N, nq). v: velocities, (N, nv). tau: applied joint torques, (N, nv).
+        forces: Contact forces by name, world axes: per foot a wrench (fx, fy, fz, tx, ty, tz)
+            about the sole frame origin; per point contact a force (fx, fy, fz); NaN while the
+            contact is released.
+        energy: Kinetic + potential energy [J], (N,).
+        residual: Largest constraint position residual [m or rad] at each record, (N,).
+        metadata: Model, joint and contact names, dt, scene, events, statistics, status.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    tau: np.ndarray
+    forces: dict[str, np.ndarray]
+    energy: np.ndarray
+    residual: np.ndarray
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for a in (
+            self.t,
+            self.q,
+            self.v,
+            self.tau,
+            self.energy,
+            self.residual,
+            *self.forces.values(),
+        ):
+            a.flags.writeable = False
+
+    @property
+    def status(self) -> str:
+        return self.metadata.get("status", "completed")
+
+    def save(self, path: str | Path) -> Path:
+        """Write an .npz file (arrays, and the metadata as JSON)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"t": self.t, "q": self.q, "v": self.v, "tau": self.tau}
+        arrays |= {"energy": self.energy, "residual": self.residual}
+        arrays |= {f"force/{k}": a for k, a in self.forces.items()}
+        np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                forces = {k[6:]: z[k] for k in z.files if k.startswith("force/")}
+                return cls(
+                    z["t"], z["q"], z["v"], z["tau"], forces, z["energy"], z["residual"],
+                    json.loads(str(z["metadata"])),
+                )  # fmt: skip
+        except (OSError, KeyError, ValueError) as exc:
+            raise HumanoidError(f"cannot read trajectory {path}: {exc}") from None
+
+
+class _Progress:
+    """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
+
+    def __init__(self, total: int, quiet: bool) -> None:
+        self.total, self.bar = total, None
+        self.enabled = not quiet and sys.stderr.isatty()
+        self.start = time.perf_counter()
+
+    def update(self, n: int) -> None:
+        if not self.enabled or n % 64:
+            return
+        if self.bar is None:
+            if time.perf_counter() - self.start < 2.0:
+                return
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, unit="step", file=sys.stderr, initial=n)
+        self.bar.n = n
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+class _Recorder:
+    """Preallocated record arrays."""
+
+    def __init__(self, n: int, model, contacts) -> None:
+        self.n = 0
+        self.velocity_residual = 0.0  # largest |J v| of the active constraints at the records
+        self.t = np.zeros(n)
+        self.q = np.zeros((n, model.nq))
+        self.v = np.zeros((n, model.nv))
+        self.tau = np.zeros((n, model.nv))
+        self.energy = np.zeros(n)
+        self.residual = np.zeros(n)
+        self.forces = {}
+        for c in contacts:
+            self.forces[c.side] = np.full((n, 6), np.nan)
+            if c.spec.kind == "points":
+                for name in ("heel_inner", "heel_outer", "toe_inner", "toe_outer"):
+                    self.forces[f"{c.side}_{name}"] = np.full((n, 3), np.nan)
+
+    def add(self, sim, t, q, v) -> None:
+        """Record the state, the first-stage torques and forces of ``sim`` (a Simulation)."""
+        i = self.n
+        if i >= len(self.t):
+            return
+        model, data = sim.model, sim.data
+        self.t[i], self.q[i], self.v[i] = t, q, v
+        first = sim._first
+        if first is not None:
+            self.tau[i] = first[0]
+        self.energy[i] = pin.computeKineticEnergy(model, data, q, v) + pin.computePotentialEnergy(
+            model, data, q
+        )
+        constraints = sim.active_constraints()
+        if constraints:
+            sim._kinematics(q, v)
+            sol = first[1] if first is not None else None
+            if sol is not None:
+                split = sol.split(constraints)
+                for c in sim.contacts:
+                    if c.attached:
+                        c.store(model, data, np.concatenate([split[k.name] for k in c.constraints]))
+            e = np.concatenate([c.residual(model, data) for c in constraints])
+            self.residual[i] = np.abs(e).max()
+            Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])
+            self.velocity_residual = max(self.velocity_residual, float(np.abs(Jv).max()))
+        for c in sim.contacts:
+            if c.attached:
+                self.forces[c.side][i] = c.wrench
+                if c.spec.kind == "points":
+                    for j, name in enumerate(
+                        ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
+                    ):
+                        self.forces[f"{c.side}_{name}"][i] = c.point_forces[j]
+        self.n += 1
+
+    def trajectory(self, meta) -> Trajectory:
+        """The records as a Trajectory: views of the preallocated arrays, no copy (a copy
+        would double the memory of a long run at its very end)."""
+        n = self.n
+        forces = {k: a[:n] for k, a in self.forces.items()}
+        return Trajectory(
+            self.t[:n], self.q[:n], self.v[:n], self.tau[:n], forces, self.energy[:n],
+            self.residual[:n], meta,
+        )  # fmt: skip
