@@ -220,11 +220,13 @@ def test_peer_comparison_runs_the_same_tumble_in_mujoco(accuracy_run):
     pytest.importorskip("mujoco")
     code, tmp_path, text = accuracy_run
     rows = list(csv.DictReader(open(tmp_path / "peers.csv")))
-    mujoco_rk4 = [
-        float(r["error"]) for r in rows if r["engine"] == "mujoco" and r["method"] == "RK4"
-    ]
-    ours_rk4 = [float(r["error"]) for r in rows
-                if r["engine"] == "humanoid" and r["method"] == "rk4"]  # fmt: skip
+
+    def errors(engine, method, scene):
+        return [float(r["error"]) for r in rows
+                if (r["engine"], r["method"], r["scene"]) == (engine, method, scene)]  # fmt: skip
+
+    assert len(errors("mujoco", "RK4", "swing")) == 3
+    mujoco_rk4, ours_rk4 = errors("mujoco", "RK4", "tumble"), errors("humanoid", "rk4", "tumble")
     assert len(mujoco_rk4) == len(ours_rk4) == 3
     # same body, same motion: both RK4s conserve energy ever better as the step shrinks
     assert mujoco_rk4[0] > mujoco_rk4[-1] and ours_rk4[0] > ours_rk4[-1]
