@@ -439,10 +439,9 @@ def _leg(b: _Builder, seg, d, side):
     )
     b.link(f"{side}_sole")
     b.fixed(f"{side}_sole_joint", f"{side}_foot", f"{side}_sole", (centre[0], 0.0, -ah))
-    for corner in CONTACT_CORNERS:
+    for corner, name in zip(CONTACT_CORNERS, contact_point_names(side), strict=True):
         x = heel_x if corner.startswith("heel") else heel_x + length
         y = -width / 2 if corner.endswith("inner") else width / 2
-        name = f"{side}_{corner}"
         b.link(name)
         b.fixed(f"{name}_joint", f"{side}_foot", name, _mirror((x, y, -ah), side))
 
