@@ -93,7 +93,6 @@ def _mujoco_free(h, scene, integrator, dt, T):
 
 def _ours_free(h, scene, integrator, dt, T):
     from .scene import Effects, Initial, Scene
-    from .simulate import Simulation
 
     q, v = _free_state(h, scene)
     scene = Scene(
@@ -101,12 +100,15 @@ def _ours_free(h, scene, integrator, dt, T):
         effects=Effects(gravity=(0.0, 0.0, 0.0)),
         initial=Initial(base_velocity=tuple(v[:6]), joint_velocity=tuple(v[6:])),
     )  # fmt: skip
-    start = time.perf_counter()
-    traj = Simulation(scene, humanoid=h).run(quiet=True)
-    wall = time.perf_counter() - start
-    if traj.status != "completed":
-        return wall, float("inf")
-    return wall, abs(traj.energy[-1] - traj.energy[0]) / abs(traj.energy[0])
+    return _measured(scene, h, lambda t: abs(t.energy[-1] - t.energy[0]) / abs(t.energy[0]))
+
+
+def _measured(scene, h, measure):
+    """(wall time, measure(trajectory)) of one of our runs; the measure is inf if it failed."""
+    from .accuracy import _run
+
+    traj, wall = _run(scene, h)
+    return wall, (float(measure(traj)) if traj.status == "completed" else float("inf"))
 
 
 def _welds_xml(h, q, solref: str) -> tuple[str, list[int], list[np.ndarray]]:
@@ -159,19 +161,13 @@ def _mujoco_collapse(h, integrator, dt, T, solref):
 def _ours_welded(h, T, dt, integrator, stabilisation, controller=None, record_rate=None):
     """Our run on both feet welded: (wall time, largest weld residual) or inf if it failed."""
     from .scene import Contact, Controller, Effects, Scene
-    from .simulate import Simulation
 
     scene = Scene(
         body=MALE, duration=T, dt=dt, integrator=integrator, record_rate=record_rate or 1.0 / dt,
         effects=Effects(contacts=(Contact("left"), Contact("right"))),
         controller=controller or Controller(), stabilisation=stabilisation,
     )  # fmt: skip
-    start = time.perf_counter()
-    traj = Simulation(scene, humanoid=h).run(quiet=True)
-    wall = time.perf_counter() - start
-    if traj.status != "completed":
-        return wall, float("inf")
-    return wall, float(np.nanmax(traj.residual))
+    return _measured(scene, h, lambda t: np.nanmax(t.residual))
 
 
 def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench") -> list[dict]:
