@@ -47,25 +47,9 @@ def _pinocchio_step(sim, q, v, dt):
             pin.integrate(model, q, (v + dt * a) * dt)
 
         return step
-    from .constraints import Weld
+    from .simulate import proximal_settings, rigid_constraints
 
-    cms = pin.StdVec_RigidConstraintModel()
-    for c in constraints:
-        fr = model.frames[c.frame_id]
-        if isinstance(c, Weld):
-            kind, ref, anchor = pin.ContactType.CONTACT_6D, pin.ReferenceFrame.LOCAL, c.anchor
-        else:
-            kind, ref = pin.ContactType.CONTACT_3D, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-            anchor = pin.SE3(np.eye(3), c.anchor)
-        cms.append(
-            pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0, anchor, ref)
-        )
-    cds = pin.StdVec_RigidConstraintData()
-    for cm in cms:
-        cds.append(cm.createData())
-    pin.initConstraintDynamics(model, data, cms, cds)
-    from .simulate import proximal_settings
-
+    cms, cds, data = rigid_constraints(model, constraints)
     prox = proximal_settings(sum(cm.residualSize() for cm in cms) > 6 * len(sim.contacts))
 
     def step():

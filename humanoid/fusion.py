@@ -185,6 +185,17 @@ def _massless(inertia) -> bool:
     return inertia.mass <= TOL and np.abs(inertia.inertia).max() <= TOL
 
 
+def _triplet_axes(model, j1, j2, j3) -> tuple[np.ndarray, np.ndarray]:
+    """Axes (a1, b2, b3) of a hinge triplet in j1's frame, and G = R(P2) R(P3)."""
+    P2 = model.jointPlacements[j2].rotation
+    G = P2 @ model.jointPlacements[j3].rotation
+    axes = np.column_stack(
+        [joint_axis(model.joints[j1]), P2 @ joint_axis(model.joints[j2]),
+         G @ joint_axis(model.joints[j3])]
+    )  # fmt: skip
+    return axes, G
+
+
 def _find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, int]]:
     children = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
@@ -209,12 +220,7 @@ def _find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, in
             continue
         if {j1, j2} & (carrying | framed):
             continue
-        P2 = model.jointPlacements[j2].rotation
-        G = P2 @ model.jointPlacements[j3].rotation
-        axes = np.column_stack(
-            [joint_axis(model.joints[j1]), P2 @ joint_axis(model.joints[j2]),
-             G @ joint_axis(model.joints[j3])]
-        )  # fmt: skip
+        axes, _ = _triplet_axes(model, j1, j2, j3)
         if np.abs(axes.T @ axes - np.eye(3)).max() > 1e-9:
             continue
         triplets.append((j1, j2, j3))
@@ -273,12 +279,7 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
                 np.ones(4),
             )
             new.inertias[jid] = model.inertias[j3]
-            P2 = model.jointPlacements[j2].rotation
-            G = P2 @ model.jointPlacements[j3].rotation
-            axes = np.column_stack(
-                [joint_axis(model.joints[j1]), P2 @ joint_axis(model.joints[j2]),
-                 G @ joint_axis(model.joints[j3])]
-            )  # fmt: skip
+            axes, G = _triplet_axes(model, j1, j2, j3)
             names = tuple(model.names[k] for k in first[j])
             balls.append(BallJoint(name, jid, names, first[j], axes, G))
             for k in first[j]:

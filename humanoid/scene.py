@@ -171,8 +171,11 @@ class Scene:
         scene.check()
         return scene
 
-    def check(self, humanoid=None) -> None:
+    def check(self, humanoid=None):
         """Check the scene against its body: the body loads, frame names exist, sizes match.
+
+        Returns:
+            The initial state ``(q0, v0)`` of the scene on that body.
 
         Raises:
             SceneError: naming the scene file, the key and the reason.
@@ -189,7 +192,7 @@ class Scene:
                     f"{self.source}: effects.pushes[{i}].frame: no frame {p.frame!r} in the body; "
                     f"frames: {', '.join(frames)}"
                 )
-        initial_state(self, h)
+        return initial_state(self, h)
 
     @classmethod
     def from_dict(cls, doc: dict, source: str = "<scene>", base: Path | None = None) -> Scene:

@@ -59,7 +59,7 @@ class Simulation:
         self.model.gravity = pin.Motion(self.gravity, np.zeros(3))
         self.data = self.model.createData()
         self.mask = joint_mask(self.model)
-        q0, v0 = initial_state(scene, h)
+        q0, v0 = scene.check(h)  # frames, sizes, finite numbers; the initial state
         self.q0, self.v0 = q0, v0
         e = scene.effects
         self.effects = []
@@ -71,7 +71,6 @@ class Simulation:
             self.effects.append(
                 JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
             )
-        scene.check(h)
         for p in e.pushes:
             self.effects.append(Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration))
         pin.framesForwardKinematics(self.model, self.data, q0)
@@ -183,36 +182,9 @@ class Simulation:
     def _pinocchio_backend(self, q, v, tau, constraints):
         key = tuple(id(c) for c in constraints)
         if self._pin_backend is None or self._pin_backend[0] != key:
-            cms = pin.StdVec_RigidConstraintModel()
-            for c in constraints:
-                fr = self.model.frames[c.frame_id]
-                if isinstance(c, Weld):
-                    cm = pin.RigidConstraintModel(
-                        pin.ContactType.CONTACT_6D, self.model, fr.parentJoint, fr.placement,
-                        0, c.anchor, pin.ReferenceFrame.LOCAL,
-                    )  # fmt: skip
-                else:
-                    cm = pin.RigidConstraintModel(
-                        pin.ContactType.CONTACT_3D, self.model, fr.parentJoint, fr.placement,
-                        0, pin.SE3(np.eye(3), c.anchor), pin.ReferenceFrame.LOCAL_WORLD_ALIGNED,
-                    )  # fmt: skip
-                cm.setBaumgarteCorrectorParameters(
-                    pin.BaumgarteCorrectorParameters(
-                        self.baumgarte.beta**2, 2 * self.baumgarte.alpha
-                    )
-                )
-                cms.append(cm)
-            cds = pin.StdVec_RigidConstraintData()
-            for cm in cms:
-                cds.append(cm.createData())
-            data = self.model.createData()
-            pin.initConstraintDynamics(self.model, data, cms, cds)
-            # Redundant sets (point contacts: 12 rows per foot) need the proximal iterations.
             redundant = sum(c.size for c in constraints) > 6 * len(self.contacts)
-            prox = pin.ProximalSettings(
-                1e-12, 1e-12, 1e-2 if redundant else 0.0, 50 if redundant else 1
-            )
-            self._pin_backend = (key, cms, cds, data, prox)
+            cms, cds, data = rigid_constraints(self.model, constraints, self.baumgarte)
+            self._pin_backend = (key, cms, cds, data, proximal_settings(redundant))
         _, cms, cds, data, prox = self._pin_backend
         a = pin.constraintDynamics(self.model, data, q, v, tau, cms, cds, prox)
         self.last = (tau, _PinSolution(a, cms, cds))
@@ -468,6 +440,32 @@ class Simulation:
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
+
+
+def rigid_constraints(model: pin.Model, constraints, baumgarte: Baumgarte | None = None):
+    """Pinocchio's rigid constraint models, data and a Data initialised for
+    ``pin.constraintDynamics``, equivalent to our Weld (CONTACT_6D, LOCAL) and PointContact
+    (CONTACT_3D, world-aligned) constraints with the same Baumgarte gains (none by default)."""
+    baumgarte = baumgarte or Baumgarte()
+    cms = pin.StdVec_RigidConstraintModel()
+    for c in constraints:
+        fr = model.frames[c.frame_id]
+        if isinstance(c, Weld):
+            kind, ref, anchor = pin.ContactType.CONTACT_6D, pin.ReferenceFrame.LOCAL, c.anchor
+        else:
+            kind, ref = pin.ContactType.CONTACT_3D, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+            anchor = pin.SE3(np.eye(3), c.anchor)
+        cm = pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0, anchor, ref)
+        cm.setBaumgarteCorrectorParameters(
+            pin.BaumgarteCorrectorParameters(baumgarte.beta**2, 2 * baumgarte.alpha)
+        )
+        cms.append(cm)
+    cds = pin.StdVec_RigidConstraintData()
+    for cm in cms:
+        cds.append(cm.createData())
+    data = model.createData()
+    pin.initConstraintDynamics(model, data, cms, cds)
+    return cms, cds, data
 
 
 def proximal_settings(redundant: bool) -> pin.ProximalSettings:
