@@ -18,7 +18,7 @@ __all__ = ["ContactState"]
 class ContactState:
     """One foot's contact: its constraints, whether it is attached, and its last forces."""
 
-    def __init__(self, h: Humanoid, spec, data: pin.Data) -> None:
+    def __init__(self, h: Humanoid, spec) -> None:
         self.spec = spec
         self.side = spec.foot
         self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
@@ -29,10 +29,8 @@ class ContactState:
         self.wrench = np.full(6, np.nan)
         self.point_forces = np.full((4, 3), np.nan)
         # sole rectangle in the sole frame, for the centre-of-pressure check
-        local = np.array(
-            [(data.oMf[self.sole].actInv(data.oMf[p].translation)) for p in self.points]
-        )
-        self.cop_box = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
+        lo, hi = h.sole_box(self.side)
+        self.cop_box = lo[:2], hi[:2]
 
     def attach(self, data: pin.Data) -> None:
         if self.spec.kind == "weld":

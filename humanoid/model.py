@@ -102,6 +102,19 @@ class Humanoid:
         q[2] -= zmin
         return q
 
+    def sole_box(self, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """Corners (min, max) of the sole's contact points in the sole frame [m] (x, y, z).
+
+        The points and the sole frame ride on the same foot, so this holds in any pose.
+        """
+        data = self.model.createData()
+        pin.framesForwardKinematics(self.model, data, self.standing_configuration())
+        sole = data.oMf[self.frame_id(self.feet[SIDES.index(side)])]
+        pts = np.array(
+            [sole.actInv(data.oMf[self.frame_id(n)].translation) for n in self.contact_points[side]]
+        )
+        return pts.min(axis=0), pts.max(axis=0)
+
     def standing_height(self) -> float:
         """Top of the visual geometry in the standing configuration [m] (soles on z = 0)."""
         data = self.model.createData()

@@ -73,8 +73,7 @@ class Simulation:
             )
         for p in e.pushes:
             self.effects.append(Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration))
-        pin.framesForwardKinematics(self.model, self.data, q0)
-        self.contacts = [ContactState(h, c, self.data) for c in e.contacts]
+        self.contacts = [ContactState(h, c) for c in e.contacts]
         self.controller = None
         if scene.controller.kind == "posture":
             ctl = scene.controller

@@ -172,7 +172,7 @@ class SceneView:
         if ov.footprints:
             green = G.MeshLambertMaterial(color=COLORS["footprint"], opacity=0.5, transparent=True)
             for side in self.feet:
-                lo, hi = self._sole_box(side)
+                lo, hi = self.h.sole_box(side)
                 box = G.Box([hi[0] - lo[0], hi[1] - lo[1], 0.004])
                 self.node("footprints", side, "box").set_object(box, green)
                 centre = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.002])
@@ -207,19 +207,6 @@ class SceneView:
     def _along_z(offset: float = 0.0) -> np.ndarray:
         """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
         return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
-
-    def _sole_box(self, side: str):
-        """The sole rectangle in the sole frame (from the contact points at the standing pose)."""
-        q = self.h.standing_configuration()
-        pin.framesForwardKinematics(self.model, self.data, q)
-        sole = self.data.oMf[self.h.frame_id(self.h.feet[SIDES.index(side)])]
-        pts = np.array(
-            [
-                sole.actInv(self.data.oMf[self.h.frame_id(n)].translation)
-                for n in self.h.contact_points[side]
-            ]
-        )
-        return pts.min(axis=0), pts.max(axis=0)
 
     # -- poses ---------------------------------------------------------------------------
     def frame(self, q, forces: dict | None = None) -> dict[str, tuple]:
