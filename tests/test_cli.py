@@ -210,6 +210,15 @@ def test_bench_accuracy_quick_measures_the_orders(accuracy_run):
     assert error("tumble", "rk4, coordinates", 1e-3) < 1e-8
     # the walking segment (controller at 2 ms): RK4 is far closer to the reference
     assert error("walk", "rk4", 2e-3) < 1e-3 * error("walk", "semi_implicit_euler", 2e-3)
+    # the references converged: rtol 1e-12 against 1e-10 agree far below every swept error
+    convergence = dict(csv.reader(open(tmp_path / "convergence.csv")))
+    for scene in ("tumble", "swing", "stance", "walk"):
+        assert float(convergence[scene]) < 1e-8, scene
+    # the adaptive walk (2 ms ticks, the controller's): every tolerance lands at the controller's
+    # noise floor, below RK4 at 2 ms
+    walk_dp5 = [float(r["error"]) for r in rows if (r["scene"], r["method"]) ==
+                ("walk", "adaptive (DP5)")]  # fmt: skip
+    assert len(walk_dp5) == 3 and max(walk_dp5) < error("walk", "rk4", 2e-3)
     assert "reference convergence" in text
 
 

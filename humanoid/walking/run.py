@@ -24,7 +24,7 @@ from .controller import ControllerGains, WalkingController
 from .plan import FootstepPlan, GaitParameters
 from .preview import com_trajectory
 
-__all__ = ["WalkResult", "crouch", "walk"]
+__all__ = ["WalkResult", "WalkSetup", "crouch", "prepare", "walk"]
 
 SIDES = ("left", "right")
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
@@ -102,6 +102,50 @@ def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
     return q
 
 
+@dataclass
+class WalkSetup:
+    """A walk made ready to run: its plan, crouched start, plant and controller."""
+
+    plan: FootstepPlan
+    q0: np.ndarray
+    soles: dict  # initial sole positions by side
+    scene: Scene
+    sim: Simulation  # the plant (and the stance welds' bookkeeping)
+    ctl: WalkingController
+    t_ref: np.ndarray
+    c_ref: np.ndarray
+    zmp: np.ndarray
+
+
+def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_implicit_euler",
+            record_rate=100.0, rtol=1e-6, atol=1e-6) -> WalkSetup:  # fmt: skip
+    """The plan from the crouched start, the preview-control CoM reference, the plant (both
+    feet welded where they stand, Baumgarte 20 dt) and the controller that drives it."""
+    model = h.model
+    q0 = crouch(h, drop)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q0)
+    soles = {s: data.oMf[h.frame_id(h.feet[i])].translation.copy() for i, s in enumerate(SIDES)}
+    plan = FootstepPlan(gait, soles["left"][:2], soles["right"][:2])
+    c0 = pin.centerOfMass(model, data, q0)
+    feet = tuple(Contact(s, "weld", mu=mu) for s in SIDES)
+    scene = Scene(
+        name="walk", body=h.source, ball_joints=h.ball_joints, duration=plan.duration, dt=dt,
+        integrator=integrator, rtol=rtol, atol=atol, record_rate=record_rate,
+        initial=Initial(configuration=tuple(q0)), effects=Effects(contacts=feet),
+        stabilisation=Stabilisation(baumgarte=20.0),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    t_ref, c_ref, dc_ref, ddc_ref, _, zmp_ref = com_trajectory(plan, c0[2], c0[:2])
+    ctl = WalkingController(
+        h, sim.model, plan, (t_ref, c_ref, dc_ref, ddc_ref), c0[2], q0, sim.baumgarte,
+        gains or ControllerGains(mu=min(0.6, 0.75 * mu)),
+    )  # fmt: skip
+    sim.controller = ctl
+    sim._forced = True
+    return WalkSetup(plan, q0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
+
+
 def walk(
     h: Humanoid,
     gait: GaitParameters | None = None,
@@ -113,6 +157,8 @@ def walk(
     record_rate: float = 100.0,
     integrator: str = "semi_implicit_euler",
     control_dt: float | None = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-6,
 ) -> WalkResult:
     """Walk ``h`` along a straight plan in forward simulation.
 
@@ -128,30 +174,14 @@ def walk(
         integrator: The simulator's integrator (semi-implicit Euler by default).
         control_dt: Control period [s], a whole number of steps (default: every step). The
             torques are held between control ticks; the consistency check runs on control ticks.
+        rtol, atol: Tolerances of the adaptive integrator (``integrator="adaptive"``), which
+            chooses its own steps inside each step of ``dt`` (the contacts switch, and the
+            checks run, at multiples of ``dt``).
     """
     gait = gait or GaitParameters()
-    model = h.model
-    q0 = crouch(h, drop)
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q0)
-    soles = {s: data.oMf[h.frame_id(h.feet[i])].translation.copy() for i, s in enumerate(SIDES)}
-    plan = FootstepPlan(gait, soles["left"][:2], soles["right"][:2])
-    c0 = pin.centerOfMass(model, data, q0)
-    feet = tuple(Contact(s, "weld", mu=mu) for s in SIDES)
-    scene = Scene(
-        name="walk", body=h.source, ball_joints=h.ball_joints, duration=plan.duration, dt=dt,
-        integrator=integrator, record_rate=record_rate,
-        initial=Initial(configuration=tuple(q0)), effects=Effects(contacts=feet),
-        stabilisation=Stabilisation(baumgarte=20.0),
-    )  # fmt: skip
-    sim = Simulation(scene, humanoid=h)
-    t_ref, c_ref, dc_ref, ddc_ref, zmp_model, zmp_ref = com_trajectory(plan, c0[2], c0[:2])
-    ctl = WalkingController(
-        h, sim.model, plan, (t_ref, c_ref, dc_ref, ddc_ref), c0[2], q0, sim.baumgarte,
-        gains or ControllerGains(mu=min(0.6, 0.75 * mu)),
-    )  # fmt: skip
-    sim.controller = ctl
-    sim._forced = True
+    setup = prepare(h, gait, dt, mu, drop, gains, integrator, record_rate, rtol, atol)
+    model, plan, sim, ctl, scene = h.model, setup.plan, setup.sim, setup.ctl, setup.scene
+    q0, soles, t_ref, c_ref, zmp_ref = setup.q0, setup.soles, setup.t_ref, setup.c_ref, setup.zmp
     n_steps = int(round(plan.duration / dt))
     control_every = max(1, int(round((control_dt or dt) / dt)))
     every = max(1, int(round(1.0 / (record_rate * dt))))
@@ -219,6 +249,8 @@ def walk(
         "weight": weight,
         "sole_size": [float(x) for x in sim.contacts[0].cop_box[1] - sim.contacts[0].cop_box[0]],
     }  # fmt: skip
+    if sim.adaptive is not None:
+        meta["adaptive"] = vars(sim.adaptive.stats)
     traj = rec.trajectory(meta)
     checks = _acceptance(series, plan, status, message, weight, mu)
     summary = _summary(series, plan, gait, weight, status, wall, n * dt)
@@ -228,17 +260,21 @@ def walk(
     return WalkResult(traj, checks, summary, series)
 
 
+def contact_changes(contacts, plan, t) -> tuple[list, list]:
+    """(lifted, landing): the attached contacts the plan lifts at t, and the free ones it lands."""
+    stance = plan.stance(t)
+    lifted = [c for c in contacts if c.attached and c.side not in stance]
+    landing = [c for c in contacts if not c.attached and c.side in stance]
+    return lifted, landing
+
+
 def _switch_contacts(sim, plan, t, q, v, series, k):
     """Release the feet the plan lifts, weld the feet it lands (with the impulse)."""
-    stance = plan.stance(t)
-    landing = []
-    for c in sim.contacts:
-        if c.attached and c.side not in stance:
-            c.release()
-            sim._active = None
-            sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
-        elif not c.attached and c.side in stance:
-            landing.append(c)
+    lifted, landing = contact_changes(sim.contacts, plan, t)
+    for c in lifted:
+        c.release()
+        sim._active = None
+        sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
     if landing:
         v_new = sim.attach(landing, t, q, v, "touchdown")
         series["impulse"][k] = float(np.abs(v_new - v).max())
