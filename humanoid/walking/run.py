@@ -260,21 +260,17 @@ def walk(
     return WalkResult(traj, checks, summary, series)
 
 
-def contact_changes(contacts, plan, t) -> tuple[list, list]:
-    """(lifted, landing): the attached contacts the plan lifts at t, and the free ones it lands."""
-    stance = plan.stance(t)
-    lifted = [c for c in contacts if c.attached and c.side not in stance]
-    landing = [c for c in contacts if not c.attached and c.side in stance]
-    return lifted, landing
-
-
 def _switch_contacts(sim, plan, t, q, v, series, k):
     """Release the feet the plan lifts, weld the feet it lands (with the impulse)."""
-    lifted, landing = contact_changes(sim.contacts, plan, t)
-    for c in lifted:
-        c.release()
-        sim._active = None
-        sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
+    stance = plan.stance(t)
+    landing = []
+    for c in sim.contacts:
+        if c.attached and c.side not in stance:
+            c.release()
+            sim._active = None
+            sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
+        elif not c.attached and c.side in stance:
+            landing.append(c)
     if landing:
         v_new = sim.attach(landing, t, q, v, "touchdown")
         series["impulse"][k] = float(np.abs(v_new - v).max())
