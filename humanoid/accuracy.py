@@ -107,23 +107,28 @@ def _momentum(h, q, v) -> np.ndarray:
     return pin.computeCentroidalMomentum(h.model, data, q, v).angular.copy()
 
 
+def _state_error(model, ref, qs, vs) -> float:
+    """The largest state difference from the reference over the records, on the manifold:
+    max(|pin.difference(q_ref, q)|, |v - v_ref|)."""
+    return max(
+        max(np.abs(pin.difference(model, a, b)).max() for a, b in zip(ref.q, qs, strict=True)),
+        float(np.abs(np.asarray(vs) - ref.v).max()),
+    )
+
+
 def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
     model = h.model
     q, v = traj.q[-1], traj.v[-1]
     error = np.inf
     if traj.status == "completed" and len(traj.t) == len(ref.t):
         assert np.allclose(traj.t, ref.t), "runs must be recorded at the same instants"
-        error = max(
-            max(
-                np.abs(pin.difference(model, a, b)).max()
-                for a, b in zip(ref.q, traj.q, strict=True)
-            ),
-            float(np.abs(traj.v - ref.v).max()),
-        )
-    e = traj.energy
-    energy = abs(e[-1] - e[0]) / abs(e[0]) if conservative else np.nan
-    L0, L1 = _momentum(h, traj.q[0], traj.v[0]), _momentum(h, q, v)
-    momentum = np.linalg.norm(L1 - L0) / max(np.linalg.norm(L0), 1e-12) if conservative else np.nan
+        error = _state_error(model, ref, traj.q, traj.v)
+    energy = momentum = np.nan  # invariants of the conservative scenes only
+    if conservative:
+        e = traj.energy
+        energy = abs(e[-1] - e[0]) / abs(e[0])
+        L0, L1 = _momentum(h, traj.q[0], traj.v[0]), _momentum(h, q, v)
+        momentum = np.linalg.norm(L1 - L0) / max(np.linalg.norm(L0), 1e-12)
     quats = [jm.idx_q + (3 if jm.nq == 7 else 0) for jm in model.joints[1:] if jm.nq in (4, 7)]
     qd = max(abs(np.linalg.norm(traj.q[:, i : i + 4], axis=1) - 1.0).max() for i in quats)
     # the coordinate formulation records normalised quaternions; its raw drift is kept apart
@@ -189,7 +194,7 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
                 add("rk4, no Coriolis terms", f"dt={dt:g}",
                     scene.replace(integrator="rk4", dt=dt, effects=no_coriolis))  # fmt: skip
 
-    walk_rows, convergence["walk"] = _walking_rows(h, dts, tols)
+    walk_rows, convergence["walk"], walk_ref = _walking_rows(h, dts, tols)
     rows += walk_rows
 
     folder = Path(out)
@@ -215,28 +220,32 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
     from .peers import run_peer_comparison
 
     print("\nagainst MuJoCo, in the same run:")
-    run_peer_comparison(quick=quick, out=folder)
+    run_peer_comparison(quick=quick, out=folder, walk=(walk_ref, walk_rows))
     return 0
 
 
-def _walking_rows(h, dts, tols) -> tuple[list[Row], float]:
+WALK_STEPS = 2  # the walking segment: two steps, about 4.4 s
+CONTROL_DT = 2e-3  # the walking controller's fixed rate in the benchmark [s]
+
+
+def _walk_run(h, integrator, dt, tol=1e-6):
+    """(trajectory, wall time) of the walking segment with the controller at CONTROL_DT."""
+    from .walking import GaitParameters, walk
+
+    start = time.perf_counter()
+    result = walk(h, GaitParameters(steps=WALK_STEPS), dt=dt, integrator=integrator,
+                  control_dt=CONTROL_DT, quiet=True, record_rate=RECORD_RATE, rtol=tol,
+                  atol=tol)  # fmt: skip
+    return result.trajectory, time.perf_counter() - start
+
+
+def _walking_rows(h, dts, tols):
     """A walking segment (two steps, about 4.4 s) with the controller at a fixed 2 ms rate and
     the plant swept over integrators, steps and tolerances; the reference is the adaptive
     integrator at rtol = atol = 1e-12 (contacts switch, and the controller runs, every 2 ms).
-    Returns the rows and the reference's convergence (against rtol 1e-10)."""
-    from .walking import GaitParameters, walk
-
-    gait = GaitParameters(steps=2)
-    control = 2e-3
-
-    def run(integrator, dt, tol=1e-6):
-        start = time.perf_counter()
-        result = walk(h, gait, dt=dt, integrator=integrator, control_dt=control, quiet=True,
-                      record_rate=RECORD_RATE, rtol=tol, atol=tol)  # fmt: skip
-        return result.trajectory, time.perf_counter() - start
-
-    ref, _ = run("adaptive", control, 1e-12)
-    check, _ = run("adaptive", control, 1e-10)
+    Returns the rows, the reference's convergence (against rtol 1e-10) and the reference."""
+    ref, _ = _walk_run(h, "adaptive", CONTROL_DT, 1e-12)
+    check, _ = _walk_run(h, "adaptive", CONTROL_DT, 1e-10)
     convergence = float(np.abs(pin.difference(h.model, ref.q[-1], check.q[-1])).max())
     rows = []
 
@@ -246,11 +255,11 @@ def _walking_rows(h, dts, tols) -> tuple[list[Row], float]:
               f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
 
     for integrator in ("semi_implicit_euler", "rk4"):
-        for dt in [d for d in dts if d <= control]:  # whole steps per control tick
-            add(integrator, f"dt={dt:g}", *run(integrator, dt))
+        for dt in [d for d in dts if d <= CONTROL_DT]:  # whole steps per control tick
+            add(integrator, f"dt={dt:g}", *_walk_run(h, integrator, dt))
     for tol in tols:
-        add("adaptive (DP5)", f"rtol={tol:g}", *run("adaptive", control, tol))
-    return rows, convergence
+        add("adaptive (DP5)", f"rtol={tol:g}", *_walk_run(h, "adaptive", CONTROL_DT, tol))
+    return rows, convergence, ref
 
 
 def _plot(name: str, rows: list[Row], path: Path) -> None:

@@ -6,6 +6,8 @@ catch one type. Messages say what was wrong and what would be valid.
 
 from __future__ import annotations
 
+import numpy as np
+
 
 class HumanoidError(Exception):
     """Base class of every error raised by humanoid on purpose."""
@@ -29,3 +31,15 @@ class SceneError(HumanoidError, ValueError):
 
 class DivergenceError(HumanoidError):
     """A simulation diverged: non-finite or exploding state, or a step size that collapsed."""
+
+
+def finite_vector(x, n: int, what: str, size: str = "") -> np.ndarray:
+    """``x`` as a flat float array of ``n`` finite entries; else ConfigurationError (naming
+    ``what`` and, if given, the ``size`` symbol, as in "q must have nq = 47 entries")."""
+    x = np.asarray(x, dtype=float).reshape(-1)
+    if x.shape != (n,):
+        count = f"{size} = {n}" if size else f"{n}"
+        raise ConfigurationError(f"{what} must have {count} entries, got {x.shape[0]}")
+    if not np.all(np.isfinite(x)):
+        raise ConfigurationError(f"{what} has non-finite entries")
+    return x

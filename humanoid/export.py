@@ -22,7 +22,7 @@ import pinocchio as pin
 from .errors import ModelError
 from .fusion import joint_axis
 
-__all__ = ["mujoco_state", "pinocchio_state", "to_mjcf", "write_mjcf"]
+__all__ = ["StateMap", "mujoco_state", "pinocchio_state", "to_mjcf", "write_mjcf"]
 
 
 def _fmt(x) -> str:
@@ -151,54 +151,65 @@ def write_mjcf(h, path) -> Path:
     return path
 
 
-def _layout(h, mj_model):
-    """For every Pinocchio joint: (pin idx_q, idx_v, MuJoCo qposadr, dofadr, kind)."""
-    import mujoco
+class StateMap:
+    """Maps states (and generalised forces, which map like velocities) between a Humanoid and
+    its exported MuJoCo model; the joint layout is looked up once."""
 
-    model = h.model
-    out = []
-    for j in range(1, model.njoints):
-        jm = model.joints[j]
-        mid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])
-        if mid < 0:
-            raise ModelError(f"joint {model.names[j]} is not in the MuJoCo model")
-        out.append((jm.idx_q, jm.idx_v, mj_model.jnt_qposadr[mid], mj_model.jnt_dofadr[mid],
-                    jm.shortname()))  # fmt: skip
-    return out
+    def __init__(self, h, mj_model) -> None:
+        import mujoco
+
+        model = h.model
+        self.nq, self.nv = model.nq, model.nv
+        self.mj_nq, self.mj_nv = mj_model.nq, mj_model.nv
+        self.layout = []  # per joint: (pin idx_q, idx_v, MuJoCo qposadr, dofadr, kind)
+        for j in range(1, model.njoints):
+            jm = model.joints[j]
+            mid = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])
+            if mid < 0:
+                raise ModelError(f"joint {model.names[j]} is not in the MuJoCo model")
+            self.layout.append((jm.idx_q, jm.idx_v, mj_model.jnt_qposadr[mid],
+                                mj_model.jnt_dofadr[mid], jm.shortname()))  # fmt: skip
+
+    def to_mujoco(self, q, v):
+        """(qpos, qvel) of MuJoCo for a Pinocchio state (q, v)."""
+        qpos, qvel = np.zeros(self.mj_nq), np.zeros(self.mj_nv)
+        for iq, iv, aq, av, kind in self.layout:
+            if kind == "JointModelFreeFlyer":
+                R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
+                qpos[aq : aq + 3] = q[iq : iq + 3]
+                qpos[aq + 3 : aq + 7] = np.roll(q[iq + 3 : iq + 7], 1)
+                qvel[av : av + 3] = R @ v[iv : iv + 3]
+                qvel[av + 3 : av + 6] = v[iv + 3 : iv + 6]
+            elif kind == "JointModelSpherical":
+                qpos[aq : aq + 4] = np.roll(q[iq : iq + 4], 1)
+                qvel[av : av + 3] = v[iv : iv + 3]
+            else:
+                qpos[aq], qvel[av] = q[iq], v[iv]
+        return qpos, qvel
+
+    def to_pinocchio(self, qpos, qvel):
+        """(q, v) of Pinocchio for a MuJoCo state."""
+        q, v = np.zeros(self.nq), np.zeros(self.nv)
+        for iq, iv, aq, av, kind in self.layout:
+            if kind == "JointModelFreeFlyer":
+                q[iq : iq + 3] = qpos[aq : aq + 3]
+                q[iq + 3 : iq + 7] = np.roll(qpos[aq + 3 : aq + 7], -1)
+                R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
+                v[iv : iv + 3] = R.T @ qvel[av : av + 3]
+                v[iv + 3 : iv + 6] = qvel[av + 3 : av + 6]
+            elif kind == "JointModelSpherical":
+                q[iq : iq + 4] = np.roll(qpos[aq : aq + 4], -1)
+                v[iv : iv + 3] = qvel[av : av + 3]
+            else:
+                q[iq], v[iv] = qpos[aq], qvel[av]
+        return q, v
 
 
 def mujoco_state(h, mj_model, q, v):
-    """(qpos, qvel) of MuJoCo for a Pinocchio state (q, v)."""
-    qpos, qvel = np.zeros(mj_model.nq), np.zeros(mj_model.nv)
-    for iq, iv, aq, av, kind in _layout(h, mj_model):
-        if kind == "JointModelFreeFlyer":
-            R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
-            qpos[aq : aq + 3] = q[iq : iq + 3]
-            qpos[aq + 3 : aq + 7] = np.roll(q[iq + 3 : iq + 7], 1)
-            qvel[av : av + 3] = R @ v[iv : iv + 3]
-            qvel[av + 3 : av + 6] = v[iv + 3 : iv + 6]
-        elif kind == "JointModelSpherical":
-            qpos[aq : aq + 4] = np.roll(q[iq : iq + 4], 1)
-            qvel[av : av + 3] = v[iv : iv + 3]
-        else:
-            qpos[aq], qvel[av] = q[iq], v[iv]
-    return qpos, qvel
+    """(qpos, qvel) of MuJoCo for a Pinocchio state (q, v) (see :class:`StateMap`)."""
+    return StateMap(h, mj_model).to_mujoco(q, v)
 
 
 def pinocchio_state(h, mj_model, qpos, qvel):
-    """(q, v) of Pinocchio for a MuJoCo state."""
-    model = h.model
-    q, v = np.zeros(model.nq), np.zeros(model.nv)
-    for iq, iv, aq, av, kind in _layout(h, mj_model):
-        if kind == "JointModelFreeFlyer":
-            q[iq : iq + 3] = qpos[aq : aq + 3]
-            q[iq + 3 : iq + 7] = np.roll(qpos[aq + 3 : aq + 7], -1)
-            R = pin.Quaternion(q[iq + 3 : iq + 7]).toRotationMatrix()
-            v[iv : iv + 3] = R.T @ qvel[av : av + 3]
-            v[iv + 3 : iv + 6] = qvel[av + 3 : av + 6]
-        elif kind == "JointModelSpherical":
-            q[iq : iq + 4] = np.roll(qpos[aq : aq + 4], -1)
-            v[iv : iv + 3] = qvel[av : av + 3]
-        else:
-            q[iq], v[iv] = qpos[aq], qvel[av]
-    return q, v
+    """(q, v) of Pinocchio for a MuJoCo state (see :class:`StateMap`)."""
+    return StateMap(h, mj_model).to_pinocchio(qpos, qvel)

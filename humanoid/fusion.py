@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .errors import ConfigurationError
+from .errors import ConfigurationError, finite_vector
 
 __all__ = ["BallJoint", "Fusion", "fuse_ball_joints"]
 
@@ -110,11 +110,11 @@ class Fusion:
     def to_quaternion(self, q_euler, v_euler=None):
         """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given)."""
         em, fm = self.euler_model, self.model
-        q_euler = _check(q_euler, em.nq, "q")
+        q_euler = finite_vector(q_euler, em.nq, "q", "nq")
         q = np.zeros(fm.nq)
         v = None if v_euler is None else np.zeros(fm.nv)
         if v is not None:
-            v_euler = _check(v_euler, em.nv, "v")
+            v_euler = finite_vector(v_euler, em.nv, "v", "nv")
         for je, jf in self.copied:
             a, b = em.joints[je], fm.joints[jf]
             q[b.idx_q : b.idx_q + b.nq] = q_euler[a.idx_q : a.idx_q + a.nq]
@@ -141,11 +141,11 @@ class Fusion:
                 rates are not defined.
         """
         em, fm = self.euler_model, self.model
-        q = _check(q, fm.nq, "q")
+        q = finite_vector(q, fm.nq, "q", "nq")
         qe = np.zeros(em.nq)
         ve = None if v is None else np.zeros(em.nv)
         if ve is not None:
-            v = _check(v, fm.nv, "v")
+            v = finite_vector(v, fm.nv, "v", "nv")
         for je, jf in self.copied:
             a, b = em.joints[je], fm.joints[jf]
             qe[a.idx_q : a.idx_q + a.nq] = q[b.idx_q : b.idx_q + b.nq]
@@ -170,15 +170,6 @@ class Fusion:
                 iv = [em.joints[j].idx_v for j in ball.hinge_ids]
                 ve[iv] = np.linalg.solve(E, v[jf.idx_v : jf.idx_v + 3])
         return qe, ve
-
-
-def _check(x, n, what):
-    x = np.asarray(x, dtype=float).reshape(-1)
-    if x.shape != (n,):
-        raise ConfigurationError(f"{what} must have {n} entries, got {x.shape[0]}")
-    if not np.all(np.isfinite(x)):
-        raise ConfigurationError(f"{what} has non-finite entries")
-    return x
 
 
 def _massless(inertia) -> bool:

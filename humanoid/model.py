@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from .errors import ConfigurationError, ModelError
+from .errors import ModelError, finite_vector
 from .fusion import Fusion, fuse_ball_joints
 
 __all__ = ["Humanoid", "example_robot_names", "load", "load_example"]
@@ -506,16 +506,8 @@ def _foot_box(model, data, geoms, joint, foot):
 
 def check_configuration(h: Humanoid, q, v=None):
     """``q`` (and ``v``) as float arrays of the model's sizes, finite; else ConfigurationError."""
-    q = np.asarray(q, dtype=float).reshape(-1)
-    if q.shape != (h.nq,):
-        raise ConfigurationError(f"q must have nq = {h.nq} entries, got {q.shape[0]}")
-    if not np.all(np.isfinite(q)):
-        raise ConfigurationError("q has non-finite entries")
+    q = finite_vector(q, h.nq, "q", "nq")
     if v is None:
         return q
-    v = np.asarray(v, dtype=float).reshape(-1)
-    if v.shape != (h.nv,):
-        raise ConfigurationError(f"v must have nv = {h.nv} entries, got {v.shape[0]}")
-    if not np.all(np.isfinite(v)):
-        raise ConfigurationError("v has non-finite entries")
+    v = finite_vector(v, h.nv, "v", "nv")
     return q, v

@@ -260,8 +260,9 @@ def walk(
     return WalkResult(traj, checks, summary, series)
 
 
-def _switch_contacts(sim, plan, t, q, v, series, k):
-    """Release the feet the plan lifts, weld the feet it lands (with the impulse)."""
+def _switch_contacts(sim, plan, t, q, v, series=None, k=0):
+    """Release the feet the plan lifts, weld the feet it lands (with the impulse that stops
+    them, recorded in ``series["impulse"][k]``); returns v after the impulse."""
     stance = plan.stance(t)
     landing = []
     for c in sim.contacts:
@@ -273,7 +274,8 @@ def _switch_contacts(sim, plan, t, q, v, series, k):
             landing.append(c)
     if landing:
         v_new = sim.attach(landing, t, q, v, "touchdown")
-        series["impulse"][k] = float(np.abs(v_new - v).max())
+        if series is not None:
+            series["impulse"][k] = float(np.abs(v_new - v).max())
         return v_new
     return v
 
