@@ -335,7 +335,47 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
                 add("walk", "humanoid", r.method, float(r.setting[3:]), r.wall, r.error,
                     r.constraint_drift)  # fmt: skip
     _write_and_summarise(rows, Path(out), T, T_collapse)
+    _plot(rows, Path(out) / "peers.png", T, T_collapse)
     return rows
+
+
+def _units(T, T_collapse) -> dict:
+    return {"tumble": f"relative energy drift over {T:g} s",
+            "swing": f"relative energy drift over {T:g} s",
+            "stance": f"weld drift over {T:g} s [m]",
+            "collapse": f"weld drift over {T_collapse:g} s [m]",
+            "walk": "state error against the rigid reference"}  # fmt: skip
+
+
+def _plot(rows, path: Path, T, T_collapse) -> None:
+    """Accuracy against wall time, one panel per scene, one curve per engine and method
+    (MuJoCo dashed); failed runs are left out, the target is a dotted line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    units = _units(T, T_collapse)
+    scenes = [s for s in TARGETS if any(r["scene"] == s for r in rows)]
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5), constrained_layout=True)
+    for ax, scene in zip(axes.flat, scenes, strict=False):
+        for engine, method in sorted({(r["engine"], r["method"]) for r in rows
+                                      if r["scene"] == scene}):  # fmt: skip
+            pts = sorted((r["wall"], r["error"]) for r in rows
+                         if (r["scene"], r["engine"], r["method"]) == (scene, engine, method)
+                         and np.isfinite(r["error"]) and r["error"] > 0)  # fmt: skip
+            if pts:
+                w, e = zip(*pts, strict=True)
+                style = "s--" if engine == "mujoco" else "o-"
+                ax.loglog(w, e, style, ms=4, label=f"{engine}: {method}")
+        ax.axhline(TARGETS[scene], color="k", ls=":", lw=1)
+        ax.set(xlabel="wall time [s]", ylabel=units[scene], title=scene)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=6)
+    for ax in axes.flat[len(scenes) :]:
+        ax.axis("off")
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
 
 
 def _write_and_summarise(rows, folder: Path, T, T_collapse) -> None:
@@ -344,11 +384,7 @@ def _write_and_summarise(rows, folder: Path, T, T_collapse) -> None:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    units = {"tumble": f"relative energy drift over {T:g} s",
-             "swing": f"relative energy drift over {T:g} s",
-             "stance": f"m weld drift over {T:g} s",
-             "collapse": f"m weld drift over {T_collapse:g} s",
-             "walk": "state error against the rigid reference"}  # fmt: skip
+    units = _units(T, T_collapse)
     print("\ntime to reach the target accuracy (fastest run that reaches it):")
     for scene, target in TARGETS.items():
         methods = sorted({(r["engine"], r["method"]) for r in rows if r["scene"] == scene})
@@ -363,4 +399,4 @@ def _write_and_summarise(rows, folder: Path, T, T_collapse) -> None:
             text = (f"{best['wall']:.3f} s (dt {best['dt']:g})" if best
                     else f"not reached (best {closest:.1e})")  # fmt: skip
             print(f"    {key[0]:<9} {key[1]:<34} {text}")
-    print(f"wrote {folder / 'peers.csv'}")
+    print(f"wrote {folder / 'peers.csv'} and peers.png")

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Work-precision benchmark: error against a tight reference vs wall time, per method.
 
-Same as `humanoid bench accuracy`. Writes results/bench/accuracy.csv and accuracy_<scene>.png.
+Same as `humanoid bench accuracy`. Writes results/bench/accuracy.csv, convergence.csv and
+accuracy_<scene>.png, and with MuJoCo installed peers.csv and peers.png.
 Usage: python scripts/bench_accuracy.py [--quick] [--out results/bench]
 """
 

@@ -258,3 +258,4 @@ def test_peer_comparison_runs_the_same_scenes_in_mujoco(accuracy_run):
     assert all(d < 1e-2 for d in errors("mujoco", "RK4, stiff weld", "walk", "drift"))
     assert "time to reach the target accuracy" in text
     assert "walk (target" in text
+    assert (tmp_path / "peers.png").stat().st_size > 10_000
