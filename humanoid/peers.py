@@ -225,7 +225,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
     from .errors import HumanoidError
     from .export import StateMap
     from .walking import GaitParameters
-    from .walking.run import _switch_contacts, prepare
+    from .walking.run import prepare
 
     setup = prepare(h, GaitParameters(steps=WALK_STEPS), dt=CONTROL_DT)
     sim, ctl, plan, model = setup.sim, setup.ctl, setup.plan, h.model
@@ -246,7 +246,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             t = k * CONTROL_DT
             q, v = states.to_pinocchio(d.qpos, d.qvel)
             before = {c.side for c in sim.contacts if c.attached}
-            _switch_contacts(sim, plan, t, q, v)  # MuJoCo's own weld stops a landing foot
+            sim.switch_contacts(t, q, v, plan.stance(t))  # MuJoCo's weld stops a landing foot
             welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
             for side, i in eq.items():
                 if side in welds and side not in before:

@@ -284,6 +284,21 @@ class Simulation:
         Minv = pin.computeMinverse(self.model, self.data, q)
         return v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
 
+    def switch_contacts(self, t: float, q, v, stance, reason: str = "touchdown"):
+        """Follow a contact schedule: release the attached contacts whose side is not in
+        ``stance`` (lift-off), attach the others in it where they are, with the impulse that
+        stops them (:meth:`attach`). Returns v after the impulse (v itself if none landed)."""
+        landing = []
+        for c in self.contacts:
+            if c.attached and c.side not in stance:
+                c.release()
+                self._active = None
+                self.events.append({"t": t, "contact": c.side, "event": "release",
+                                    "reason": "lift-off"})  # fmt: skip
+            elif not c.attached and c.side in stance:
+                landing.append(c)
+        return self.attach(landing, t, q, v, reason) if landing else v
+
     def project(self, q, v):
         """Put q and v back on the manifold of the active constraints (Gauss-Newton, 3 its)."""
         constraints = self.active_constraints()

@@ -250,6 +250,28 @@ def test_unilateral_contacts_release_and_touch_down_with_an_impulse():
     assert np.nanmin(traj.forces["left"][after, 2]) > 0.0
 
 
+def test_switch_contacts_follows_a_schedule():
+    """A foot the schedule lifts is released (lift-off); one it lands is welded where it is,
+    with the impulse that makes its velocity consistent with the weld (J v = 0)."""
+    sim = Simulation(_scene(effects=Effects(contacts=(Contact("left"), Contact("right")))))
+    q, v = sim.q0.copy(), np.zeros(sim.model.nv)
+    sim._first = None
+    v = sim.update_contacts(0.0, q, v)
+    assert all(c.attached for c in sim.contacts)
+    assert sim.switch_contacts(0.1, q, v, {"left"}) is v  # nothing landed: no impulse
+    right = next(c for c in sim.contacts if c.side == "right")
+    assert not right.attached and len(sim.active_constraints()) == 1
+    assert sim.events[-1] == {"t": 0.1, "contact": "right", "event": "release",
+                              "reason": "lift-off"}  # fmt: skip
+    v = np.random.default_rng(3).normal(size=sim.model.nv)  # the body moving anyhow
+    v_new = sim.switch_contacts(0.2, q, v, {"left", "right"})
+    assert right.attached and sim.events[-1]["event"] == "attach"
+    sim._kinematics(q, v_new)
+    J = np.vstack([c.jacobian(sim.model, sim.data) for c in sim.active_constraints()])
+    assert np.abs(J @ v_new).max() < 1e-9 * np.abs(v).max()
+    assert np.abs(v_new - v).max() > 0.1  # the impulse did change the velocity
+
+
 def test_contact_checks_report_and_release():
     """The passive collapse on unilateral point contacts: toes pull, so they are released."""
     scene = Scene.load(MODELS / "scenes" / "collapse.toml").replace(duration=1.3)

@@ -1,10 +1,11 @@
 """A walk as a simulation: the plan and controller drive the project's constrained dynamics.
 
-Per tick: the plan says which feet are on the ground; a foot that leaves it is released (the
-controller has moved its load away during double support), a foot that lands is welded where it
-is with the impulse that stops it; the controller solves its QP and holds its joint torques;
-the simulator integrates (semi-implicit Euler, 1 ms). After every step the checks of the
-acceptance criteria run on the simulated state and forces, and are kept as time series.
+Per tick: the plan says which feet are on the ground (``Simulation.switch_contacts``); a foot
+that leaves it is released (the controller has moved its load away during double support), a
+foot that lands is welded where it is with the impulse that stops it; the controller solves its
+QP and holds its joint torques; the simulator integrates (semi-implicit Euler, 1 ms). After
+every step the checks of the acceptance criteria run on the simulated state and forces, and are
+kept as time series.
 """
 
 from __future__ import annotations
@@ -205,7 +206,10 @@ def walk(
     try:
         for k in range(n_steps):
             t = k * dt
-            v = _switch_contacts(sim, plan, t, q, v, series, k)
+            v_new = sim.switch_contacts(t, q, v, plan.stance(t))  # lift-off and touchdown
+            if v_new is not v:
+                series["impulse"][k] = float(np.abs(v_new - v).max())
+            v = v_new
             welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
             # a new QP at every control tick, and whenever a foot lands or lifts off
             control_tick = k % control_every == 0 or set(welds) != solved_for
@@ -258,26 +262,6 @@ def walk(
     series["t_ref"] = t_ref
     series["com_ref"] = c_ref
     return WalkResult(traj, checks, summary, series)
-
-
-def _switch_contacts(sim, plan, t, q, v, series=None, k=0):
-    """Release the feet the plan lifts, weld the feet it lands (with the impulse that stops
-    them, recorded in ``series["impulse"][k]``); returns v after the impulse."""
-    stance = plan.stance(t)
-    landing = []
-    for c in sim.contacts:
-        if c.attached and c.side not in stance:
-            c.release()
-            sim._active = None
-            sim.events.append({"t": t, "contact": c.side, "event": "release", "reason": "lift-off"})
-        elif not c.attached and c.side in stance:
-            landing.append(c)
-    if landing:
-        v_new = sim.attach(landing, t, q, v, "touchdown")
-        if series is not None:
-            series["impulse"][k] = float(np.abs(v_new - v).max())
-        return v_new
-    return v
 
 
 def _check(sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref, control_tick=True):
