@@ -284,11 +284,29 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
             reference trajectory and our rows, measured in the same run); None leaves the walk
             out.
     """
+    import mujoco
+
+    T, T_collapse = (2.0, 0.5) if quick else (10.0, 1.0)
+    warnings: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(warnings.append)  # its divergence messages, counted below
+    try:
+        rows = _sweep(quick, T, T_collapse, walk)
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    if warnings:
+        print(f"  MuJoCo warned {len(warnings)} times (its diverged runs, inf above), e.g.: "
+              f"{warnings[0].strip()}")  # fmt: skip
+    _write_and_summarise(rows, Path(out), T, T_collapse)
+    _plot(rows, Path(out) / "peers.png", T, T_collapse)
+    return rows
+
+
+def _sweep(quick, T, T_collapse, walk) -> list[dict]:
     from .model import load
     from .scene import Stabilisation
 
     h = load(MALE)
-    T = 2.0 if quick else 10.0
     dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
     mj_integrators = ("Euler", "implicitfast", "RK4")
     rows = []
@@ -311,7 +329,6 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
         ("semi-implicit, projection", "semi_implicit_euler", Stabilisation(projection=True)),
         ("rk4, baumgarte 20 dt", "rk4", Stabilisation(baumgarte=20.0)),
     )
-    T_collapse = 0.5 if quick else 1.0
     for name, duration, controlled in (("stance", T, True), ("collapse", T_collapse, False)):
         for dt in dts:
             scene = _welded_scene(duration, dt, controlled)
@@ -334,8 +351,6 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
             if r.setting.startswith("dt="):
                 add("walk", "humanoid", r.method, float(r.setting[3:]), r.wall, r.error,
                     r.constraint_drift)  # fmt: skip
-    _write_and_summarise(rows, Path(out), T, T_collapse)
-    _plot(rows, Path(out) / "peers.png", T, T_collapse)
     return rows
 
 
