@@ -33,13 +33,12 @@ class DivergenceError(HumanoidError):
     """A simulation diverged: non-finite or exploding state, or a step size that collapsed."""
 
 
-def finite_vector(x, n: int, what: str, size: str = "") -> np.ndarray:
-    """``x`` as a flat float array of ``n`` finite entries; else ConfigurationError (naming
-    ``what`` and, if given, the ``size`` symbol, as in "q must have nq = 47 entries")."""
+def finite_vector(x, n: int, what: str, size: str) -> np.ndarray:
+    """``x`` as a flat float array of ``n`` finite entries; else ConfigurationError naming
+    ``what`` and its ``size`` symbol, as in "q must have nq = 47 entries"."""
     x = np.asarray(x, dtype=float).reshape(-1)
     if x.shape != (n,):
-        count = f"{size} = {n}" if size else f"{n}"
-        raise ConfigurationError(f"{what} must have {count} entries, got {x.shape[0]}")
+        raise ConfigurationError(f"{what} must have {size} = {n} entries, got {x.shape[0]}")
     if not np.all(np.isfinite(x)):
         raise ConfigurationError(f"{what} has non-finite entries")
     return x

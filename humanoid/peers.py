@@ -100,8 +100,8 @@ def _mujoco_free(h, scene, integrator, dt, T):
     for _ in range(int(round(T / dt))):
         mujoco.mj_step(m, d)
     wall = time.perf_counter() - start
-    if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
-        return wall, float("inf")  # MuJoCo diverged (and reset the state)
+    if _unstable(d):
+        return wall, float("inf")
     return wall, abs(_energy(m, d) - e0) / abs(e0)
 
 
@@ -125,6 +125,11 @@ def _measured(scene, h, measure):
     return wall, (float(measure(traj)) if traj.status == "completed" else float("inf"))
 
 
+def _foot_joints(h) -> list[int]:
+    """The joints that carry the soles (left, right)."""
+    return [h.model.frames[h.model.getFrameId(sole)].parentJoint for sole in h.feet]
+
+
 def _welds_xml(h, q, weld: str, dt: float) -> str:
     """MJCF weld equalities (named by side) of both feet at their placement in q."""
     solref, solimp = WELDS[weld](dt)
@@ -132,8 +137,7 @@ def _welds_xml(h, q, weld: str, dt: float) -> str:
     data = h.model.createData()
     pin.forwardKinematics(h.model, data, q)
     lines = ["<equality>"]
-    for side, sole in zip(("left", "right"), h.feet, strict=True):
-        joint = h.model.frames[h.model.getFrameId(sole)].parentJoint
+    for side, joint in zip(("left", "right"), _foot_joints(h), strict=True):
         body = next(f.name for f in h.model.frames
                     if f.parentJoint == joint and f.type == pin.FrameType.BODY)  # fmt: skip
         rel = " ".join(f"{x:.17g}" for x in _relpose(data.oMi[joint]))
@@ -164,10 +168,11 @@ def _welded_scene(T, dt, controlled: bool):
     )  # fmt: skip
 
 
-def _diverged(m, d, worst) -> bool:
+def _unstable(d) -> bool:
+    """MuJoCo found a bad acceleration (it then resets the state)."""
     import mujoco
 
-    return d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0 or not worst < 1.0
+    return d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
 
 
 def _mujoco_welded(h, scene, integrator, weld):
@@ -184,7 +189,7 @@ def _mujoco_welded(h, scene, integrator, weld):
     q0 = ours.q0
     data, work = model.createData(), model.createData()
     pin.forwardKinematics(model, data, q0)
-    feet = [model.frames[model.getFrameId(sole)].parentJoint for sole in h.feet]
+    feet = _foot_joints(h)
     anchors = [data.oMi[j].translation.copy() for j in feet]
     m = _mujoco_model(h, _welds_xml(h, q0, weld, dt), integrator=integrator, dt=dt)
     d = mujoco.MjData(m)
@@ -202,7 +207,7 @@ def _mujoco_welded(h, scene, integrator, weld):
         pin.forwardKinematics(model, data, states.to_pinocchio(d.qpos, d.qvel)[0])
         worst = max(worst, max(np.linalg.norm(data.oMi[j].translation - a)
                                for j, a in zip(feet, anchors, strict=True)))  # fmt: skip
-        if _diverged(m, d, worst):
+        if _unstable(d) or not worst < 1.0:
             return wall, float("inf")
     return wall, worst
 
@@ -229,9 +234,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
 
     setup = prepare(h, GaitParameters(steps=WALK_STEPS), dt=CONTROL_DT)
     sim, ctl, plan, model = setup.sim, setup.ctl, setup.plan, h.model
-    q, v = setup.q0.copy(), np.zeros(h.nv)
-    sim._first = None
-    sim.update_contacts(0.0, q, v)  # the controller's view: both feet welded where they stand
+    q, v = setup.q0.copy(), setup.v0  # the controller's view: both feet welded where they stand
     m = _mujoco_model(h, _welds_xml(h, q, weld, dt), integrator=integrator, dt=dt)
     d = mujoco.MjData(m)
     states = StateMap(h, m)
@@ -263,7 +266,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             d.qfrc_applied[:] = states.to_mujoco(q, tau)[1]
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
-            if _diverged(m, d, drift) or drift > LOST or d.qpos[2] < 0.8 * setup.q0[2]:
+            if _unstable(d) or not drift <= LOST or d.qpos[2] < 0.8 * setup.q0[2]:
                 raise HumanoidError(f"MuJoCo's walk is lost at t = {t:.3f} s")
     except HumanoidError:
         return time.perf_counter() - start, float("inf"), drift
@@ -299,6 +302,7 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
               f"{warnings[0].strip()}")  # fmt: skip
     _write_and_summarise(rows, Path(out), T, T_collapse)
     _plot(rows, Path(out) / "peers.png", T, T_collapse)
+    print(f"wrote {Path(out) / 'peers.csv'} and peers.png")
     return rows
 
 
@@ -414,4 +418,3 @@ def _write_and_summarise(rows, folder: Path, T, T_collapse) -> None:
             text = (f"{best['wall']:.3f} s (dt {best['dt']:g})" if best
                     else f"not reached (best {closest:.1e})")  # fmt: skip
             print(f"    {key[0]:<9} {key[1]:<34} {text}")
-    print(f"wrote {folder / 'peers.csv'} and peers.png")

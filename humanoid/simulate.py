@@ -284,7 +284,7 @@ class Simulation:
         Minv = pin.computeMinverse(self.model, self.data, q)
         return v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
 
-    def switch_contacts(self, t: float, q, v, stance, reason: str = "touchdown"):
+    def switch_contacts(self, t: float, q, v, stance):
         """Follow a contact schedule: release the attached contacts whose side is not in
         ``stance`` (lift-off), attach the others in it where they are, with the impulse that
         stops them (:meth:`attach`). Returns v after the impulse (v itself if none landed)."""
@@ -297,7 +297,7 @@ class Simulation:
                                     "reason": "lift-off"})  # fmt: skip
             elif not c.attached and c.side in stance:
                 landing.append(c)
-        return self.attach(landing, t, q, v, reason) if landing else v
+        return self.attach(landing, t, q, v, "touchdown") if landing else v
 
     def project(self, q, v):
         """Put q and v back on the manifold of the active constraints (Gauss-Newton, 3 its)."""

@@ -109,6 +109,7 @@ class WalkSetup:
 
     plan: FootstepPlan
     q0: np.ndarray
+    v0: np.ndarray  # the initial velocity, consistent with the stance welds
     soles: dict  # initial sole positions by side
     scene: Scene
     sim: Simulation  # the plant (and the stance welds' bookkeeping)
@@ -121,7 +122,8 @@ class WalkSetup:
 def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_implicit_euler",
             record_rate=100.0, rtol=1e-6, atol=1e-6) -> WalkSetup:  # fmt: skip
     """The plan from the crouched start, the preview-control CoM reference, the plant (both
-    feet welded where they stand, Baumgarte 20 dt) and the controller that drives it."""
+    feet welded where they stand, Baumgarte 20 dt, attached at t = 0) and the controller that
+    drives it."""
     model = h.model
     q0 = crouch(h, drop)
     data = model.createData()
@@ -144,7 +146,9 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
     )  # fmt: skip
     sim.controller = ctl
     sim._forced = True
-    return WalkSetup(plan, q0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
+    sim._first = None
+    v0 = sim.update_contacts(0.0, q0, np.zeros(model.nv))  # both feet welded where they stand
+    return WalkSetup(plan, q0, v0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
 
 
 def walk(
@@ -193,9 +197,7 @@ def walk(
         "tau_base", "impulse",
     )}  # fmt: skip
     weight = h.mass * 9.81
-    q, v = q0.copy(), np.zeros(model.nv)
-    sim._first = None
-    v = sim.update_contacts(0.0, q, v)  # both feet welded where they stand
+    q, v = q0.copy(), setup.v0
     pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
     z_start = q[2]
     status, message = "completed", ""
