@@ -4,7 +4,8 @@ Each :class:`Effect` returns a generalised force [N, N m] of size nv, added to t
 the Coriolis/centrifugal terms are not Effects: they live in the bias b(q, v), which the
 simulator computes only as far as the scene needs (see :mod:`humanoid.simulate`). Joint torques
 of effects and controllers never act on the 6 free-flyer coordinates: :func:`joint_mask` is
-applied to all of them.
+applied to them. ``external`` effects (pushes) are forces from outside the body: they enter as
+J(q)^T f on every row, the free flyer's included, and are never masked.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ __all__ = [
 ]
 
 
+TIME_EPS = 1e-9  # [s] far below any time step
+
+
 def joint_mask(model: pin.Model) -> np.ndarray:
     """1.0 on the actuated (non-root) velocity coordinates, 0.0 on the free-flyer's six."""
     mask = np.ones(model.nv)
@@ -34,10 +38,12 @@ def joint_mask(model: pin.Model) -> np.ndarray:
 
 
 class Effect(ABC):
-    """A generalised force of a scene. ``velocity_dependent`` effects read v."""
+    """A generalised force of a scene. ``velocity_dependent`` effects read v; ``external``
+    ones are applied by the world (J^T f on every row), the others by the joints."""
 
     name: str = "effect"
     velocity_dependent: bool = False
+    external: bool = False
 
     @abstractmethod
     def force(self, model: pin.Model, data: pin.Data, t: float, q, v) -> np.ndarray:
@@ -109,17 +115,36 @@ class JointLimits(Effect):
 
 
 class Push(Effect):
-    """A force [N] in world axes at the origin of a frame, during [start, start + duration)."""
+    """An external wrench during [start, start + duration): a force [N] at the origin of a
+    frame and a torque [N m], both in world axes.
+
+    It enters the dynamics as J(q)^T (f, tau) with J the frame's Jacobian in world-aligned
+    axes (LOCAL_WORLD_ALIGNED: the velocity of the frame origin and the angular velocity, both
+    in world axes), on every row including the free flyer's: a free body gains exactly the
+    impulse, and about its centre of mass the angular impulse of r x f + tau.
+    """
 
     name = "push"
+    external = True
 
-    def __init__(self, frame_id: int, force, start: float, duration: float) -> None:
+    def __init__(self, frame_id: int, force, start: float, duration: float, torque=None) -> None:
         self.frame_id = frame_id
-        self.f = np.array(force, dtype=float)
+        self.wrench = np.zeros(6)
+        self.wrench[:3] = force
+        if torque is not None:
+            self.wrench[3:] = torque
         self.start, self.end = start, start + duration
 
+    @property
+    def f(self) -> np.ndarray:
+        """The force [N], world axes."""
+        return self.wrench[:3]
+
     def active(self, t: float) -> bool:
-        return self.start <= t < self.end
+        """Whether the push acts at t; times within TIME_EPS [s] of an edge count as on it,
+        so that a window 0.1 + 0.2 s covers exactly the steps 0.1 <= k dt < 0.3 although
+        0.1 + 0.2 > 0.3 in floating point."""
+        return self.start <= t + TIME_EPS and t + TIME_EPS < self.end
 
     def force(self, model, data, t, q, v):
         if not self.active(t):
@@ -128,7 +153,7 @@ class Push(Effect):
         J = pin.computeFrameJacobian(
             model, data, q, self.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         )
-        return J[:3].T @ self.f
+        return J.T @ self.wrench
 
 
 # Relative cut-off of the pseudo-inverse of the constrained joint-space inverse inertia: the

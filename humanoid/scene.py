@@ -79,12 +79,14 @@ class Contact:
 
 @dataclass(frozen=True)
 class PushSpec:
-    """A force [N] (world axes) at a frame's origin from ``start`` for ``duration`` [s]."""
+    """An external push from ``start`` for ``duration`` [s]: a force [N] at a frame's origin
+    and a torque [N m], both in world axes. It acts on the whole body, free flyer included."""
 
     frame: str
     force: tuple[float, float, float]
     start: float
     duration: float
+    torque: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -395,8 +397,12 @@ def _validate(s: Scene) -> None:
             bad(f"{key}", f"needs 0 <= start < end, got start {c.start}, end {c.end}")
     for i, p in enumerate(e.pushes):
         key = f"effects.pushes[{i}]"
-        if len(p.force) != 3 or not all(math.isfinite(x) for x in p.force):
-            bad(f"{key}.force", f"must be 3 finite numbers [N], got {p.force!r}")
+        for name, unit in (("force", "N"), ("torque", "N m")):
+            value = getattr(p, name)
+            if len(value) != 3 or not all(math.isfinite(x) for x in value):
+                bad(f"{key}.{name}", f"must be 3 finite numbers [{unit}], got {value!r}")
+        if not (math.isfinite(p.start) and math.isfinite(p.duration)):
+            bad(key, f"start and duration must be finite, got {p.start}, {p.duration}")
         if p.duration <= 0 or p.start < 0:
             bad(key, "needs start >= 0 and duration > 0")
     if s.controller.kind not in ("none", "posture"):

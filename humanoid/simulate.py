@@ -72,7 +72,9 @@ class Simulation:
                 JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
             )
         for p in e.pushes:
-            self.effects.append(Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration))
+            self.effects.append(
+                Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration, p.torque)
+            )
         self.contacts = [ContactState(h, c) for c in e.contacts]
         self.controller = None
         if scene.controller.kind == "posture":
@@ -104,7 +106,7 @@ class Simulation:
         self._zero = np.zeros(self.model.nv)
         self._zero.flags.writeable = False
         self._forced = bool(self.effects) or self.controller is not None
-        self.tau_last = np.zeros(self.model.nv)
+        self.joint_torque = self._zero
         self._pin_backend = None
         self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
         self.gimbal = _gimbal_monitor(h)
@@ -125,21 +127,33 @@ class Simulation:
 
     # -- forces --------------------------------------------------------------------------
     def applied(self, t, q, v) -> np.ndarray:
-        """Generalised force of the effects and the controller, zero on the free flyer.
+        """Generalised force of the effects and the controller.
+
+        Joint efforts (damping, springs, limits, the controller) are masked off the free
+        flyer; external ones (pushes) act on every row. The joint part is kept in
+        ``self.joint_torque`` (what the records call tau).
 
         Time-dependent effects (pushes) are sampled at the start of the step, like a
         controller: a push that ends exactly at a step boundary would otherwise switch off
         inside the step's last stage, and an adaptive step could never resolve it.
         """
         if not self._forced:
+            self.joint_torque = self._zero
             return self._zero
         t = self._tick
         tau = np.zeros(self.model.nv)
+        external = np.zeros(self.model.nv)
         for eff in self.effects:
-            tau += eff.force(self.model, self.data, t, q, v)
+            f = eff.force(self.model, self.data, t, q, v)
+            if eff.external:
+                external += f
+            else:
+                tau += f
         if self.controller is not None:
             tau += self.controller.force(self.model, self.data, t, q, v)
-        return tau * self.mask
+        tau *= self.mask
+        self.joint_torque = tau
+        return tau + external
 
     def bias(self, q, v) -> np.ndarray:
         """b(q, v) with only the terms the scene calls for."""
@@ -166,7 +180,7 @@ class Simulation:
             self.counters["aba"] += 1
             v_dyn = v if self.velocity_terms else np.zeros_like(v)
             a = pin.aba(self.model, self.data, q, v_dyn, tau)
-            self.last = (tau, None)
+            self.last = (self.joint_torque, None)
             return a.copy()
         self.counters["kkt"] += 1
         if self.scene.stabilisation.backend == "pinocchio" and self.velocity_terms:
@@ -175,7 +189,7 @@ class Simulation:
         Minv = pin.computeMinverse(self.model, self.data, q)
         J, gamma = stack(self.model, self.data, constraints, v, self.baumgarte)
         sol = solve_kkt(Minv, tau - self.bias(q, v), J, gamma)
-        self.last = (tau, sol)
+        self.last = (self.joint_torque, sol)
         return sol.a
 
     def _pinocchio_backend(self, q, v, tau, constraints):
@@ -186,7 +200,7 @@ class Simulation:
             self._pin_backend = (key, cms, cds, data, proximal_settings(redundant))
         _, cms, cds, data, prox = self._pin_backend
         a = pin.constraintDynamics(self.model, data, q, v, tau, cms, cds, prox)
-        self.last = (tau, _PinSolution(a, cms, cds))
+        self.last = (self.joint_torque, _PinSolution(a, cms, cds))
         return a
 
     def coordinate_acceleration(self, t, x, xdot) -> np.ndarray:
@@ -226,13 +240,13 @@ class Simulation:
         if sol is None or not np.all(np.isfinite(sol)):  # redundant rows: least squares
             sol = np.linalg.lstsq(K, rhs, rcond=1e-13)[0]
         self.counters["kkt"] += 1
-        self.last = (tau, None)
+        self.last = (self.joint_torque, None)
         if constraints:
             from .constraints.solve import ConstrainedAcceleration
 
             lam = -sol[cm.nq + self.norm.size :]
             a = H @ sol[: cm.nq] + cm.Hdot_xdot(x, xdot)
-            self.last = (tau, ConstrainedAcceleration(a, lam, 0.0, m, "coordinates"))
+            self.last = (self.joint_torque, ConstrainedAcceleration(a, lam, 0.0, m, "coordinates"))
         return sol[: cm.nq]
 
     # -- one step ------------------------------------------------------------------------

@@ -313,3 +313,50 @@ def test_coordinate_map_velocity_and_norm_constraint():
     assert norm.size == 8  # free flyer + 7 ball joints
     assert np.abs(norm.residual(x)).max() < 1e-12
     assert np.abs(norm.jacobian(x) @ xd).max() < 1e-12  # unit-norm preserving velocity
+
+
+@pytest.mark.parametrize("name", ["male", "human"])
+def test_weld_wrench_is_in_world_axes_on_a_tilted_foot(name):
+    """The weld's lambda (LOCAL axes) and its world wrench do the same work: J_local^T lambda
+    equals J_world^T w with J_world the sole frame's Jacobian in world-aligned axes and w the
+    wrench (force, torque about the sole origin) in world axes; the foot is tilted, so sole and
+    world axes differ in every direction."""
+    h = get_model(name, "quaternion")
+    m, data = h.model, h.model.createData()
+    rng = np.random.default_rng(61)
+    for _ in range(3):
+        q, _ = random_state(h, rng)
+        update_kinematics(m, data, q, np.zeros(m.nv))
+        weld = _welds(h, q, data)[0]
+        R = data.oMf[weld.frame_id].rotation
+        assert np.abs(R - np.eye(3)).max() > 0.1  # tilted
+        lam = rng.normal(size=6) * [100, 100, 600, 20, 20, 5]
+        w = weld.wrench_world(m, data, lam)
+        J_world = pin.getFrameJacobian(m, data, weld.frame_id, pin.LOCAL_WORLD_ALIGNED)
+        np.testing.assert_allclose(weld.jacobian(m, data).T @ lam, J_world.T @ w, atol=1e-9)
+
+
+def test_projection_leaves_the_velocity_on_the_constraint_manifold():
+    """After the projection of a perturbed state, the welds hold in position (|e| < 1e-12) and
+    in velocity (J v = 0, the projection's velocity impulse)."""
+    from conftest import MODELS
+
+    from humanoid.scene import Contact, Effects, Scene
+    from humanoid.simulate import Simulation
+
+    scene = Scene(body=str(MODELS / "adult_male.urdf"),
+                  effects=Effects(contacts=(Contact("left"), Contact("right"))))  # fmt: skip
+    sim = Simulation(scene)
+    rng = np.random.default_rng(62)
+    q0, v0 = sim.q0, sim.switch_contacts(0.0, sim.q0, sim.v0, {"left", "right"})
+    q = pin.integrate(sim.model, q0, 1e-3 * rng.normal(size=sim.model.nv))
+    v = v0 + 0.5 * rng.normal(size=sim.model.nv)
+    q2, v2 = sim.project(q, v)
+    update_kinematics(sim.model, sim.data, q2, v2)
+    cs = sim.active_constraints()
+    assert len(cs) == 2
+    e = np.concatenate([c.residual(sim.model, sim.data) for c in cs])
+    J = np.vstack([c.jacobian(sim.model, sim.data) for c in cs])
+    assert np.abs(e).max() < 1e-12
+    assert np.abs(J @ v2).max() < 1e-9
+    assert np.abs(J @ v).max() > 0.1  # there was something to remove

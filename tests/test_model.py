@@ -164,3 +164,21 @@ def test_shipped_models_equal_the_builder():
         assert (MODELS / name).read_text() == hm.build_urdf(params), (
             f"models/{name} is stale: run `make models`"
         )
+
+
+@pytest.mark.parametrize(("name", "mode"), [("human", "quaternion"), ("talos", "quaternion"),
+                                            ("male", "quaternion")])  # fmt: skip
+def test_sole_points_inner_is_medial_and_heel_is_behind(name, mode):
+    """Generated and written sole points alike: standing, each foot's inner points lie toward
+    the body's midline (y = 0) from its outer points, and the heels behind the toes."""
+    h = get_model(name, mode)
+    m, data = h.model, h.model.createData()
+    pin.framesForwardKinematics(m, data, h.standing_configuration())
+    for side in ("left", "right"):
+        corners = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
+        assert h.contact_points[side] == tuple(f"{side}_{c}" for c in corners)
+        pts = {c: data.oMf[m.getFrameId(f"{side}_{c}")].translation for c in corners}
+        for end in ("heel", "toe"):
+            assert abs(pts[f"{end}_inner"][1]) < abs(pts[f"{end}_outer"][1]) - 0.01, (side, end)
+        for edge in ("inner", "outer"):
+            assert pts[f"heel_{edge}"][0] < pts[f"toe_{edge}"][0] - 0.05, (side, edge)

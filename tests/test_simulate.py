@@ -323,3 +323,26 @@ def test_progress_bar_is_quiet_off_a_terminal_or_when_asked(monkeypatch):
     bar.update(64)
     assert bar.bar is not None
     bar.close()
+
+
+@pytest.mark.parametrize("kind", ["weld", "points"])
+def test_friction_is_checked_on_the_cone_not_a_pyramid(kind):
+    """A force with |f_x|, |f_y| < mu f_z on each axis but |f_t| > mu f_z is outside the
+    Coulomb cone: the check reports it; a force inside the cone passes."""
+    from humanoid.contacts import ContactState
+    from humanoid.model import load
+
+    h = load(MALE)
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, h.standing_configuration())
+    c = ContactState(h, Contact("left", kind=kind, mu=0.8))
+    c.attach(data)
+    for ft, outside in ((0.7, True), (0.5, False)):  # 0.7 sqrt 2 = 0.99 > 0.8 > 0.7
+        f = np.array([ft, ft, 1.0]) * 300.0
+        if kind == "weld":
+            c.wrench = np.concatenate([f, np.zeros(3)])
+        else:
+            c.point_forces = np.tile(f / 4, (4, 1))
+            c.wrench = np.concatenate([f, np.zeros(3)])
+        problems = c.check(data)
+        assert any("friction" in p for p in problems) == outside, problems
