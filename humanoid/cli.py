@@ -48,6 +48,9 @@ def _parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
     i.add_argument("model", help="a URDF file or an example-robot-data name (human, talos...)")
     i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+    i.add_argument("--massless", choices=("error", "merge"), default="error",
+                   help="joints that move no mass: refuse the model, or lock them (default: "
+                   "%(default)s)")  # fmt: skip
 
     s = sub.add_parser("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
     s.add_argument("scene", help="scene file, e.g. models/scenes/standing.toml")
@@ -66,6 +69,9 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--html", help="also write the viewer as one HTML file")
     w.add_argument("--figure", help="figure file (PNG); default: next to the trajectory")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
+    w.add_argument("--massless", choices=("error", "merge"), default="error",
+                   help="joints that move no mass: refuse the model, or lock them (default: "
+                   "%(default)s)")  # fmt: skip
 
     v = sub.add_parser("view", help="show a model or a run in the browser (live, or as HTML)")
     v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
@@ -76,11 +82,17 @@ def _parser() -> argparse.ArgumentParser:
     for name in ("forces", "com", "footprints", "ground"):
         v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
     v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+    v.add_argument("--massless", choices=("error", "merge"), default="error",
+                   help="joints that move no mass: refuse the model, or lock them (default: "
+                   "%(default)s)")  # fmt: skip
 
     x = sub.add_parser("export", help="export a model to another simulator's format")
     x.add_argument("model", help="a URDF or an example-robot-data name")
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     x.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
+    x.add_argument("--massless", choices=("error", "merge"), default="error",
+                   help="joints that move no mass: refuse the model, or lock them (default: "
+                   "%(default)s)")  # fmt: skip
 
     bench = sub.add_parser("bench", help="benchmarks: step cost, work-precision (accuracy)")
     bench.add_argument("kind", choices=("step", "accuracy"))
@@ -106,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "export":
             from .export import write_mjcf
 
-            path = write_mjcf(load_any(args.model, args.ball_joints), args.mjcf)
+            path = write_mjcf(load_any(args.model, args.ball_joints, args.massless), args.mjcf)
             print(f"wrote {path}")
             return 0
         if args.command == "bench":
@@ -133,17 +145,17 @@ def _build(args) -> int:
     return 0
 
 
-def load_any(name: str, ball_joints: str = "quaternion"):
+def load_any(name: str, ball_joints: str = "quaternion", massless: str = "error"):
     """A URDF path, or else an example-robot-data robot name."""
     from .model import example_robot_names, load, load_example
 
     if not Path(name).exists() and name in example_robot_names():
-        return load_example(name, ball_joints=ball_joints)
-    return load(Path(name), ball_joints=ball_joints)
+        return load_example(name, ball_joints=ball_joints, massless=massless)
+    return load(Path(name), ball_joints=ball_joints, massless=massless)
 
 
 def _info(args) -> int:
-    print(summary(load_any(args.model, args.ball_joints)))
+    print(summary(load_any(args.model, args.ball_joints, args.massless)))
     return 0
 
 
@@ -168,7 +180,7 @@ def _walk(args) -> int:
     from .walking import GaitParameters, format_summary, plot_walk, walk
 
     model = args.model or str(Path(__file__).resolve().parent.parent / "models" / "adult_male.urdf")
-    h = load_any(model, "quaternion")
+    h = load_any(model, "quaternion", args.massless)
     kw = {"steps": args.steps}
     if args.step_length is not None and args.speed is not None:
         raise HumanoidError("give --speed or --step-length, not both")
@@ -209,7 +221,7 @@ def _view(args) -> int:
         traj = Trajectory.load(args.target)
         h = humanoid_for(traj)
     else:
-        h = load_any(args.target, args.ball_joints)
+        h = load_any(args.target, args.ball_joints, args.massless)
     title = Path(args.target).stem
     if args.html:
         path = export_html(h, args.html, traj=traj, overlays=overlays, speed=args.speed,

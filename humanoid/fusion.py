@@ -297,7 +297,7 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
 
     fmap = {0: 0}
     ball_of = {j: b for b in balls for j in b.hinge_ids}
-    for fid in range(1, model.nframes):
+    for fid in _parents_first(model):
         f = model.frames[fid]
         pj = f.parentJoint
         ball = ball_of.get(pj)
@@ -324,3 +324,22 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
         new_geoms.append(ng)
     fusion = Fusion(model, new, tuple(balls), tuple(copied))
     return fusion, new_geoms
+
+
+def _parents_first(model: pin.Model) -> list[int]:
+    """Frame ids (without the universe) ordered so that every frame's parent frame comes
+    before it (a reduced model's frames may name a later frame as their parent)."""
+    done, order = {0}, []
+    pending = list(range(1, model.nframes))
+    while pending:
+        left = []
+        for f in pending:
+            if model.frames[f].parentFrame in done:
+                done.add(f)
+                order.append(f)
+            else:
+                left.append(f)
+        if len(left) == len(pending):
+            raise ValueError("the frames' parents form a cycle")
+        pending = left
+    return order

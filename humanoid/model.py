@@ -39,6 +39,10 @@ SIDES = ("left", "right")
 CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
 FOOT_WORDS = ("sole", "foot", "ankle")
 BALL_MODES = ("quaternion", "euler")
+MASSLESS_MODES = ("error", "merge")
+# A joint whose diagonal block of M is below this (relative to the largest diagonal entry of M)
+# moves no inertia: nothing resists its acceleration, and M is singular.
+MASSLESS_TOLERANCE = 1e-12
 
 
 @dataclass(eq=False)
@@ -186,13 +190,19 @@ def example_robot_path(name: str) -> tuple[Path, Path]:
     return root / sub, (root / "../..").resolve()
 
 
-def load_example(name: str, ball_joints: str = "quaternion", feet=None) -> Humanoid:
+def load_example(
+    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error"
+) -> Humanoid:
     """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) with :func:`load`."""
     path, package_dir = example_robot_path(name)
-    return load(path, ball_joints=ball_joints, feet=feet, package_dirs=[package_dir])
+    return load(
+        path, ball_joints=ball_joints, feet=feet, package_dirs=[package_dir], massless=massless
+    )
 
 
-def load(source, ball_joints: str = "quaternion", feet=None, package_dirs=()) -> Humanoid:
+def load(
+    source, ball_joints: str = "quaternion", feet=None, package_dirs=(), massless: str = "error"
+) -> Humanoid:
     """Load a humanoid URDF with a free-flyer root.
 
     Args:
@@ -201,16 +211,24 @@ def load(source, ball_joints: str = "quaternion", feet=None, package_dirs=()) ->
             ``"euler"`` keeps the URDF's revolute joints.
         feet: Optional (left, right) frame names of the feet; found by name if omitted.
         package_dirs: Extra folders to resolve ``package://`` mesh URIs.
+        massless: What to do with joints that move no mass (massless links at the end of a
+            chain, such as romeo's fingers: nothing resists their acceleration and M(q) is
+            singular). ``"error"`` raises a :class:`ModelError` naming them; ``"merge"`` locks
+            them at their upright position, merging their links into their parents (exact:
+            they carry no mass), as the hinge triplets' massless links are merged.
 
     Returns:
         The :class:`Humanoid`.
 
     Raises:
         ModelError: the file is missing or malformed, a mass or inertia is invalid, a mesh
-            cannot be found, or no feet can be identified.
+            cannot be found, a joint moves no mass (``massless="error"``), or no feet can be
+            identified.
     """
     if ball_joints not in BALL_MODES:
         raise ModelError(f"ball_joints must be one of {BALL_MODES}, got {ball_joints!r}")
+    if massless not in MASSLESS_MODES:
+        raise ModelError(f"massless must be one of {MASSLESS_MODES}, got {massless!r}")
     text, path = _read(source)
     dirs = _package_dirs(path, package_dirs)
     label = str(path) if path else "<string>"
@@ -220,6 +238,7 @@ def load(source, ball_joints: str = "quaternion", feet=None, package_dirs=()) ->
         geoms = [_geometry(model, text, path, kind, dirs) for kind in ("VISUAL", "COLLISION")]
     except (RuntimeError, ValueError) as exc:
         raise ModelError(f"{label}: Pinocchio cannot build the model: {exc}") from None
+    model, geoms = _massless_joints(model, geoms, massless, label)
 
     foot_frames = _find_feet(model, feet, label)
     _make_z_up(model, geoms, foot_frames)
@@ -240,6 +259,50 @@ def load(source, ball_joints: str = "quaternion", feet=None, package_dirs=()) ->
         source=label,
         fusion=fusion,
         euler_model=euler_model,
+    )
+
+
+def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
+    """Find the joints whose motion moves no inertia (their diagonal block of M at the upright
+    configuration is zero); raise, or lock them (``pin.buildReducedModel``)."""
+    if model.nv == 0:
+        return model, geoms
+    q = _upright(model)
+    M = pin.crba(model, model.createData(), q)
+    M = np.triu(M) + np.triu(M, 1).T
+    scale = max(float(np.abs(np.diag(M)).max()), 1e-300)
+    if M[:3, :3].trace() <= MASSLESS_TOLERANCE * scale or not np.isfinite(scale):
+        raise ModelError(f"{label}: the body has no mass (no link has an <inertial>)")
+    bad = []
+    for j in range(2, model.njoints):
+        jm = model.joints[j]
+        block = M[jm.idx_v : jm.idx_v + jm.nv, jm.idx_v : jm.idx_v + jm.nv]
+        if np.linalg.eigvalsh(block).min() <= MASSLESS_TOLERANCE * scale:
+            bad.append(j)
+    if not bad:
+        return model, geoms
+    if mode == "error":
+        links = [_child_link(model, j) for j in bad]
+        raise ModelError(
+            f"{label}: {len(bad)} joints move no mass (their links and everything after them "
+            f"are massless, so M(q) is singular): {', '.join(model.names[j] for j in bad)} "
+            f"(links {', '.join(links)}); give those links mass, or load with "
+            "massless='merge' (CLI: --massless merge) to lock them into their parents"
+        )
+    reduced, geoms = pin.buildReducedModel(model, list(geoms), bad, q)
+    for fid, f in enumerate(reduced.frames):
+        if fid and f.parentFrame == fid:  # a locked joint's frame names itself as its parent
+            joint = reduced.names[f.parentJoint]
+            f.parentFrame = reduced.getFrameId(joint, pin.FrameType.JOINT) if f.parentJoint else 0
+            reduced.frames[fid] = f
+    return reduced, list(geoms)
+
+
+def _child_link(model: pin.Model, joint: int) -> str:
+    """The name of the link a joint moves (its first BODY frame)."""
+    return next(
+        (f.name for f in model.frames if f.parentJoint == joint and f.type == pin.FrameType.BODY),
+        model.names[joint],
     )
 
 

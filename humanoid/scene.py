@@ -143,6 +143,7 @@ class Scene:
     name: str = "scene"
     body: str | BodyParameters = "models/adult_male.urdf"
     ball_joints: str = "quaternion"
+    massless: str = "error"  # error | merge: joints that move no mass (see humanoid.load)
     duration: float = 1.0  # [s]
     dt: float = 1e-3  # [s]
     integrator: str = "rk4"
@@ -201,10 +202,10 @@ class Scene:
         """Build a scene from the TOML structure (relative URDF paths resolve from ``base``)."""
         r = _Reader(source)
         tables = ("body", "initial", "effects", "controller", "stabilisation")
-        scalars = {f.name for f in fields(cls)} - {"source", "ball_joints", *tables}
+        scalars = {f.name for f in fields(cls)} - {"source", "ball_joints", "massless", *tables}
         top = r.section(doc, "", scalars | set(tables))
         kw = {k: v for k, v in top.items() if k not in tables}
-        body_keys = {"urdf", "height", "mass", "sex", "ball_joints", "segment_lengths"}
+        body_keys = {"urdf", "height", "mass", "sex", "ball_joints", "massless", "segment_lengths"}
         body = r.section(top.get("body", {}), "body", body_keys)
         if "urdf" in body:
             if {"height", "mass", "sex"} & body.keys():
@@ -224,8 +225,9 @@ class Scene:
                 )
             except BodyParameterError as exc:
                 raise SceneError(f"{source}: [body] {exc}") from None
-        if "ball_joints" in body:
-            kw["ball_joints"] = body["ball_joints"]
+        for key in ("ball_joints", "massless"):
+            if key in body:
+                kw[key] = r.typed(body[key], str, f"body.{key}")
         kw["initial"] = r.dataclass(Initial, top.get("initial", {}), "initial")
         kw["controller"] = r.dataclass(Controller, top.get("controller", {}), "controller")
         kw["stabilisation"] = r.dataclass(
@@ -258,7 +260,7 @@ class Scene:
 
     def to_dict(self) -> dict:
         """The TOML structure of this scene (inverse of :meth:`from_dict`)."""
-        skip = ("source", "body", "ball_joints")
+        skip = ("source", "body", "ball_joints", "massless")
         d = {
             f.name: asdict(v) if hasattr(v, "__dataclass_fields__") else v
             for f in fields(self)
@@ -271,6 +273,8 @@ class Scene:
         else:
             body = {"urdf": self.body}
         body["ball_joints"] = self.ball_joints
+        if self.massless != "error":
+            body["massless"] = self.massless
         d["body"] = body
         if d["effects"]["joint_limits"] is None:
             del d["effects"]["joint_limits"]
@@ -374,6 +378,8 @@ def _validate(s: Scene) -> None:
         bad("rtol/atol", "tolerances must be > 0")
     if s.ball_joints not in ("quaternion", "euler"):
         bad("body.ball_joints", f"must be quaternion or euler, got {s.ball_joints!r}")
+    if s.massless not in ("error", "merge"):
+        bad("body.massless", f"must be error or merge, got {s.massless!r}")
     e = s.effects
     if len(e.gravity) != 3 or not all(math.isfinite(x) for x in e.gravity):
         bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")

@@ -561,7 +561,7 @@ def load_body(scene: Scene) -> Humanoid:
     if isinstance(scene.body, BodyParameters):
         return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
     try:
-        return load(Path(scene.body), ball_joints=scene.ball_joints)
+        return load(Path(scene.body), ball_joints=scene.ball_joints, massless=scene.massless)
     except ModelError as exc:
         raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
 

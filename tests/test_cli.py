@@ -259,3 +259,11 @@ def test_peer_comparison_runs_the_same_scenes_in_mujoco(accuracy_run):
     assert "time to reach the target accuracy" in text
     assert "walk (target" in text
     assert (tmp_path / "peers.png").stat().st_size > 10_000
+
+
+def test_massless_models_are_refused_or_merged_on_request(tmp_path, capsys):
+    assert main(["walk", "--model", "romeo", "--steps", "2", "-o", str(tmp_path / "w.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("humanoid walk: error:") and "--massless merge" in err
+    assert main(["info", "romeo", "--massless", "merge"]) == 0
+    assert "nv = 37" in capsys.readouterr().out

@@ -182,3 +182,40 @@ def test_sole_points_inner_is_medial_and_heel_is_behind(name, mode):
             assert abs(pts[f"{end}_inner"][1]) < abs(pts[f"{end}_outer"][1]) - 0.01, (side, end)
         for edge in ("inner", "outer"):
             assert pts[f"heel_{edge}"][0] < pts[f"toe_{edge}"][0] - 0.05, (side, edge)
+
+
+def test_a_joint_that_moves_no_mass_is_refused_by_name():
+    """romeo's fingers and hands are massless leaves: M(q) is singular. The error names the
+    joints and links and says how to merge them."""
+    with pytest.raises(hm.ModelError, match=r"24 joints move no mass.*LHand.*LFinger11Link.*merge"):
+        hm.load_example("romeo")
+
+
+def test_massless_joints_merge_into_their_parents_and_the_body_stands():
+    """massless='merge' locks them: M is positive definite, the mass is the URDF's, the
+    geometry follows, and romeo stands on welded feet under the posture hold for 1 s."""
+    from humanoid.scene import Contact, Controller, Effects, Scene
+
+    h = hm.load_example("romeo", massless="merge")
+    path, _ = example_robot_path("romeo")
+    full = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    assert h.nv == full.nv - 24
+    assert h.mass == pytest.approx(sum(i.mass for i in full.inertias), rel=1e-12)
+    q = h.standing_configuration()
+    M = hm.mass_matrix(h, q)
+    assert np.linalg.eigvalsh(M).min() > 1e-6
+    assert h.model.existFrame("LFinger21Link")  # the merged links stay as frames
+    scene = Scene(body=str(path), massless="merge", duration=1.0,
+                  effects=Effects(contacts=(Contact("left"), Contact("right"))),
+                  controller=Controller("posture", frequency=4.0))  # fmt: skip
+    traj = hm.simulate(scene, humanoid=h, quiet=True)
+    assert traj.status == "completed"
+    assert abs(traj.q[-1, 2] - traj.q[0, 2]) < 1e-6
+    weight = traj.forces["left"][-1, 2] + traj.forces["right"][-1, 2]
+    assert weight == pytest.approx(h.mass * 9.81, rel=1e-6)
+
+
+def test_a_body_without_mass_is_refused(male_urdf):
+    text = re.sub(r"<inertial>.*?</inertial>", "", male_urdf, flags=re.S)
+    with pytest.raises(hm.ModelError, match="has no mass"):
+        hm.load(text)
