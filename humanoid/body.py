@@ -184,6 +184,13 @@ class _Builder:
         ]
 
     def link(self, name, segment: Segment | None = None, com=None, visuals=(), collisions=()):
+        """A link; its collision geometry is its visual geometry unless given (the feet give
+        their sole boxes), so that every segment can touch the ground."""
+        if not collisions:
+            collisions = [
+                _urdf().Collision(name=v.name, origin=v.origin, geometry=v.geometry)
+                for v in visuals
+            ]
         inertial = None
         if segment is not None:
             T = _pose(com)

@@ -53,6 +53,7 @@ __all__ = [
     "Contact",
     "Controller",
     "Effects",
+    "GroundSpec",
     "Initial",
     "JointLimitSpec",
     "PushSpec",
@@ -91,8 +92,23 @@ class PushSpec:
 
 @dataclass(frozen=True)
 class JointLimitSpec:
+    """Joint ranges: ``spring`` (a stiff spring-damper beyond each limit, any integrator) or
+    ``constraint`` (unilateral constraints in the ground contact's solve: ranges that hold)."""
+
+    kind: str = "spring"  # spring | constraint
     stiffness: float = 2000.0  # [N m/rad]
     damping: float = 20.0  # [N m s/rad]
+
+
+@dataclass(frozen=True)
+class GroundSpec:
+    """Rigid ground contact with Coulomb friction on the floor z = 0 for the bodies listed:
+    ``all`` (every collision geometry), ``feet``, or link names."""
+
+    bodies: str | tuple[str, ...] = "all"
+    mu: float = 0.8
+    margin: float = 0.01  # [m] contact candidates closer than this to the floor
+    tolerance: float = 1e-9  # the contact solver's (ADMM) tolerance
 
 
 @dataclass(frozen=True)
@@ -104,6 +120,7 @@ class Effects:
     damping: float = 0.0  # [N m s/rad]
     springs: float = 0.0  # [N m/rad], towards the initial configuration
     joint_limits: JointLimitSpec | None = None
+    ground: GroundSpec | None = None
     contacts: tuple[Contact, ...] = ()
     pushes: tuple[PushSpec, ...] = ()
 
@@ -132,6 +149,7 @@ class Stabilisation:
 @dataclass(frozen=True)
 class Initial:
     configuration: str | tuple[float, ...] = "standing"
+    lift: float = 0.0  # [m] the initial configuration raised by this (a drop)
     base_velocity: tuple[float, ...] = (0.0,) * 6
     joint_velocity: float | tuple[float, ...] = 0.0
 
@@ -246,6 +264,15 @@ class Scene:
             eff["joint_limits"] = r.dataclass(
                 JointLimitSpec, eff["joint_limits"], "effects.joint_limits"
             )
+        if "ground" in eff:
+            ground = dict(r.section(eff["ground"], "effects.ground",
+                                    {f.name for f in fields(GroundSpec)}))  # fmt: skip
+            if "bodies" in ground and isinstance(ground["bodies"], list):
+                ground["bodies"] = tuple(
+                    r.typed(b, str, f"effects.ground.bodies[{i}]")
+                    for i, b in enumerate(ground["bodies"])
+                )
+            eff["ground"] = r.dataclass(GroundSpec, ground, "effects.ground", nested=True)
         kw["effects"] = r.dataclass(Effects, eff, "effects", nested=True)
         for key in ("duration", "dt", "rtol", "atol", "record_rate"):
             if key in kw:
@@ -276,8 +303,9 @@ class Scene:
         if self.massless != "error":
             body["massless"] = self.massless
         d["body"] = body
-        if d["effects"]["joint_limits"] is None:
-            del d["effects"]["joint_limits"]
+        for key in ("joint_limits", "ground"):
+            if d["effects"][key] is None:
+                del d["effects"][key]
         return _drop_inf(d)
 
     def dumps(self) -> str:
@@ -339,7 +367,7 @@ class _Reader:
             if f.name not in d:
                 continue
             value, key, t = d[f.name], f"{name}.{f.name}", f.type
-            if nested and f.name in ("contacts", "pushes", "joint_limits"):
+            if nested and f.name in ("contacts", "pushes", "joint_limits", "ground", "bodies"):
                 out[f.name] = value
             elif t == "bool":
                 out[f.name] = self.typed(value, bool, key)
@@ -385,8 +413,37 @@ def _validate(s: Scene) -> None:
         bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")
     if e.damping < 0 or e.springs < 0:
         bad("effects", "damping and springs must be >= 0")
-    if e.joint_limits is not None and (e.joint_limits.stiffness < 0 or e.joint_limits.damping < 0):
-        bad("effects.joint_limits", "stiffness and damping must be >= 0")
+    lim = e.joint_limits
+    if lim is not None:
+        if not (
+            min(lim.stiffness, lim.damping) >= 0 and math.isfinite(lim.stiffness + lim.damping)
+        ):
+            bad("effects.joint_limits", "stiffness and damping must be finite and >= 0")
+        if lim.kind not in ("spring", "constraint"):
+            bad("effects.joint_limits.kind", f"must be spring or constraint, got {lim.kind!r}")
+        if lim.kind == "constraint" and e.ground is None:
+            bad("effects.joint_limits.kind", "constraint ranges are solved with the ground "
+                "contact: add [effects.ground] (bodies = [] for none)")  # fmt: skip
+    if e.ground is not None:
+        g = e.ground
+        if not (math.isfinite(g.mu) and g.mu >= 0):
+            bad("effects.ground.mu", f"friction coefficient must be >= 0, got {g.mu!r}")
+        if not (math.isfinite(g.margin) and 0 < g.margin <= 0.1):
+            bad("effects.ground.margin", f"must be in (0, 0.1] m, got {g.margin!r}")
+        if not (math.isfinite(g.tolerance) and 0 < g.tolerance < 1):
+            bad("effects.ground.tolerance", f"must be in (0, 1), got {g.tolerance!r}")
+        if not isinstance(g.bodies, str | tuple):
+            bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
+        if isinstance(g.bodies, str) and g.bodies not in ("all", "feet"):
+            bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
+        if s.integrator != "semi_implicit_euler":
+            bad("integrator", "ground contact is solved at the velocity level once per step: "
+                f"use semi_implicit_euler, not {s.integrator!r}")  # fmt: skip
+        if e.contacts:
+            bad("effects.contacts", "welded or pinned feet and [effects.ground] in one scene are "
+                "not supported yet: the ground holds the feet by friction")  # fmt: skip
+        if s.stabilisation.quaternions != "lie" or s.stabilisation.projection:
+            bad("stabilisation", "ground contact needs the Lie-group quaternions and no projection")
     feet = set()
     for i, c in enumerate(e.contacts):
         key = f"effects.contacts[{i}]"
@@ -433,6 +490,8 @@ def _validate(s: Scene) -> None:
     ini = s.initial
     if isinstance(ini.configuration, str) and ini.configuration != "standing":
         bad("initial.configuration", f"must be 'standing' or a list, got {ini.configuration!r}")
+    if not (math.isfinite(ini.lift) and 0.0 <= ini.lift <= 100.0):
+        bad("initial.lift", f"must be a height in [0, 100] m, got {ini.lift!r}")
     if len(ini.base_velocity) != 6:
         bad("initial.base_velocity", f"needs 6 numbers, got {len(ini.base_velocity)}")
 

@@ -21,6 +21,8 @@ import pinocchio as pin
 from .anthropometry import BodyParameters
 from .body import build_urdf
 from .constraints import Baumgarte, Weld, solve_kkt, update_kinematics
+from .constraints.ground import ContactSolver, Ground, GroundSettings
+from .constraints.limits import JointRanges
 from .constraints.quaternion import CoordinateMap, QuaternionNorm
 from .constraints.solve import split_forces, stack
 from .contacts import ContactState
@@ -67,7 +69,7 @@ class Simulation:
             self.effects.append(JointDamping(self.model, e.damping))
         if e.springs > 0:
             self.effects.append(JointSprings(self.model, e.springs, q0))
-        if e.joint_limits is not None:
+        if e.joint_limits is not None and e.joint_limits.kind == "spring":
             self.effects.append(
                 JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
             )
@@ -76,6 +78,12 @@ class Simulation:
                 Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration, p.torque)
             )
         self.contacts = [ContactState(h, c) for c in e.contacts]
+        self.ground = None  # the velocity-level contact solve (ground, constraint ranges)
+        self.ground_step = None  # what it found in the last step
+        self.max_penetration = 0.0  # [m] deepest ground point at the start of any step
+        self.ranges = None
+        if e.ground is not None:
+            self.ground = self._ground_solver(e)
         self.controller = None
         if scene.controller.kind == "posture":
             ctl = scene.controller
@@ -111,6 +119,52 @@ class Simulation:
         self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
         self.gimbal = _gimbal_monitor(h)
         self._locked: set[str] = set()
+
+    def _ground_solver(self, e) -> ContactSolver:
+        """The ground contact of the bodies the scene names, and the joint ranges as
+        constraints if it asks for them."""
+        h, spec = self.h, e.ground
+        geometry = h.collision_model if h.collision_model.ngeoms else h.visual_model
+        if isinstance(spec.bodies, str):
+            if spec.bodies == "all":
+                chosen = range(geometry.ngeoms)
+            else:
+                feet = {self.model.frames[h.frame_id(f)].parentJoint for f in h.feet}
+                chosen = [i for i, g in enumerate(geometry.geometryObjects)
+                          if g.parentJoint in feet]  # fmt: skip
+        else:
+            joints = {}
+            for name in spec.bodies:
+                if not self.model.existFrame(name):
+                    links = sorted(f.name for f in self.model.frames
+                                   if f.type == pin.FrameType.BODY)  # fmt: skip
+                    raise SceneError(f"{self.scene.source}: effects.ground.bodies: no link "
+                                     f"{name!r}; links: {', '.join(links)}")  # fmt: skip
+                joints[self.model.frames[self.model.getFrameId(name)].parentJoint] = name
+            chosen = [i for i, g in enumerate(geometry.geometryObjects) if g.parentJoint in joints]
+        settings = GroundSettings(mu=spec.mu, margin=spec.margin, tolerance=spec.tolerance)
+        ground = Ground(self.model, geometry, list(chosen), settings) if chosen else None
+        limits = e.joint_limits
+        if limits is not None and limits.kind == "constraint":
+            self.ranges = JointRanges(h)
+        return ContactSolver(self.model, ground, self.ranges, settings)
+
+    def ground_step_advance(self, t: float, q, v, dt: float):
+        """One velocity-level step: v_free = v + dt a(q, v) without contacts, the contact
+        impulses of the ground and of the joint ranges, v+ = v_free + M^-1 J^T lambda,
+        q+ = q (+) dt v+ (semi-implicit Euler with impulses)."""
+        a = self.acceleration(t, q, v)
+        v_free = v + dt * a
+        model, data = self.model, self.data
+        pin.computeJointJacobians(model, data, q)
+        Minv = pin.computeMinverse(model, data, q)
+        Minv = np.triu(Minv) + np.triu(Minv, 1).T
+        v_new, found = self.ground.step(q, v_free, dt, Minv, data)
+        self.counters["contact_solves"] = self.counters.get("contact_solves", 0) + 1
+        if len(found.phi):
+            self.max_penetration = max(self.max_penetration, float(-found.phi.min()))
+        self.ground_step = found
+        return pin.integrate(model, q, dt * v_new), v_new
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
         """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground)."""
@@ -255,6 +309,11 @@ class Simulation:
         self._first = None
         self._frozen = False
         self._tick = t
+        if self.ground is not None:
+            self._first = None
+            q_new, v_new = self.ground_step_advance(t, q, v, dt)
+            self._first = self.last
+            return q_new, v_new
         if self.adaptive is not None:
             return self.adaptive.advance(self.space, self._capture, t, q, v, t + dt)
         return self.step_fn(self.space, self._capture, t, q, v, dt)
@@ -391,7 +450,7 @@ class Simulation:
         dt = scene.dt
         n_steps = max(1, int(round(scene.duration / dt)))
         every = max(1, int(round(1.0 / (scene.record_rate * dt))))
-        rec = _Recorder(n_steps // every + 1, model, self.contacts)
+        rec = _Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None)
         t, q, v = 0.0, self.q0.copy(), self.v0.copy()
         self._first = None
         v = self.update_contacts(t, q, v)
@@ -465,6 +524,9 @@ class Simulation:
             "max_velocity_residual": rec.velocity_residual,
             "quaternion_drift": norm_drift,
         }
+        if self.ground is not None:
+            meta["max_penetration"] = self.max_penetration
+            meta["contact_solver_failures"] = self.ground.failures
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
@@ -579,6 +641,7 @@ def initial_state(scene: Scene, h: Humanoid):
                 f"{scene.source}: initial.configuration: needs nq = {model.nq} numbers, "
                 f"got {q.size}"
             )
+    q[2] += ini.lift
     v = np.zeros(model.nv)
     v[:6] = ini.base_velocity
     jv = np.asarray(ini.joint_velocity, dtype=float)

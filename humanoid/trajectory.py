@@ -108,7 +108,7 @@ class _Progress:
 class _Recorder:
     """Preallocated record arrays."""
 
-    def __init__(self, n: int, model, contacts) -> None:
+    def __init__(self, n: int, model, contacts, ground: bool = False) -> None:
         self.n = 0
         self.velocity_residual = 0.0  # largest |J v| of the active constraints at the records
         self.t = np.zeros(n)
@@ -118,6 +118,8 @@ class _Recorder:
         self.energy = np.zeros(n)
         self.residual = np.zeros(n)
         self.forces = {}
+        if ground:
+            self.forces["ground"] = np.zeros((n, 3))  # total ground force, world axes [N]
         for c in contacts:
             self.forces[c.side] = np.full((n, 6), np.nan)
             if c.spec.kind == "points":
@@ -137,6 +139,9 @@ class _Recorder:
         self.energy[i] = pin.computeKineticEnergy(model, data, q, v) + pin.computePotentialEnergy(
             model, data, q
         )
+        found = getattr(sim, "ground_step", None)
+        if found is not None and "ground" in self.forces:
+            self.forces["ground"][i] = found.force / sim.scene.dt
         constraints = sim.active_constraints()
         if constraints:
             sim._kinematics(q, v)

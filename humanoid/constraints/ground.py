@@ -1,0 +1,329 @@
+"""Ground contact for every body: rigid, unilateral, with Coulomb friction, on the floor z = 0.
+
+Built on what Pinocchio 4.1 and coal ship (the design of Inria's Simple simulator):
+
+- **Detection.** The body's collision geometries (our primitives; meshes as their convex hulls)
+  are paired with a ``coal.Halfspace`` floor; ``pin.computeCollisions`` with a security margin
+  finds the geometries near it. Their contact points are the points of the shape that can be
+  lowest: the vertices of a box or a convex hull, the lowest point of a sphere, of each end of a
+  capsule and of each rim of a cylinder, and samples around the rims (a cylinder standing on its
+  end). Those within the margin of the floor become contacts. (coal's contact patches project
+  their points onto one plane, so a tilted box would rest on its projected corners.)
+- **Constraints.** Each contact is a ``pin.PointContactConstraintModel`` between the floor
+  (joint 0, at the point's projection on z = 0, axes world-aligned: tangent x, y, normal z) and
+  the body (at the point, on the geometry's joint), with a ``CoulombFrictionCone`` of friction
+  coefficient mu. Models are pooled and moved in place.
+- **Solve.** Velocity level, one solve per time step: with v_free the velocity after the step
+  without contacts, find impulses lambda in the friction cones with sigma = G lambda + g in the
+  dual cones and lambda . sigma = 0, G = J M^-1 J^T the Delassus operator and
+  g = J v_free + phi / dt on the normal rows (phi: the signed distance; a point not yet touching
+  may close its gap within the step, never more: speculative contact; a point below the floor is
+  pushed out by a fraction of its depth per step). Pinocchio's ``ADMMConstraintSolver`` solves
+  this nonlinear complementarity problem (with the De Saxce correction: true Coulomb friction,
+  sticking, sliding and lift-off; impacts are inelastic). Then v+ = v_free + M^-1 J^T lambda.
+
+Unilateral rows of our own (joint ranges, :mod:`humanoid.constraints.limits`) join the same
+solve: their cone is the non-negative orthant.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["ContactSolver", "Ground", "GroundSettings"]
+
+# ADMM tolerances: contact impulses of a 1 ms step are O(1e-3 .. 1) N s, so Pinocchio's 1e-6
+# default would be loose.
+TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class GroundSettings:
+    """Contact parameters.
+
+    Attributes:
+        mu: Coulomb friction coefficient.
+        margin: [m] points closer than this to the floor are contact candidates.
+        correction: Fraction of a penetration removed per step (0..1).
+        tolerance: ADMM feasibility and complementarity tolerances.
+        max_iterations: ADMM iteration cap per solve.
+    """
+
+    mu: float = 0.8
+    margin: float = 0.01
+    correction: float = 0.2
+    tolerance: float = TOLERANCE
+    max_iterations: int = 1000
+
+
+RIM_SAMPLES = 8  # points sampled around each rim of a cylinder
+MAX_POINTS = 8  # contacts kept per geometry (the extremes of its support polygon)
+
+
+def _convex(shape):
+    """A mesh's convex hull (its vertices are the candidate points; coal's collision of a
+    triangle mesh against a halfspace is unreliable); primitives as they are."""
+    if isinstance(shape, coal.BVHModelBase):
+        shape.buildConvexHull(True, "Qt")
+        return shape.convex
+    return shape
+
+
+class _Shape:
+    """Candidate contact points of one geometry: fixed points in the joint frame (vertices,
+    rim samples) and round parts whose lowest point moves (sphere centres with their radius,
+    rims as centre, axis and radius)."""
+
+    def __init__(self, g: pin.GeometryObject) -> None:
+        shape, M = g.geometry, g.placement
+        self.joint = g.parentJoint
+        self.fixed = np.zeros((0, 3))
+        self.spheres: list[tuple[np.ndarray, float]] = []  # (centre in the joint frame, radius)
+        self.rims: list[tuple[np.ndarray, np.ndarray, float]] = []  # (centre, axis, radius)
+        R, t = M.rotation, M.translation
+        if isinstance(shape, coal.Box):
+            h = np.asarray(shape.halfSide)
+            corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+            self.fixed = (corners * h) @ R.T + t
+        elif isinstance(shape, coal.ConvexBase):
+            pts = np.array([shape.points(i) for i in range(shape.num_points)])
+            self.fixed = pts @ R.T + t
+        elif isinstance(shape, coal.Sphere):
+            self.spheres.append((t.copy(), float(shape.radius)))
+        elif isinstance(shape, coal.Capsule):
+            for s in (-1.0, 1.0):
+                self.spheres.append((t + s * shape.halfLength * R[:, 2], float(shape.radius)))
+        elif isinstance(shape, coal.Cylinder):
+            ang = np.linspace(0.0, 2 * np.pi, RIM_SAMPLES, endpoint=False)
+            ring = np.column_stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)]) * shape.radius
+            for s in (-1.0, 1.0):
+                centre = t + s * shape.halfLength * R[:, 2]
+                self.rims.append((centre, R[:, 2].copy(), float(shape.radius)))
+                self.fixed = np.vstack([self.fixed, ring @ R.T + centre])
+        else:
+            raise ValueError(f"no contact points for a {type(shape).__name__} ({g.name})")
+
+    def lowest(self, oMi: pin.SE3) -> np.ndarray:
+        """World points of the shape that can be lowest, (n, 3)."""
+        R, t = oMi.rotation, oMi.translation
+        pts = [self.fixed @ R.T + t] if len(self.fixed) else []
+        down = np.array([0.0, 0.0, -1.0])
+        for c, r in self.spheres:
+            pts.append((R @ c + t + r * down)[None])
+        for c, a, r in self.rims:
+            axis = R @ a
+            d = down - (down @ axis) * axis  # the rim's lowest direction
+            norm = np.linalg.norm(d)
+            if norm > 1e-9:
+                pts.append((R @ c + t + r * d / norm)[None])
+        return np.vstack(pts)
+
+
+def _extremes(points: np.ndarray, n: int) -> np.ndarray:
+    """Indices of at most n points that span the support polygon: the extremes in the
+    horizontal plane along n directions (a flat mesh face may bring dozens of coplanar
+    points; its contact is its outline)."""
+    if len(points) <= n:
+        return np.arange(len(points))
+    ang = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    dirs = np.column_stack([np.cos(ang), np.sin(ang)])
+    return np.unique(np.argmax(points[:, :2] @ dirs.T, axis=0))
+
+
+class Ground:
+    """The floor and the geometries that may touch it.
+
+    Args:
+        model: The Pinocchio model.
+        geometry_model: Collision geometry (visual geometry for models that have none).
+        geometries: Indices of the geometries that may touch the floor.
+        settings: :class:`GroundSettings`.
+    """
+
+    def __init__(self, model: pin.Model, geometry_model: pin.GeometryModel, geometries,
+                 settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
+        self.settings = settings
+        gm = pin.GeometryModel()
+        floor = coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
+        self.floor = gm.addGeometryObject(pin.GeometryObject("floor", 0, pin.SE3.Identity(), floor))
+        self.names, self.shapes = [], []
+        for i in geometries:
+            g = geometry_model.geometryObjects[i].copy()
+            g.geometry = _convex(g.geometry)
+            gid = gm.addGeometryObject(g)
+            gm.addCollisionPair(pin.CollisionPair(self.floor, gid))
+            self.names.append(g.name)
+            self.shapes.append(_Shape(g))
+        self.geometry_model = gm
+        self.geometry_data = pin.GeometryData(gm)
+        for req in self.geometry_data.collisionRequests:
+            req.security_margin = settings.margin
+        self._pool: list[tuple[pin.ConstraintModel, pin.ConstraintData]] = []
+        self._model = model
+
+    def _contact(self, k: int):
+        """The k-th pooled contact model (created on first use)."""
+        while len(self._pool) <= k:
+            pc = pin.PointContactConstraintModel(
+                self._model, 0, pin.SE3.Identity(), 0, pin.SE3.Identity()
+            )
+            pc.setFriction(self.settings.mu)
+            cm = pin.ConstraintModel(pc)
+            self._pool.append((cm, cm.createData()))
+        return self._pool[k]
+
+    def detect(self, model: pin.Model, data: pin.Data):
+        """Contacts of the current placements (``data.oMi`` must be up to date).
+
+        Returns:
+            (models, datas, phi, points): the active contact constraints, their signed distances
+            [m] (negative below the floor) and their world points on the body, (n, 3).
+        """
+        gm, gd = self.geometry_model, self.geometry_data
+        pin.updateGeometryPlacements(model, data, gm, gd)
+        pin.computeCollisions(gm, gd, False)
+        cms, cds, points = [], [], []
+        margin = self.settings.margin
+        for pair, shape in enumerate(self.shapes):
+            if not gd.collisionResults[pair].isCollision():
+                continue
+            oMi = data.oMi[shape.joint]
+            pts = shape.lowest(oMi)
+            pts = pts[pts[:, 2] < margin]
+            pts = pts[_extremes(pts, MAX_POINTS)] if len(pts) > MAX_POINTS else pts
+            for p in pts:
+                cm, cd = self._contact(len(cms))
+                c = cm.extract()
+                c.joint2_id = shape.joint
+                c.joint1_placement.translation = np.array([p[0], p[1], 0.0])
+                c.joint2_placement.translation = oMi.actInv(p)
+                cms.append(cm)
+                cds.append(cd)
+                points.append(p)
+        points = np.array(points).reshape(-1, 3)
+        return cms, cds, points[:, 2].copy(), points
+
+
+@dataclass(frozen=True)
+class StepContacts:
+    """What the contact solve of one step found.
+
+    Attributes:
+        points: World points of the ground contacts on the body, (n, 3) [m].
+        phi: Their signed distances to the floor [m] at the start of the step.
+        impulses: Ground impulses per contact, world axes (n, 3) [N s].
+        limit_impulses: Impulses of the active joint-range rows [N m s].
+        iterations: ADMM iterations; converged: whether it met its tolerance.
+    """
+
+    points: np.ndarray
+    phi: np.ndarray
+    impulses: np.ndarray
+    limit_impulses: np.ndarray
+    iterations: int
+    converged: bool
+
+    @property
+    def force(self) -> np.ndarray:
+        """Total ground impulse, world axes [N s] (divide by dt for the mean force)."""
+        return self.impulses.sum(axis=0) if len(self.impulses) else np.zeros(3)
+
+
+class ContactSolver:
+    """One velocity-level step of the ground contacts and unilateral rows (joint ranges)."""
+
+    def __init__(self, model: pin.Model, ground: Ground | None, ranges=None,
+                 settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
+        self.model, self.ground, self.ranges, self.settings = model, ground, ranges, settings
+        self.solver = pin.ADMMConstraintSolver()
+        st = pin.ADMMSolverSettings()
+        st.absolute_feasibility_tol = st.relative_feasibility_tol = settings.tolerance
+        st.absolute_complementarity_tol = st.relative_complementarity_tol = settings.tolerance
+        st.max_iterations = settings.max_iterations
+        st.admm_update_rule = pin.ADMMUpdateRule.SPECTRAL  # no iteration-cap hits on impacts
+        self.admm = st
+        self.result = pin.ADMMSolverResult()
+        self._orthants: dict[int, tuple] = {}
+        self.failures = 0
+
+    def _orthant(self, n: int):
+        """A constraint model whose cone is the non-negative orthant of size n: Pinocchio's
+        solvers read each block's cone from a constraint model, and our own unilateral rows
+        (ball-joint ranges) have none. A joint-limit model of a placeholder chain of n hinges,
+        each at its lower limit, has exactly n rows with that cone; only its cone is used."""
+        if n not in self._orthants:
+            chain = pin.Model()
+            parent = 0
+            for i in range(n):
+                parent = chain.addJoint(parent, pin.JointModelRX(), pin.SE3.Identity(), f"j{i}")
+            lo, hi = -np.ones(n), np.ones(n)
+            jl = pin.JointLimitConstraintModel(
+                chain, list(range(1, n + 1)), lo, hi, np.full(n, 0.1)
+            )
+            jl.makeSelectionFilteredByLimitProximity(lo)
+            cm = pin.ConstraintModel(jl)
+            self._orthants[n] = (cm, cm.createData())
+        return self._orthants[n]
+
+    def step(self, q, v_free, dt: float, Minv: np.ndarray, data: pin.Data):
+        """Contact impulses for a step from (q, v_free); returns (v+, StepContacts).
+
+        ``data`` must hold the joint placements and Jacobians at q
+        (``pin.computeJointJacobians``).
+        """
+        model = self.model
+        cms, cds, rows = [], [], []
+        g_parts = []
+        phi = points = np.zeros((0,))
+        n_ground = 0
+        if self.ground is not None:
+            cms, cds, phi, points = self.ground.detect(model, data)
+            n_ground = len(cms)
+            if n_ground:
+                for cm, cd in zip(cms, cds, strict=True):
+                    cm.calc(model, data, cd)
+                Jg = pin.getConstraintsJacobian(model, data, cms, cds)
+                gap = np.where(phi >= 0.0, phi, self.settings.correction * phi) / dt
+                gg = Jg @ v_free
+                gg[2::3] += gap
+                rows.append(Jg)
+                g_parts.append(gg)
+        n_limits = 0
+        if self.ranges is not None:
+            r, Jr = self.ranges.rows(q)
+            n_limits = len(r)
+            if n_limits:
+                gap = np.where(r >= 0.0, r, self.settings.correction * r) / dt
+                rows.append(Jr)
+                g_parts.append(Jr @ v_free + gap)
+                cm, cd = self._orthant(n_limits)
+                cms, cds = [*cms, cm], [*cds, cd]
+        if not rows:
+            return v_free, StepContacts(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
+                                        np.zeros(0), 0, True)  # fmt: skip
+        J = np.vstack(rows)
+        g = np.concatenate(g_parts)
+        MJt = Minv @ J.T
+        G = J @ MJt
+        # Jacobi scaling: a hand's range row and a foot's contact differ by 1e6 in G; each
+        # contact's three rows share one factor, so its friction cone is unchanged
+        d = np.diag(G).copy()
+        if n_ground:
+            d[: 3 * n_ground] = np.repeat(d[: 3 * n_ground].reshape(-1, 3).mean(axis=1), 3)
+        d = 1.0 / np.sqrt(np.maximum(d, 1e-12 * d.max()))
+        res = self.result
+        res.clearConstraintImpulseGuess()
+        delassus = pin.DelassusOperatorDense(d[:, None] * G * d[None, :])
+        self.solver.solve(delassus, d * g, cms, cds, self.admm, res)
+        lam = d * np.array(res.retrieveConstraintImpulses())
+        if not res.converged:
+            self.failures += 1
+        v_new = v_free + MJt @ lam
+        impulses = lam[: 3 * n_ground].reshape(-1, 3)
+        out = StepContacts(points, phi, impulses, lam[3 * n_ground :], int(res.iterations),
+                           bool(res.converged))  # fmt: skip
+        return v_new, out

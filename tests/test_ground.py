@@ -1,0 +1,150 @@
+"""Ground contact for every body and joint ranges as constraints: analytic friction results,
+a body dropped onto the floor, and the range rows against finite differences."""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import MODELS, get_model
+
+import humanoid as hm
+from humanoid.constraints.ground import ContactSolver, Ground, GroundSettings
+from humanoid.constraints.limits import JointRanges
+from humanoid.errors import SceneError
+from humanoid.scene import Effects, GroundSpec, Scene
+
+G0 = 9.81
+BOX = (0.2, 0.1, 0.05)  # [m]
+
+
+def _box(mu: float, slope_deg: float = 0.0):
+    """A 1 kg box on the floor; a slope is the gravity turned by its angle."""
+    model = pin.Model()
+    jid = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "box")
+    model.appendBodyToJoint(jid, pin.Inertia.FromBox(1.0, *BOX), pin.SE3.Identity())
+    th = np.radians(slope_deg)
+    model.gravity.linear = np.array([-G0 * np.sin(th), 0.0, -G0 * np.cos(th)])
+    gm = pin.GeometryModel()
+    gm.addGeometryObject(pin.GeometryObject("box", jid, pin.SE3.Identity(), coal.Box(*BOX)))
+    settings = GroundSettings(mu=mu)
+    return model, ContactSolver(model, Ground(model, gm, [0], settings), None, settings)
+
+
+def _run(model, solver, q, v, T, dt):
+    """Semi-implicit Euler with the contact impulses; the states after every step."""
+    data = model.createData()
+    states = []
+    for _ in range(int(round(T / dt))):
+        v_free = v + dt * pin.aba(model, data, q, v, np.zeros(model.nv))
+        pin.computeJointJacobians(model, data, q)
+        Minv = pin.computeMinverse(model, data, q)
+        v, found = solver.step(q, v_free, dt, np.triu(Minv) + np.triu(Minv, 1).T, data)
+        q = pin.integrate(model, q, dt * v)
+        states.append((q.copy(), v.copy(), found))
+    return states
+
+
+def test_a_sliding_box_stops_at_the_analytic_distance():
+    """v0 = 2 m/s, mu = 0.5: it stops after v0^2 / (2 mu g) = 0.4077 m, to 1e-3 relative at
+    dt = 0.25 ms (the scheme's bias is v0 dt / 2), then sticks."""
+    model, solver = _box(0.5)
+    q = pin.neutral(model)
+    q[2] = BOX[2] / 2
+    v = np.zeros(6)
+    v[0] = 2.0
+    states = _run(model, solver, q, v, 0.6, 2.5e-4)
+    distance = states[-1][0][0]
+    expected = 2.0**2 / (2 * 0.5 * G0)
+    assert abs(distance - expected) < 1e-3 * expected
+    assert abs(states[-1][1][0]) < 1e-8  # at rest, sticking
+    assert abs(states[-1][0][2] - BOX[2] / 2) < 1e-6  # on the floor, not in it
+    assert solver.failures == 0
+
+
+@pytest.mark.parametrize(("slope", "mu"), [(20.0, 0.5), (25.0, 0.5), (28.0, 0.5), (35.0, 0.5)])
+def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu):
+    """atan(0.5) = 26.57 deg: below it the box stays (< 1e-8 m in 1 s), above it slides with
+    g (sin - mu cos) to 1e-3 relative."""
+    model, solver = _box(mu, slope)
+    q = pin.neutral(model)
+    q[2] = BOX[2] / 2
+    states = _run(model, solver, q, np.zeros(6), 1.0, 1e-3)
+    x = np.array([s[0][0] for s in states])
+    t = 1e-3 * np.arange(1, len(x) + 1)
+    th = np.radians(slope)
+    if np.tan(th) < mu:
+        assert np.abs(x).max() < 1e-8
+    else:
+        a = -2 * np.polyfit(t, x, 2)[0]  # down the slope is -x
+        expected = G0 * (np.sin(th) - mu * np.cos(th))
+        assert abs(a - expected) < 1e-3 * expected
+
+
+@pytest.fixture(scope="module")
+def drop():
+    """The shipped drop scene, recorded at every step."""
+    scene = Scene.load(MODELS / "scenes" / "drop.toml").replace(record_rate=1000.0)
+    return scene, hm.simulate(scene, quiet=True)
+
+
+def test_a_dropped_body_comes_to_rest_on_the_floor(drop):
+    """From 0.5 m: lands, falls over, stops. No contact point is ever more than 1 mm below the
+    floor, the energy never rises (1e-6 J per step: the contact solver's tolerance), it ends at
+    rest, and nothing went through the floor (the lowest geometry point at the end)."""
+    scene, traj = drop
+    assert traj.status == "completed"
+    meta = traj.metadata
+    assert meta["max_penetration"] < 1e-3
+    assert meta["contact_solver_failures"] <= 4  # of 4000 steps (ADMM at its 1000-iteration cap)
+    assert np.diff(traj.energy).max() < 1e-6
+    assert traj.energy[-1] < traj.energy[0] - 0.8 * 75.0 * G0  # it fell 0.5 m and more
+    h = hm.load(MODELS / "adult_male.urdf")
+    ke = 0.5 * traj.v[-1] @ hm.mass_matrix(h, traj.q[-1]) @ traj.v[-1]
+    assert ke < 1e-4
+    assert traj.q[-1, 2] < 0.3  # the pelvis is down: it fell over
+    assert np.abs(traj.forces["ground"][-1, 2] - h.mass * G0) < 1e-3 * h.mass * G0
+
+
+def test_joint_ranges_hold_in_the_drop(drop):
+    """Every joint, hinge and ball (its triplet angles), stays in its range to 1 degree."""
+    scene, traj = drop
+    h = hm.load(MODELS / "adult_male.urdf")
+    ranges = JointRanges(h)
+    worst = max(ranges.violation(q) for q in traj.q)
+    assert np.degrees(worst) < 1.0
+
+
+@pytest.mark.parametrize("name", ["male", "human"])
+def test_range_rows_match_finite_differences(name):
+    """r(q (+) eps w) - r(q) = eps J w to O(eps^2), on states inside the ranges, every row."""
+    h = get_model(name, "quaternion")
+    ranges = JointRanges(h)
+    rng = np.random.default_rng(71)
+    q = h.standing_configuration()
+    q[ranges.iq] = ranges.lo + (ranges.hi - ranges.lo) * rng.uniform(0.3, 0.7, len(ranges.iq))
+    for ball, iq, _, lo, hi in ranges.balls:  # each ball inside its range, off the middle
+        q[iq : iq + 4] = pin.Quaternion(ball.rotation(lo + (hi - lo) * rng.uniform(0.3, 0.7, 3)))\
+            .coeffs()  # fmt: skip
+    r, J = ranges.rows(q, margin=None)
+    assert len(r) == 2 * (len(ranges.iq) + 3 * len(ranges.balls))
+    assert r.min() > 0  # inside every range
+    eps = 1e-6
+    w = rng.normal(size=h.nv)
+    r2, _ = ranges.rows(pin.integrate(h.model, q, eps * w), margin=None)
+    np.testing.assert_allclose((r2 - r) / eps, J @ w, atol=1e-4)
+
+
+def test_ground_scene_errors_name_the_key():
+    male = str(MODELS / "adult_male.urdf")
+    with pytest.raises(SceneError, match="integrator.*semi_implicit_euler"):
+        Scene(body=male, integrator="rk4", effects=Effects(ground=GroundSpec()))
+    with pytest.raises(SceneError, match="effects.ground.mu"):
+        Scene(
+            body=male, integrator="semi_implicit_euler", effects=Effects(ground=GroundSpec(mu=-1))
+        )
+    scene = Scene(body=male, integrator="semi_implicit_euler",
+                  effects=Effects(ground=GroundSpec(bodies=("tail",))))  # fmt: skip
+    with pytest.raises(SceneError, match="no link 'tail'; links: .*pelvis"):
+        hm.simulate(scene, quiet=True)
