@@ -48,9 +48,7 @@ def _parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
     i.add_argument("model", help="a URDF file or an example-robot-data name (human, talos...)")
     i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    i.add_argument("--massless", choices=("error", "merge"), default="error",
-                   help="joints that move no mass: refuse the model, or lock them (default: "
-                   "%(default)s)")  # fmt: skip
+    _massless_option(i)
 
     s = sub.add_parser("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
     s.add_argument("scene", help="scene file, e.g. models/scenes/standing.toml")
@@ -69,9 +67,7 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--html", help="also write the viewer as one HTML file")
     w.add_argument("--figure", help="figure file (PNG); default: next to the trajectory")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
-    w.add_argument("--massless", choices=("error", "merge"), default="error",
-                   help="joints that move no mass: refuse the model, or lock them (default: "
-                   "%(default)s)")  # fmt: skip
+    _massless_option(w)
 
     v = sub.add_parser("view", help="show a model or a run in the browser (live, or as HTML)")
     v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
@@ -82,23 +78,26 @@ def _parser() -> argparse.ArgumentParser:
     for name in ("forces", "com", "footprints", "ground"):
         v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
     v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    v.add_argument("--massless", choices=("error", "merge"), default="error",
-                   help="joints that move no mass: refuse the model, or lock them (default: "
-                   "%(default)s)")  # fmt: skip
+    _massless_option(v)
 
     x = sub.add_parser("export", help="export a model to another simulator's format")
     x.add_argument("model", help="a URDF or an example-robot-data name")
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     x.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    x.add_argument("--massless", choices=("error", "merge"), default="error",
-                   help="joints that move no mass: refuse the model, or lock them (default: "
-                   "%(default)s)")  # fmt: skip
+    _massless_option(x)
 
     bench = sub.add_parser("bench", help="benchmarks: step cost, work-precision (accuracy)")
     bench.add_argument("kind", choices=("step", "accuracy"))
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
     return p
+
+
+def _massless_option(parser) -> None:
+    """``--massless`` of the commands that load a model (see ``humanoid.load``)."""
+    parser.add_argument("--massless", choices=("error", "merge"), default="error",
+                        help="joints that move no mass: refuse the model, or lock them into "
+                        "their parents (default: %(default)s)")  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:

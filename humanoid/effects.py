@@ -135,11 +135,6 @@ class Push(Effect):
             self.wrench[3:] = torque
         self.start, self.end = start, start + duration
 
-    @property
-    def f(self) -> np.ndarray:
-        """The force [N], world axes."""
-        return self.wrench[:3]
-
     def active(self, t: float) -> bool:
         """Whether the push acts at t; times within TIME_EPS [s] of an edge count as on it,
         so that a window 0.1 + 0.2 s covers exactly the steps 0.1 <= k dt < 0.3 although

@@ -33,7 +33,7 @@ from lxml import etree
 from .errors import ModelError, finite_vector
 from .fusion import Fusion, fuse_ball_joints
 
-__all__ = ["Humanoid", "example_robot_names", "load", "load_example"]
+__all__ = ["Humanoid", "child_link", "example_robot_names", "load", "load_example"]
 
 SIDES = ("left", "right")
 CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
@@ -282,7 +282,7 @@ def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
     if not bad:
         return model, geoms
     if mode == "error":
-        links = [_child_link(model, j) for j in bad]
+        links = [child_link(model, j) for j in bad]
         raise ModelError(
             f"{label}: {len(bad)} joints move no mass (their links and everything after them "
             f"are massless, so M(q) is singular): {', '.join(model.names[j] for j in bad)} "
@@ -298,7 +298,7 @@ def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
     return reduced, list(geoms)
 
 
-def _child_link(model: pin.Model, joint: int) -> str:
+def child_link(model: pin.Model, joint: int) -> str:
     """The name of the link a joint moves (its first BODY frame)."""
     return next(
         (f.name for f in model.frames if f.parentJoint == joint and f.type == pin.FrameType.BODY),

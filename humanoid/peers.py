@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .model import child_link
+
 __all__ = ["push_momentum", "run_peer_comparison"]
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -140,8 +142,7 @@ def _welds_xml(h, q, weld: str, dt: float) -> str:
     pin.forwardKinematics(h.model, data, q)
     lines = ["<equality>"]
     for side, joint in zip(("left", "right"), _foot_joints(h), strict=True):
-        body = next(f.name for f in h.model.frames
-                    if f.parentJoint == joint and f.type == pin.FrameType.BODY)  # fmt: skip
+        body = child_link(h.model, joint)
         rel = " ".join(f"{x:.17g}" for x in _relpose(data.oMi[joint]))
         lines.append(f'  <weld name="{side}" body1="{body}" solref="{solref}"{imp} '
                      f'relpose="{rel}"/>')  # fmt: skip
@@ -245,10 +246,8 @@ def _mujoco_frame(h, m, frame_id: int) -> tuple[int, np.ndarray]:
     frame (the exported body frame is its last joint's frame)."""
     import mujoco
 
-    model = h.model
-    frame = model.frames[frame_id]
-    name = next(f.name for f in model.frames
-                if f.parentJoint == frame.parentJoint and f.type == pin.FrameType.BODY)  # fmt: skip
+    frame = h.model.frames[frame_id]
+    name = child_link(h.model, frame.parentJoint)
     body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
     if body < 0:
         raise ValueError(f"frame {frame.name} is on a body MuJoCo does not have ({name})")

@@ -310,7 +310,6 @@ class Simulation:
         self._frozen = False
         self._tick = t
         if self.ground is not None:
-            self._first = None
             q_new, v_new = self.ground_step_advance(t, q, v, dt)
             self._first = self.last
             return q_new, v_new

@@ -12,6 +12,7 @@ E the map from the angle rates to the joint's angular velocity. Near the triplet
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 __all__ = ["JointRanges"]
 
@@ -46,13 +47,10 @@ class JointRanges:
                 self.balls.append((b, jm.idx_q, jm.idx_v, em.lowerPositionLimit[qi].copy(),
                                    em.upperPositionLimit[qi].copy()))  # fmt: skip
         self._hints = [None] * len(self.balls)
-        self.names = [model.names[j] for j in range(model.njoints)]
 
     def angles(self, q) -> list[np.ndarray]:
         """Each ball joint's triplet angles [rad] (the branch inside the range, else the one
         nearest the previous call's)."""
-        import pinocchio as pin
-
         out = []
         for k, (b, iq, _, lo, hi) in enumerate(self.balls):
             R = pin.Quaternion(q[iq : iq + 4]).toRotationMatrix()
