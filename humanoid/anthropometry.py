@@ -7,8 +7,7 @@ Sources (the numbers below are copied with their source named next to them):
   segment origin as a fraction of length, radii of gyration about the sagittal, transverse and
   longitudinal axes as fractions of length) and the reference subjects' segment lengths [mm].
   Cross-checked in three public copies: BMClab/BMC ``data/BSP*_ZdeLeva.txt``, R. Gurchiek's
-  ``deleva.m`` and pyomeca/biobuddy ``characteristics/de_leva.py`` (see
-  ``shared/reference/anthropometry.md`` section 1).
+  ``deleva.m`` and pyomeca/biobuddy ``characteristics/de_leva.py``.
 - **Winter 2009**: D. A. Winter, *Biomechanics and Motor Control of Human Movement*, Fig. 4.1
   (after Drillis & Contini 1966): ankle height, foot width, shoulder and hip widths as fractions
   of stature.

@@ -62,7 +62,7 @@ class JointRange:
     source: str
 
 
-# Clinical ranges of motion (see shared/reference/anthropometry.md section 3).
+# Clinical ranges of motion.
 # MERCK: Merck Manual "Normal Values for Range of Motion of Joints"; ROM-SHEET: "Normal ROM"
 # sheet; KURZ: Kurz via yoga-age.com; 38CFR: 38 CFR 4.71a Note (2) normals (quoted, unverified),
 # split evenly between the lumbar and thoracic joints for the thoracolumbar spine.

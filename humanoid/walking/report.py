@@ -27,8 +27,7 @@ ROWS = (
     ("real_time_factor", "real-time factor", "x", 1.0, "-"),
 )
 HUMAN_SOURCES = (
-    "Bohannon 1997; Murray 1964/1970; Perry & Burnfield; Winter; Powers 2002; Cooper 2008 "
-    "(see shared/reference/walking.md)"
+    "Bohannon 1997; Murray 1964/1970; Perry & Burnfield; Winter; Powers 2002; Cooper 2008"
 )
 
 

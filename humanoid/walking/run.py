@@ -30,8 +30,8 @@ __all__ = ["WalkResult", "WalkSetup", "crouch", "prepare", "walk"]
 SIDES = ("left", "right")
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
 
-# Typical adult gait (see shared/reference/walking.md: Bohannon 1997, Murray 1964/1970,
-# Perry & Burnfield, Winter, Powers 2002, Cooper 2008).
+# Typical adult gait (Bohannon 1997, Murray 1964/1970, Perry & Burnfield, Winter, Powers 2002,
+# Cooper 2008).
 HUMAN = {
     "speed": "1.27-1.46 m/s",
     "step_length": "0.66-0.79 m",
