@@ -177,6 +177,14 @@ class Simulation:
                 c.release()
                 self._active = None
                 c.ever_attached = False
+        if not rows and self.ground is not None:  # feet standing on the ground: as if welded
+            h = self.h
+            for side, foot in zip(("left", "right"), h.feet, strict=True):
+                points = [h.frame_id(n) for n in h.contact_points[side]]
+                if min(self.data.oMf[p].translation[2] for p in points) <= GROUND_TOLERANCE:
+                    sole = h.frame_id(foot)
+                    rows.append(Weld(side, sole, self.data.oMf[sole]).jacobian(self.model,
+                                                                              self.data))
         return np.vstack(rows) if rows else np.zeros((0, self.model.nv))
 
     # -- forces --------------------------------------------------------------------------

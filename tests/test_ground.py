@@ -82,24 +82,26 @@ def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu):
         assert abs(a - expected) < 1e-3 * expected
 
 
-@pytest.fixture(scope="module")
-def drop():
-    """The shipped drop scene, recorded at every step."""
-    scene = Scene.load(MODELS / "scenes" / "drop.toml").replace(record_rate=1000.0)
+@pytest.fixture(scope="module", params=["drop", "collapse"])
+def fall(request):
+    """The shipped drop (from 0.5 m) and collapse (from standing) scenes, recorded at every
+    step."""
+    scene = Scene.load(MODELS / "scenes" / f"{request.param}.toml").replace(record_rate=1000.0)
     return scene, hm.simulate(scene, quiet=True)
 
 
-def test_a_dropped_body_comes_to_rest_on_the_floor(drop):
-    """From 0.5 m: lands, falls over, stops. No contact point is ever more than 1 mm below the
-    floor, the energy never rises (1e-6 J per step: the contact solver's tolerance), it ends at
-    rest, and nothing went through the floor (the lowest geometry point at the end)."""
-    scene, traj = drop
+def test_a_falling_body_comes_to_rest_on_the_floor(fall):
+    """Dropped from 0.5 m it lands and falls over; standing passive, it collapses. Either
+    way: no contact point is ever more than 1 mm below the floor, the energy never rises
+    (1e-6 J per step: the contact solver's tolerance), it ends at rest, lying down, its weight
+    on the floor."""
+    scene, traj = fall
     assert traj.status == "completed"
     meta = traj.metadata
     assert meta["max_penetration"] < 1e-3
     assert meta["contact_solver_failures"] <= 4  # of 4000 steps (ADMM at its 1000-iteration cap)
     assert np.diff(traj.energy).max() < 1e-6
-    assert traj.energy[-1] < traj.energy[0] - 0.8 * 75.0 * G0  # it fell 0.5 m and more
+    assert traj.energy[-1] < traj.energy[0] - 0.5 * 75.0 * G0  # the CoM fell by over 0.5 m
     h = hm.load(MODELS / "adult_male.urdf")
     ke = 0.5 * traj.v[-1] @ hm.mass_matrix(h, traj.q[-1]) @ traj.v[-1]
     assert ke < 1e-4
@@ -107,9 +109,9 @@ def test_a_dropped_body_comes_to_rest_on_the_floor(drop):
     assert np.abs(traj.forces["ground"][-1, 2] - h.mass * G0) < 1e-3 * h.mass * G0
 
 
-def test_joint_ranges_hold_in_the_drop(drop):
+def test_joint_ranges_hold_in_the_fall(fall):
     """Every joint, hinge and ball (its triplet angles), stays in its range to 1 degree."""
-    scene, traj = drop
+    scene, traj = fall
     h = hm.load(MODELS / "adult_male.urdf")
     ranges = JointRanges(h)
     worst = max(ranges.violation(q) for q in traj.q)
@@ -148,3 +150,31 @@ def test_ground_scene_errors_name_the_key():
                   effects=Effects(ground=GroundSpec(bodies=("tail",))))  # fmt: skip
     with pytest.raises(SceneError, match="no link 'tail'; links: .*pelvis"):
         hm.simulate(scene, quiet=True)
+
+
+def test_standing_on_the_ground_contact_holds_for_ten_seconds():
+    """balance.toml: no welds, the feet held by friction on unilateral point contacts, the
+    posture hold on. For 10 s the soles move less than 0.1 mm, the body stays up and the
+    floor carries its weight."""
+    scene = Scene.load(MODELS / "scenes" / "balance.toml")
+    assert scene.duration == 10.0
+    traj = hm.simulate(scene, quiet=True)
+    assert traj.status == "completed"
+    h = hm.load(MODELS / "adult_male.urdf")
+    data = h.model.createData()
+    soles = [h.frame_id(f) for f in h.feet]
+
+    def placements(q):
+        pin.framesForwardKinematics(h.model, data, q)
+        return [data.oMf[f].copy() for f in soles]
+
+    start = placements(traj.q[0])
+    drift = 0.0
+    for q in traj.q:
+        for m0, m in zip(start, placements(q), strict=True):
+            drift = max(drift, np.linalg.norm(m.translation - m0.translation))
+            drift = max(drift, 0.1 * np.linalg.norm(pin.log3(m0.rotation.T @ m.rotation)))
+    assert drift < 1e-4  # [m]; a rotation counts at a 0.1 m lever arm
+    assert abs(traj.q[-1, 2] - traj.q[0, 2]) < 1e-3
+    assert np.abs(traj.forces["ground"][-100:, 2] - h.mass * G0).max() < 1e-3 * h.mass * G0
+    assert traj.metadata["contact_solver_failures"] == 0

@@ -9,7 +9,15 @@ from conftest import MODELS
 
 from humanoid.constraints import constrained_dynamics
 from humanoid.effects import JointDamping, Push
-from humanoid.scene import Contact, Controller, Effects, Initial, Scene, Stabilisation
+from humanoid.scene import (
+    Contact,
+    Controller,
+    Effects,
+    Initial,
+    JointLimitSpec,
+    Scene,
+    Stabilisation,
+)
 from humanoid.simulate import Simulation, Trajectory, _Recorder, simulate
 
 MALE = str(MODELS / "adult_male.urdf")
@@ -273,8 +281,13 @@ def test_switch_contacts_follows_a_schedule():
 
 
 def test_contact_checks_report_and_release():
-    """The passive collapse on unilateral point contacts: toes pull, so they are released."""
-    scene = Scene.load(MODELS / "scenes" / "collapse.toml").replace(duration=1.3)
+    """A passive collapse on point contacts at the sole corners: the toes pull (bilateral
+    points report it), so unilateral points are released."""
+    stand = Scene.load(MODELS / "scenes" / "standing.toml")
+    pinned = tuple(Contact(foot, "points", 0.8) for foot in ("left", "right"))
+    passive = Effects(gravity=stand.effects.gravity, damping=2.0, contacts=pinned,
+                      joint_limits=JointLimitSpec(stiffness=2000.0, damping=20.0))  # fmt: skip
+    scene = stand.replace(duration=1.3, effects=passive, controller=Controller())
     bilateral = simulate(scene, quiet=True)
     assert bilateral.metadata["violations"], "bilateral points report the pulling toes"
     assert not [e for e in bilateral.metadata["events"] if e["event"] == "release"]
