@@ -285,16 +285,28 @@ def summary(h) -> str:
         f"feet         {h.feet[0]}, {h.feet[1]}",
         "contacts     " + ", ".join(h.contact_points["left"] + h.contact_points["right"]),
         "",
-        f"{'joint':<28} {'type':<28} {'nq':>2} {'nv':>2}  limits [deg]",
+        f"{'joint':<28} {'type':<28} {'nq':>2} {'nv':>2}  range [deg]",
     ]
+
+    def span(model, iq):
+        lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+        if not (math.isfinite(lo) and math.isfinite(hi)) or abs(lo) > 1e6 or abs(hi) > 1e6:
+            return "none"
+        return f"{math.degrees(lo):7.1f} .. {math.degrees(hi):6.1f}"
+
+    balls = {b.joint_id: b for b in h.fusion.balls} if h.fusion is not None else {}
     for j in range(1, m.njoints):
         jm = m.joints[j]
-        limits = ""
-        if jm.nq == 1:
-            lo = math.degrees(m.lowerPositionLimit[jm.idx_q])
-            hi = math.degrees(m.upperPositionLimit[jm.idx_q])
-            limits = f"{lo:7.1f} .. {hi:6.1f}"
-        lines.append(f"{m.names[j]:<28} {jm.shortname():<28} {jm.nq:>2} {jm.nv:>2}  {limits}")
+        row = f"{m.names[j]:<28} {jm.shortname():<28} {jm.nq:>2} {jm.nv:>2}  "
+        if j in balls:  # its range: the Euler angles of the hinge triplet it replaces
+            lines.append(row + "the angles of its triplet, in order:")
+            em = h.fusion.euler_model
+            for name, hid in zip(balls[j].hinges, balls[j].hinge_ids, strict=True):
+                lines.append(f"  {name:<62}{span(em, em.joints[hid].idx_q)}")
+        elif jm.nq == 1:
+            lines.append(row + span(m, jm.idx_q))
+        else:
+            lines.append(row + ("free" if j == 1 else "none"))
     lines += ["", f"{'segment (link)':<28} {'mass [kg]':>10} {'share':>7}"]
     for name, mass in h.body_masses().items():
         lines.append(f"{name:<28} {mass:>10.4f} {mass / h.mass:>7.2%}")

@@ -38,8 +38,16 @@ def _massless(inertia) -> bool:
     return inertia.mass <= 1e-12
 
 
-def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4") -> str:
+def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | None = None,
+            limits: bool = False, damping: float = 0.0) -> str:  # fmt: skip
     """MJCF text of a Humanoid (see the module docstring).
+
+    Args:
+        ground: A friction coefficient: the body's geometries then collide with a floor plane
+            at z = 0 (elliptic friction cones, MuJoCo's soft contacts with its default
+            parameters); None: no collisions.
+        limits: Hinges keep their position limits (MuJoCo's soft limit constraints).
+        damping: Joint damping [N m s/rad] on every joint but the free flyer.
 
     Raises:
         ModelError: a joint type that has no MuJoCo counterpart, or a massless body that cannot
@@ -57,6 +65,9 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4") -> str:
     for g in h.visual_model.geometryObjects:
         geoms.setdefault(g.parentJoint, []).append(g)
 
+    extra = f' damping="{damping:.17g}"' if damping > 0 else ""
+    collide = ground is not None
+
     def joint_xml(j, placement: pin.SE3) -> str:
         jm = model.joints[j]
         kind = jm.shortname()
@@ -64,13 +75,15 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4") -> str:
         if kind == "JointModelFreeFlyer":
             return f"<freejoint name={name}/>"
         if kind == "JointModelSpherical":
-            return f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"/>'
+            return (f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"'
+                    f"{extra}/>")  # fmt: skip
         if jm.nq == 1 and jm.nv == 1:
             axis = placement.rotation @ joint_axis(jm)
             lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            limited = "true" if limits and np.isfinite(lo) and np.isfinite(hi) else "false"
             return (
                 f'<joint name={name} type="hinge" pos="{_fmt(placement.translation)}" '
-                f'axis="{_fmt(axis)}" range="{lo:.17g} {hi:.17g}" limited="false"/>'
+                f'axis="{_fmt(axis)}" range="{lo:.17g} {hi:.17g}" limited="{limited}"{extra}/>'
             )
         raise ModelError(f"no MuJoCo joint for {kind} ({model.names[j]})")
 
@@ -117,9 +130,13 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4") -> str:
     lines = [
         f"<mujoco model={quoteattr(model.name or 'humanoid')}>",
         '  <compiler angle="radian" inertiafromgeom="false" autolimits="false"/>',
-        f'  <option timestep="{timestep:g}" integrator="{integrator}" gravity="{_fmt(g)}"/>',
-        '  <default><geom contype="0" conaffinity="0" rgba="0.7 0.7 0.8 1"/></default>',
+        f'  <option timestep="{timestep:g}" integrator="{integrator}" gravity="{_fmt(g)}"'
+        + (' cone="elliptic"/>' if collide else "/>"),
+        f'  <default><geom contype="{int(collide)}" conaffinity="0" rgba="0.7 0.7 0.8 1"'
+        + (f' friction="{ground:.17g} 0 0"/></default>' if collide else "/></default>"),
         "  <worldbody>",
+        *([f'    <geom name="floor" type="plane" size="0 0 1" contype="0" conaffinity="1" '
+           f'friction="{ground:.17g} 0 0"/>'] if collide else []),  # fmt: skip
         *body(1, 2),
         "  </worldbody>",
         "</mujoco>",

@@ -34,7 +34,7 @@ import pinocchio as pin
 
 from .model import child_link
 
-__all__ = ["push_momentum", "run_peer_comparison"]
+__all__ = ["fall_comparison", "push_momentum", "run_peer_comparison"]
 
 ROOT = Path(__file__).resolve().parent.parent
 MALE = str(ROOT / "models" / "adult_male.urdf")
@@ -421,6 +421,103 @@ def _print_push_momentum() -> None:
         f"  delta L, the two engines apart: {gap:.1e} (MuJoCo holds the generalised force of "
         "a moving point constant over each step)"
     )
+
+
+REST = 1e-2  # [J] kinetic energy below which (for good) a fallen body is at rest
+
+
+def fall_comparison(name: str = "collapse", duration: float | None = None) -> dict:
+    """A shipped fall scene (``collapse`` or ``drop``) in both engines, side by side.
+
+    Ours: the scene as shipped (rigid ground contact for every body, joint ranges as
+    constraints, semi-implicit Euler). MuJoCo: the same body exported with its hinge triplets
+    (Euler mode: MuJoCo's ball joints cannot take the triplets' angle ranges), hinge limits,
+    the scene's joint damping and friction on a floor plane, elliptic cones, its default soft
+    contacts and its default (semi-implicit Euler) integrator at the same step, from the same
+    initial state. Returns per engine: the time to rest (kinetic energy below ``REST`` from
+    then on), the final pelvis height, its forward axis's vertical component (+1: lying
+    on its back), the final CoM, the deepest penetration, and the wall time per step measured in the
+    same run; and the RMS difference of the final joint angles [deg].
+    """
+    import mujoco
+
+    from .export import StateMap, to_mjcf
+    from .model import load
+    from .scene import Scene
+    from .simulate import Simulation
+
+    scene = Scene.load(ROOT / "models" / "scenes" / f"{name}.toml")
+    if duration is not None:
+        scene = scene.replace(duration=duration)
+    dt, n = scene.dt, int(round(scene.duration / scene.dt))
+    every = max(1, int(round(1.0 / (scene.record_rate * dt))))
+    sim = Simulation(scene)
+    traj = sim.run(quiet=True)
+    h, he = sim.h, load(MALE, ball_joints="euler")
+    ground = scene.effects.ground
+    m = mujoco.MjModel.from_xml_string(to_mjcf(
+        he, timestep=dt, integrator="Euler", ground=ground.mu, limits=True,
+        damping=scene.effects.damping))  # fmt: skip
+    d = mujoco.MjData(m)
+    states = StateMap(he, m)
+    qe0, ve0 = h.fusion.to_euler(sim.q0, sim.v0)
+    d.qpos[:], d.qvel[:] = states.to_mujoco(qe0, ve0)
+    qs, vs, wall, depth = [qe0], [ve0], 0.0, 0.0
+    for k in range(n):
+        start = time.perf_counter()
+        mujoco.mj_step(m, d)
+        wall += time.perf_counter() - start
+        if d.ncon:
+            depth = max(depth, -float(d.contact.dist[: d.ncon].min()))
+        if (k + 1) % every == 0:
+            q, v = states.to_pinocchio(d.qpos, d.qvel)
+            qs.append(q)
+            vs.append(v)
+    ours_e = [h.fusion.to_euler(q, v) for q, v in zip(traj.q, traj.v, strict=True)]
+    out = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
+           "humanoid": _fall_summary(h, traj.q, traj.v, traj.t),
+           "mujoco": _fall_summary(he, np.array(qs), np.array(vs), np.arange(len(qs)) * dt * every)}  # fmt: skip
+    out["humanoid"] |= {"step_time": traj.metadata["wall_time"] / traj.metadata["steps"],
+                        "penetration": traj.metadata["max_penetration"]}  # fmt: skip
+    out["mujoco"] |= {"step_time": wall / n, "penetration": depth}
+    joints = np.array([m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE for j in range(m.njnt)])
+    assert joints.sum() == he.nq - 7
+    diff = ours_e[-1][0][7:] - qs[-1][7:]
+    out["joint_rms_deg"] = float(np.degrees(np.sqrt(np.mean(np.angle(np.exp(1j * diff)) ** 2))))
+    return out
+
+
+def _fall_summary(h, qs, vs, t) -> dict:
+    model, data = h.model, h.model.createData()
+    ke = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(qs, vs, strict=True)])
+    moving = np.flatnonzero(ke >= REST)
+    rest = float(t[moving[-1] + 1]) if len(moving) and moving[-1] + 1 < len(t) else (
+        float("nan") if len(moving) else 0.0)  # fmt: skip
+    q = qs[-1]
+    R = pin.Quaternion(q[3:7]).toRotationMatrix()
+    return {"time_to_rest": rest, "pelvis_height": float(q[2]), "pelvis_forward_z": float(R[2, 0]),
+            "com": pin.centerOfMass(model, data, q).copy(), "final_kinetic_energy": float(ke[-1])}
+
+
+def _print_fall(r: dict) -> None:
+    """The fall comparison as a small table."""
+    print(f"\n{r['scene']}: {r['duration']:g} s at dt = {r['dt'] * 1e3:g} ms, same initial state")
+    print(f"  {'':<28} {'humanoid':>12} {'mujoco':>12}")
+    rows = (("time to rest [s]", "time_to_rest", "{:.3f}"),
+            ("pelvis height [m]", "pelvis_height", "{:.3f}"),
+            ("pelvis forward axis, z", "pelvis_forward_z", "{:+.2f}"),
+            ("final kinetic energy [J]", "final_kinetic_energy", "{:.1e}"),
+            ("deepest penetration [mm]", "penetration", "{:.3f}"),
+            ("wall time per step [us]", "step_time", "{:.0f}"))  # fmt: skip
+    for label, key, fmt in rows:
+        scale = 1e3 if key == "penetration" else 1e6 if key == "step_time" else 1.0
+        a, b = (fmt.format(r[e][key] * scale) for e in ("humanoid", "mujoco"))
+        print(f"  {label:<28} {a:>12} {b:>12}")
+    for e in ("humanoid", "mujoco"):
+        print(f"  final CoM, {e:<17} {np.array2string(r[e]['com'], precision=3)} m")
+    ratio = r["humanoid"]["step_time"] / r["mujoco"]["step_time"]
+    print(f"  final joint angles apart (RMS): {r['joint_rms_deg']:.1f} deg; step time ratio "
+          f"ours / mj_step: {ratio:.1f}")  # fmt: skip
 
 
 def _sweep(quick, T, T_collapse, walk) -> list[dict]:

@@ -62,6 +62,30 @@ def test_info_summarises_our_body(capsys):
     assert "left_thigh" in out and "14.16%" in out  # de Leva male thigh 0.1416
 
 
+def test_info_prints_the_range_of_every_joint(capsys):
+    """Hinges with their limits; a ball joint with the ranges of its triplet's three angles
+    (what the joint-range constraints hold); the same numbers in Euler mode."""
+    import re
+
+    assert main(["info", str(MODELS / "adult_male.urdf")]) == 0
+    quaternion = capsys.readouterr().out
+    assert main(["info", str(MODELS / "adult_male.urdf"), "--ball-joints", "euler"]) == 0
+    euler = capsys.readouterr().out
+    table = quaternion.split("range [deg]")[1].split("segment (link)")[0].strip().splitlines()
+    ranges = {}
+    for line in table:
+        match = re.match(r"\s*(\S+).*?(-?\d+\.\d) \.\.\s+(-?\d+\.\d)$", line)
+        if match:
+            ranges[match[1]] = (float(match[2]), float(match[3]))
+        else:
+            assert line.endswith(("free", "in order:")), line
+    assert ranges["left_hip_flexion"] == (-30.0, 125.0)
+    assert ranges["left_knee"] == (0.0, 140.0)
+    assert len([x for x in table if "in order:" in x]) == 7  # hips, spine x2, shoulders, neck
+    for name, (lo, hi) in ranges.items():
+        assert re.search(rf"^{name}\s.*{lo:.1f} \.\.\s+{hi:.1f}$", euler, re.M), name
+
+
 def test_info_euler_mode_and_erd_name(capsys):
     assert main(["info", "human", "--ball-joints", "euler"]) == 0
     out = capsys.readouterr().out

@@ -7,6 +7,8 @@ its hinge's range, exactly as the Euler model would. A row is r(q) >= 0 (the dis
 the range [rad]) with its Jacobian dr/dv: +-1 on a hinge; for a ball joint the row of E^-1,
 E the map from the angle rates to the joint's angular velocity. Near the triplet's gimbal lock
 (middle angle +-90 deg) the outer angles are undefined and their rows are left out there.
+
+All ball joints are decomposed at once (batched over the joints): this runs every step.
 """
 
 from __future__ import annotations
@@ -18,6 +20,38 @@ __all__ = ["JointRanges"]
 
 MARGIN = 0.1  # [rad] rows closer than this to a limit are returned (speculative)
 LOCK = 0.05  # |cos(middle angle)| below this: the outer angles of a ball are not defined
+
+
+def _rotations(quats: np.ndarray) -> np.ndarray:
+    """Rotation matrices (n, 3, 3) of unit quaternions (n, 4) stored x, y, z, w."""
+    P = 2.0 * quats[:, :, None] * quats[:, None, :]  # 2 q_i q_j
+    x, y, z, w = 0, 1, 2, 3
+    R = np.empty((len(quats), 3, 3))
+    R[:, 0, 0] = 1 - P[:, y, y] - P[:, z, z]
+    R[:, 1, 1] = 1 - P[:, x, x] - P[:, z, z]
+    R[:, 2, 2] = 1 - P[:, x, x] - P[:, y, y]
+    R[:, 0, 1] = P[:, x, y] - P[:, z, w]
+    R[:, 1, 0] = P[:, x, y] + P[:, z, w]
+    R[:, 0, 2] = P[:, x, z] + P[:, y, w]
+    R[:, 2, 0] = P[:, x, z] - P[:, y, w]
+    R[:, 1, 2] = P[:, y, z] - P[:, x, w]
+    R[:, 2, 1] = P[:, y, z] + P[:, x, w]
+    return R
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a x b of (n, 3) arrays (np.cross is slow on small arrays)."""
+    return a[:, [1, 2, 0]] * b[:, [2, 0, 1]] - a[:, [2, 0, 1]] * b[:, [1, 2, 0]]
+
+
+def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rodrigues: each v (n, 3) turned by angle (n,) about its unit axis (n, 3)."""
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    return v * c + _cross(axis, v) * s + axis * ((axis * v).sum(axis=1)[:, None] * (1 - c))
+
+
+def _wrap(x):
+    return (x + np.pi) % (2 * np.pi) - np.pi
 
 
 class JointRanges:
@@ -46,18 +80,50 @@ class JointRanges:
                 qi = [em.joints[i].idx_q for i in b.hinge_ids]
                 self.balls.append((b, jm.idx_q, jm.idx_v, em.lowerPositionLimit[qi].copy(),
                                    em.upperPositionLimit[qi].copy()))  # fmt: skip
-        self._hints = [None] * len(self.balls)
+        nb = len(self.balls)
+        self.names = [b.name for b, *_ in self.balls]
+        self._bq = np.array([iq for _, iq, *_ in self.balls], dtype=int).reshape(nb, 1)
+        self._bv = np.array([iv for _, _, iv, *_ in self.balls], dtype=int)
+        self._blo = np.array([lo for *_, lo, _ in self.balls]).reshape(nb, 3)
+        self._bhi = np.array([hi for *_, hi in self.balls]).reshape(nb, 3)
+        self._C = np.array([b.axes for b, *_ in self.balls]).reshape(nb, 3, 3)
+        self._G = np.array([b.G for b, *_ in self.balls]).reshape(nb, 3, 3)
+        self._s = np.sign(np.linalg.det(self._C)) if nb else np.zeros(0)
+        self._GC = self._G.transpose(0, 2, 1) @ self._C
+        self._GCt = self._GC.transpose(0, 2, 1).copy()
+        self._hint = None
 
-    def angles(self, q) -> list[np.ndarray]:
-        """Each ball joint's triplet angles [rad] (the branch inside the range, else the one
-        nearest the previous call's)."""
-        out = []
-        for k, (b, iq, _, lo, hi) in enumerate(self.balls):
-            R = pin.Quaternion(q[iq : iq + 4]).toRotationMatrix()
-            a = b.angles(R, lo, hi, hint=self._hints[k])
-            self._hints[k] = a
-            out.append(a)
-        return out
+    def angles(self, q, remember: bool = True) -> np.ndarray:
+        """Each ball joint's triplet angles [rad], (n_balls, 3).
+
+        A rotation has two Euler-angle solutions (middle angle b or pi - b): the one inside
+        the range; when both are (or neither), the one nearer the previous call's angles, else
+        the one with |middle angle| <= pi/2 (as :meth:`BallJoint.angles`).
+        """
+        return self._angles(q, remember)[0]
+
+    def _angles(self, q, remember: bool = True):
+        R = _rotations(q[self._bq + np.arange(4)])
+        s = self._s[:, None]
+        Wp = self._GCt @ R @ self._GC  # = Rx(s t1) Ry(s t2) Rz(s t3)
+        beta = np.arcsin(np.clip(Wp[:, 0, 2], -1.0, 1.0))
+        alpha = np.arctan2(-Wp[:, 1, 2], Wp[:, 2, 2])
+        gamma = np.arctan2(-Wp[:, 0, 1], Wp[:, 0, 0])
+        first = s * np.column_stack([alpha, beta, gamma])
+        second = _wrap(s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]))
+        lo, hi = self._blo - 1e-12, self._bhi + 1e-12
+        in1 = np.all((first >= lo) & (first <= hi), axis=1)
+        in2 = np.all((second >= lo) & (second <= hi), axis=1)
+        if self._hint is None:
+            d1, d2 = np.zeros(len(first)), np.ones(len(first))
+        else:
+            d1 = np.abs(_wrap(first - self._hint)).sum(axis=1)
+            d2 = np.abs(_wrap(second - self._hint)).sum(axis=1)
+        pick = (in2 & ~in1) | ((in1 == in2) & (d2 < d1))
+        th = np.where(pick[:, None], second, first)
+        if remember:
+            self._hint = th
+        return th, R
 
     def rows(self, q, margin: float | None = MARGIN):
         """Rows within ``margin`` [rad] of a limit (all rows if None): (r, J), r >= 0 inside."""
@@ -67,24 +133,33 @@ class JointRanges:
         sign = np.concatenate([np.ones(len(x)), -np.ones(len(x))])
         cols = np.concatenate([self.iv, self.iv])
         keep = r < margin
-        rs, Js = [r[keep]], []
         J = np.zeros((int(keep.sum()), self.nv))
         J[np.arange(len(J)), cols[keep]] = sign[keep]
-        Js.append(J)
-        for (b, _, iv, lo, hi), th in zip(self.balls, self.angles(q), strict=True):
-            E = b.velocity_map(th)
-            locked = abs(np.cos(th[1])) < LOCK
-            rates = np.linalg.pinv(E) if locked else np.linalg.inv(E)  # angle rates per omega
-            for i in range(3):
-                if locked and i != 1:
-                    continue
-                for dist, s in ((th[i] - lo[i], 1.0), (hi[i] - th[i], -1.0)):
-                    if dist < margin:
-                        row = np.zeros(self.nv)
-                        row[iv : iv + 3] = s * rates[i]
-                        rs.append([dist])
-                        Js.append(row[None])
-        return np.concatenate(rs), np.vstack(Js)
+        if not self.balls:
+            return r[keep], J
+        th, R = self._angles(q)
+        dist = np.stack([th - self._blo, self._bhi - th], axis=2)  # (n_balls, angle, lo/hi)
+        locked = np.abs(np.cos(th[:, 1])) < LOCK
+        near = dist < margin
+        near[locked, 0] = near[locked, 2] = False  # the outer angles are undefined at the lock
+        if not near.any():
+            return r[keep], J
+        # E maps the angle rates to the joint's angular velocity: E = (G R)^T [a1, R1 a2,
+        # R1 R2 a3] (R1, R2 the first two hinges' rotations); its inverse gives dth/dv
+        C, G = self._C, self._G
+        a1, a2, a3 = C[:, :, 0], C[:, :, 1], C[:, :, 2]
+        c2 = _rotate(a1, th[:, 0], a2)
+        c3 = _rotate(a1, th[:, 0], _rotate(a2, th[:, 1], a3))
+        E = (G @ R).transpose(0, 2, 1) @ np.stack([a1, c2, c3], axis=2)
+        rates = np.empty_like(E)
+        rates[~locked] = np.linalg.inv(E[~locked])
+        if locked.any():
+            rates[locked] = np.linalg.pinv(E[locked])
+        b, i, side = np.nonzero(near)
+        Jb = np.zeros((len(b), self.nv))
+        sgn = np.where(side == 0, 1.0, -1.0)[:, None]
+        Jb[np.arange(len(b))[:, None], self._bv[b][:, None] + np.arange(3)] = sgn * rates[b, i]
+        return np.concatenate([r[keep], dist[b, i, side]]), np.vstack([J, Jb])
 
     def violation(self, q) -> float:
         """Largest excursion beyond a range [rad] (0 inside every range)."""
