@@ -77,41 +77,40 @@ class JointSprings(Effect):
 
 
 class JointLimits(Effect):
-    """A stiff spring-damper that pushes 1-DoF joints back inside their position limits.
+    """A stiff spring-damper that pushes every joint back inside its range.
 
-    tau_j = -k (q_j - limit) - c min(v_j, 0 or max) beyond a limit, zero inside. Ball joints
-    have no position limits in Pinocchio (their quaternion is unbounded); their anatomical
-    ranges are kept by the Euler model.
+    Each range row r(q) >= 0 of :class:`~humanoid.constraints.limits.JointRanges` (a hinge's
+    limits; a ball joint's triplet angles) that is violated (r < 0) pushes back with
+    f = -k r - c min(J v, 0) along its row: tau = J^T f (the damping only resists motion
+    further out). On a hinge this is tau_j = -k (q_j - limit) - c v_j beyond a limit. Inside
+    every range it is zero; beyond one it is the gradient of the potential k r^2 / 2 plus a
+    dissipative term, so it never adds energy.
+
+    Args:
+        h: The :class:`~humanoid.model.Humanoid` (its ball joints' ranges come from its
+            fusion).
+        stiffness: k [N m/rad]. damping: c [N m s/rad].
     """
 
     name = "joint_limits"
     velocity_dependent = True
 
-    def __init__(self, model: pin.Model, stiffness: float, damping: float) -> None:
-        iq, iv = [], []
-        for jm in model.joints[2:]:
-            if jm.nq == 1 and jm.nv == 1:
-                lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
-                if np.isfinite(lo) and np.isfinite(hi) and lo < hi:
-                    iq.append(jm.idx_q)
-                    iv.append(jm.idx_v)
-        self.iq, self.iv = np.array(iq, dtype=int), np.array(iv, dtype=int)
-        self.lo, self.hi = model.lowerPositionLimit[self.iq], model.upperPositionLimit[self.iq]
+    def __init__(self, h, stiffness: float, damping: float) -> None:
+        from .constraints.limits import JointRanges
+
+        self.ranges = JointRanges(h)
         self.k, self.c = stiffness, damping
 
     def force(self, model, data, t, q, v):
-        tau = np.zeros(model.nv)
-        x, xd = q[self.iq], v[self.iv]
-        below, above = x < self.lo, x > self.hi
-        f = np.where(below, self.k * (self.lo - x) - self.c * np.minimum(xd, 0.0), 0.0)
-        f = np.where(above, self.k * (self.hi - x) - self.c * np.maximum(xd, 0.0), f)
-        tau[self.iv] = f
-        return tau
+        r, J = self.ranges.rows(q, margin=0.0)
+        if not len(r):
+            return np.zeros(model.nv)
+        f = -self.k * r - self.c * np.minimum(J @ v, 0.0)
+        return J.T @ f
 
     def violation(self, q) -> float:
-        """Largest excursion beyond a limit [rad]."""
-        x = q[self.iq]
-        return float(max(np.max(self.lo - x, initial=0.0), np.max(x - self.hi, initial=0.0)))
+        """Largest excursion beyond a range [rad]."""
+        return self.ranges.violation(q)
 
 
 class Push(Effect):

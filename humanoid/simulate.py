@@ -71,7 +71,7 @@ class Simulation:
             self.effects.append(JointSprings(self.model, e.springs, q0))
         if e.joint_limits is not None and e.joint_limits.kind == "spring":
             self.effects.append(
-                JointLimits(self.model, e.joint_limits.stiffness, e.joint_limits.damping)
+                JointLimits(h, e.joint_limits.stiffness, e.joint_limits.damping)
             )
         for p in e.pushes:
             self.effects.append(

@@ -91,6 +91,7 @@ class JointRanges:
         self._s = np.sign(np.linalg.det(self._C)) if nb else np.zeros(0)
         self._GC = self._G.transpose(0, 2, 1) @ self._C
         self._GCt = self._GC.transpose(0, 2, 1).copy()
+        self._mid = 0.5 * (self._blo + self._bhi)
         self._hint = None
 
     def angles(self, q, remember: bool = True) -> np.ndarray:
@@ -109,8 +110,11 @@ class JointRanges:
         beta = np.arcsin(np.clip(Wp[:, 0, 2], -1.0, 1.0))
         alpha = np.arctan2(-Wp[:, 1, 2], Wp[:, 2, 2])
         gamma = np.arctan2(-Wp[:, 0, 1], Wp[:, 0, 0])
-        first = s * np.column_stack([alpha, beta, gamma])
-        second = _wrap(s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]))
+        # each angle within +-pi of its range's centre, so that a range reaching +-180 deg
+        # (the shoulder's flexion) is continuous across it
+        mid = self._mid
+        first = mid + _wrap(s * np.column_stack([alpha, beta, gamma]) - mid)
+        second = mid + _wrap(s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]) - mid)
         lo, hi = self._blo - 1e-12, self._bhi + 1e-12
         in1 = np.all((first >= lo) & (first <= hi), axis=1)
         in2 = np.all((second >= lo) & (second <= hi), axis=1)
