@@ -15,7 +15,10 @@ Scenes:
 - ``stance``: both feet welded, posture hold, pushed at the thorax (constraint drift);
 - ``walk``: a two-step walking segment, the controller at a fixed 2 ms rate, the plant's
   integrator and step (or tolerance) swept; its reference is the adaptive integrator too, with
-  2 ms ticks (the controller's rate, where the contacts switch).
+  2 ms ticks (the controller's rate, where the contacts switch);
+- ``collapse`` and ``drop``: the shipped falls onto the floor (rigid ground contact for every
+  body, joint ranges as constraints), their first second: the step and the contact solver's
+  tolerance swept, MuJoCo's soft contacts beside them (see :func:`_fall_rows`).
 
 The error of a run is the largest state difference from the reference over all records (25 Hz),
 on the manifold: max(|pin.difference(q_ref, q)|, |v - v_ref|).
@@ -196,6 +199,9 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
 
     walk_rows, convergence["walk"], walk_ref = _walking_rows(h, dts, tols)
     rows += walk_rows
+    fall_rows, fall_convergence = _fall_rows(h, quick)
+    rows += fall_rows
+    convergence |= fall_convergence
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
@@ -262,6 +268,87 @@ def _walking_rows(h, dts, tols):
     return rows, convergence, ref
 
 
+FALL_TOLERANCE = 1e-7  # the shipped fall scenes' contact-solver tolerance
+
+
+def _fall_rows(h, quick: bool):
+    """The shipped falls (``collapse``: standing passive; ``drop``: from 0.5 m) for their
+    first T seconds (the impacts and the fall itself): the step swept at the shipped solver
+    tolerance, the contact solver's tolerance swept at the shipped 1 ms step, and MuJoCo's
+    soft contacts (its default parameters, Euler-mode body, see :mod:`humanoid.peers`) over
+    the same steps. The reference: our scheme at a quarter of the smallest step and
+    tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
+    Returns the rows and the references' convergence."""
+    from dataclasses import replace
+
+    from .scene import Scene
+
+    T = 0.5 if quick else 1.0
+    dts = (2e-3, 1e-3, 5e-4) if quick else (2e-3, 1e-3, 5e-4, 2.5e-4)
+    tols = (1e-3, 1e-5, 1e-7) if quick else (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-10)
+    rows, convergence = [], {}
+    try:
+        import mujoco  # noqa: F401 - an optional extra
+
+        from .model import load
+        from .peers import mujoco_fall
+
+        he = load(MALE, ball_joints="euler")
+    except ImportError:
+        he = None
+    for name in ("collapse", "drop"):
+        base = Scene.load(ROOT / "models" / "scenes" / f"{name}.toml")
+        base = base.replace(duration=T, record_rate=RECORD_RATE)
+
+        def variant(dt, tol, base=base):
+            ground = replace(base.effects.ground, tolerance=tol)
+            return base.replace(dt=dt, effects=replace(base.effects, ground=ground))
+
+        ref_dt = min(dts) / 4
+        ref, _ = _run(variant(ref_dt, 1e-10), h)
+        check, _ = _run(variant(2 * ref_dt, 1e-10), h)
+        convergence[name] = _state_error(h.model, ref, check.q, check.v)
+
+        def add(method, setting, traj, wall, name=name, ref=ref):
+            row = _measure(name, method, setting, traj, wall, ref, h, False)
+            rows.append(replace(row, constraint_drift=traj.metadata.get("max_penetration",
+                                                                         row.constraint_drift)))  # fmt: skip
+            print(f"  {name:<8} {method:<34} {setting:<12} {wall:8.3f} s  "
+                  f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
+
+        for dt in dts:
+            add(f"ours, tolerance {FALL_TOLERANCE:g}", f"dt={dt:g}",
+                *_run(variant(dt, FALL_TOLERANCE), h))  # fmt: skip
+        for tol in tols:
+            add("ours, dt 1 ms", f"tol={tol:g}", *_run(variant(1e-3, tol), h))
+        if he is None:
+            continue
+        for dt in dts:
+            every = int(round(1.0 / (RECORD_RATE * dt)))
+            q0, v0 = ref.q[0], ref.v[0]
+            qs, vs, wall, depth = mujoco_fall(base, h, he, q0, v0, dt, every)
+            states = [h.fusion.to_quaternion(q, v) for q, v in zip(qs, vs, strict=True)]
+            traj = _Records([s[0] for s in states], [s[1] for s in states], ref.t,
+                            {"max_penetration": depth})  # fmt: skip
+            add("MuJoCo soft contacts (Euler)", f"dt={dt:g}", traj, wall)
+    return rows, convergence
+
+
+@dataclass
+class _Records:
+    """States of another engine's run, in the shape :func:`_measure` reads."""
+
+    q: list
+    v: list
+    t: np.ndarray
+    metadata: dict
+    status: str = "completed"
+
+    def __post_init__(self) -> None:
+        self.q, self.v = np.array(self.q), np.array(self.v)
+        self.energy = np.full(len(self.t), np.nan)
+
+
 def _plot(name: str, rows: list[Row], path: Path) -> None:
     import matplotlib
 
@@ -270,8 +357,11 @@ def _plot(name: str, rows: list[Row], path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
     methods = sorted({r.method for r in rows}, key=lambda m: [r.method for r in rows].index(m))
-    second = "constraint_drift" if name in ("stance", "walk") else "energy_drift"
+    second = "constraint_drift" if name in ("stance", "walk", "collapse", "drop") else (
+        "energy_drift")  # fmt: skip
     labels = {"error": "state error vs reference", second: second.replace("_", " ")}
+    if name in ("collapse", "drop"):
+        labels[second] = "deepest penetration [m]"
     for ax, key in zip(axes, ("error", second), strict=True):
         for m in methods:
             pts = [(r.wall, getattr(r, key)) for r in rows if r.method == m]

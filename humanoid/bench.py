@@ -7,6 +7,10 @@ the same run, interleaved: ``pin.aba`` + ``pin.integrate`` for contact-free scen
 the scene as shipped (with its effects and controller), the dynamics only (no effects, the
 like-for-like comparison), and the dynamics only through the Pinocchio backend. Each figure is
 the best of several rounds (the machine is shared and noisy); ratios are what to read.
+
+Scenes with ground contact (one frictional contact solve per step, whose size changes as the
+body moves) are timed apart, over their first seconds, against MuJoCo's ``mj_step`` on the same
+fall (see :func:`_ground_steps`).
 """
 
 from __future__ import annotations
@@ -65,12 +69,11 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
     from .simulate import Simulation
 
     n, rounds = (200, 3) if quick else (1000, 7)
-    rows = []
+    rows, ground = [], []
     for path in sorted(SCENES.glob("*.toml")):
         scene = Scene.load(path).replace(integrator="semi_implicit_euler")
         if scene.effects.ground is not None:
-            print(f"{scene.name}: ground contact (one velocity-level solve per step) is timed by "
-                  "`humanoid bench accuracy`, not in this table")  # fmt: skip
+            ground.append(path)
             continue
         bare = scene.replace(
             effects=Effects(gravity=scene.effects.gravity, contacts=scene.effects.contacts),
@@ -118,4 +121,48 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
         for r in rows:
             w.writerow({k: r[k] for k in header})
     print(f"wrote {folder / 'step.csv'}")
+    _ground_steps(ground, 0.3 if quick else 2.0, folder)
     return 0
+
+
+def _ground_steps(paths, duration: float, folder: Path) -> None:
+    """Scenes with ground contact: the mean wall time of our step over the first ``duration``
+    seconds of the scene (the number of contacts changes as the body falls, so a single state
+    would not be representative), against ``mj_step`` on the same fall in MuJoCo (its soft
+    contacts, the Euler-mode body: :func:`humanoid.peers.mujoco_fall`) in the same run.
+    Scenes with a controller have no MuJoCo column (the controller is ours)."""
+    from .model import load
+    from .peers import MALE, mujoco_fall
+    from .scene import Scene
+    from .simulate import Simulation
+
+    try:
+        import mujoco  # noqa: F401 - the peer is optional
+    except ImportError:
+        he = None
+    else:
+        he = load(MALE, ball_joints="euler")
+    rows = []
+    for path in paths:
+        scene = Scene.load(path).replace(duration=duration)
+        sim = Simulation(scene)
+        traj = sim.run(quiet=True)
+        ours = traj.metadata["wall_time"] / traj.metadata["steps"]
+        theirs = float("nan")
+        if he is not None and scene.controller.kind == "none":
+            _, _, wall, _ = mujoco_fall(scene, sim.h, he, sim.q0, sim.v0, scene.dt, 10**9)
+            theirs = wall / int(round(scene.duration / scene.dt))
+        solves = traj.metadata["counters"].get("contact_solves", 1)
+        rows.append({"scene": scene.name, "ours": ours, "mujoco": theirs,
+                     "ratio": ours / theirs, "steps": solves})  # fmt: skip
+    print(f"\nground contact (rigid, one frictional solve per step), mean over the first "
+          f"{duration:g} s of each scene:")  # fmt: skip
+    print(f"{'scene':<10} {'ours':>10} {'mj_step':>10} {'ratio':>7}   [us per step]")
+    for r in rows:
+        print(f"{r['scene']:<10} {r['ours'] * 1e6:>10.1f} {r['mujoco'] * 1e6:>10.1f} "
+              f"{r['ratio']:>7.1f}")  # fmt: skip
+    with open(folder / "step_ground.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=["scene", "ours", "mujoco", "ratio", "steps"])
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {folder / 'step_ground.csv'}")

@@ -435,13 +435,10 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     the scene's joint damping and friction on a floor plane, elliptic cones, its default soft
     contacts and its default (semi-implicit Euler) integrator at the same step, from the same
     initial state. Returns per engine: the time to rest (kinetic energy below ``REST`` from
-    then on), the final pelvis height, its forward axis's vertical component (+1: lying
-    on its back), the final CoM, the deepest penetration, and the wall time per step measured in the
-    same run; and the RMS difference of the final joint angles [deg].
+    then on), the final pelvis height, its forward axis's vertical component (+1: lying on
+    its back), the final CoM, the deepest penetration, and the wall time per step measured
+    in the same run; and the RMS difference of the final joint angles [deg].
     """
-    import mujoco
-
-    from .export import StateMap, to_mjcf
     from .model import load
     from .scene import Scene
     from .simulate import Simulation
@@ -454,16 +451,47 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     sim = Simulation(scene)
     traj = sim.run(quiet=True)
     h, he = sim.h, load(MALE, ball_joints="euler")
-    ground = scene.effects.ground
-    m = mujoco.MjModel.from_xml_string(to_mjcf(
-        he, timestep=dt, integrator="Euler", ground=ground.mu, limits=True,
-        damping=scene.effects.damping))  # fmt: skip
+    qs, vs, wall, depth = mujoco_fall(scene, h, he, sim.q0, sim.v0, dt, every)
+    ours_e = [h.fusion.to_euler(q, v) for q, v in zip(traj.q, traj.v, strict=True)]
+    t_mj = np.arange(len(qs)) * dt * every
+    out = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
+           "humanoid": _fall_summary(h, traj.q, traj.v, traj.t),
+           "mujoco": _fall_summary(he, np.array(qs), np.array(vs), t_mj)}  # fmt: skip
+    out["humanoid"] |= {"step_time": traj.metadata["wall_time"] / traj.metadata["steps"],
+                        "penetration": traj.metadata["max_penetration"]}  # fmt: skip
+    out["mujoco"] |= {"step_time": wall / n, "penetration": depth}
+    diff = ours_e[-1][0][7:] - qs[-1][7:]  # the hinge angles (after the free flyer's 7)
+    out["joint_rms_deg"] = float(np.degrees(np.sqrt(np.mean(np.angle(np.exp(1j * diff)) ** 2))))
+    return out
+
+
+def _fall_model(scene, he, dt: float, integrator: str = "Euler"):
+    """The MuJoCo model of a fall scene: the Euler-mode body with hinge limits, the scene's
+    joint damping, and a floor with the scene's friction."""
+    import mujoco
+
+    from .export import to_mjcf
+
+    xml = to_mjcf(he, timestep=dt, integrator=integrator, ground=scene.effects.ground.mu,
+                  limits=True, damping=scene.effects.damping)  # fmt: skip
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+def mujoco_fall(scene, h, he, q0, v0, dt: float, every: int, integrator: str = "Euler"):
+    """A fall scene in MuJoCo from our initial state (q0, v0) of ``h`` (quaternion mode), on
+    the Euler-mode body ``he``: Euler-mode states (q, v) every ``every`` steps (the first at
+    t = 0), the wall time of the steps alone, and the deepest penetration [m]."""
+    import mujoco
+
+    from .export import StateMap
+
+    m = _fall_model(scene, he, dt, integrator)
     d = mujoco.MjData(m)
     states = StateMap(he, m)
-    qe0, ve0 = h.fusion.to_euler(sim.q0, sim.v0)
+    qe0, ve0 = h.fusion.to_euler(q0, v0)
     d.qpos[:], d.qvel[:] = states.to_mujoco(qe0, ve0)
     qs, vs, wall, depth = [qe0], [ve0], 0.0, 0.0
-    for k in range(n):
+    for k in range(int(round(scene.duration / dt))):
         start = time.perf_counter()
         mujoco.mj_step(m, d)
         wall += time.perf_counter() - start
@@ -473,18 +501,7 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
             q, v = states.to_pinocchio(d.qpos, d.qvel)
             qs.append(q)
             vs.append(v)
-    ours_e = [h.fusion.to_euler(q, v) for q, v in zip(traj.q, traj.v, strict=True)]
-    out = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
-           "humanoid": _fall_summary(h, traj.q, traj.v, traj.t),
-           "mujoco": _fall_summary(he, np.array(qs), np.array(vs), np.arange(len(qs)) * dt * every)}  # fmt: skip
-    out["humanoid"] |= {"step_time": traj.metadata["wall_time"] / traj.metadata["steps"],
-                        "penetration": traj.metadata["max_penetration"]}  # fmt: skip
-    out["mujoco"] |= {"step_time": wall / n, "penetration": depth}
-    joints = np.array([m.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE for j in range(m.njnt)])
-    assert joints.sum() == he.nq - 7
-    diff = ours_e[-1][0][7:] - qs[-1][7:]
-    out["joint_rms_deg"] = float(np.degrees(np.sqrt(np.mean(np.angle(np.exp(1j * diff)) ** 2))))
-    return out
+    return qs, vs, wall, depth
 
 
 def _fall_summary(h, qs, vs, t) -> dict:

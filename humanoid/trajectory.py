@@ -26,7 +26,9 @@ class Trajectory:
         q: Configurations, (N, nq). v: velocities, (N, nv). tau: applied joint torques, (N, nv).
         forces: Contact forces by name, world axes: per foot a wrench (fx, fy, fz, tx, ty, tz)
             about the sole frame origin; per point contact a force (fx, fy, fz); NaN while the
-            contact is released.
+            contact is released. With ground contact, ``ground``: the floor's total force on
+            the body and its moment about the world origin (centre of pressure
+            (-ty / fz, tx / fz, 0)), the mean over the step that follows the record.
         energy: Kinetic + potential energy [J], (N,).
         residual: Largest constraint position residual [m or rad] at each record, (N,).
         metadata: Model, joint and contact names, dt, scene, events, statistics, status.
@@ -119,7 +121,8 @@ class _Recorder:
         self.residual = np.zeros(n)
         self.forces = {}
         if ground:
-            self.forces["ground"] = np.zeros((n, 3))  # total ground force, world axes [N]
+            # total ground force and its moment about the world origin, world axes [N, N m]
+            self.forces["ground"] = np.zeros((n, 6))
         for c in contacts:
             self.forces[c.side] = np.full((n, 6), np.nan)
             if c.spec.kind == "points":
@@ -141,7 +144,7 @@ class _Recorder:
         )
         found = getattr(sim, "ground_step", None)
         if found is not None and "ground" in self.forces:
-            self.forces["ground"][i] = found.force / sim.scene.dt
+            self.forces["ground"][i] = found.wrench / sim.scene.dt
         constraints = sim.active_constraints()
         if constraints:
             sim._kinematics(q, v)

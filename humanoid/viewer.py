@@ -66,7 +66,8 @@ class CommandRecorder:
 
 
 ROOT = "humanoid"
-COLORS = {"com": 0xD62728, "force": 0xFF7F0E, "footprint": 0x2CA02C, "ground": 0xB0B0B0}
+COLORS = {"com": 0xD62728, "force": 0xFF7F0E, "footprint": 0x2CA02C, "ground": 0xB0B0B0,
+          "push": 0x1F77B4}  # fmt: skip
 
 
 def _rgb(rgba) -> int:
@@ -121,6 +122,7 @@ class SceneView:
         self.data = h.model.createData()
         self.gdata = pin.GeometryData(h.visual_model)
         self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
+        self.pushes = []
         self._build()
 
     # -- scene ---------------------------------------------------------------------------
@@ -160,15 +162,8 @@ class SceneView:
             self.node("com_ground", "disc").set_object(disc, red)
             self.node("com_ground", "disc").set_transform(self._along_z())
         if ov.forces:
-            orange = G.MeshLambertMaterial(color=COLORS["force"])
-            for side in self.feet:
-                shaft = self.node("forces", side, "length", "shaft")
-                shaft.set_object(G.Cylinder(1.0, 0.018), orange)
-                shaft.set_transform(self._along_z(0.5))
-                head = self.node("forces", side, "length", "head")
-                head.set_object(G.Cylinder(0.12, 0.0, radiusTop=0.0, radiusBottom=0.045), orange)
-                head.set_transform(self._along_z(1.0))
-                self.node("forces", side).set_property("visible", False)
+            for side in (*self.feet, "ground"):  # ground: the floor's total force, at its CoP
+                self._arrow(("forces", side), COLORS["force"])
         if ov.footprints:
             green = G.MeshLambertMaterial(color=COLORS["footprint"], opacity=0.5, transparent=True)
             for side in self.feet:
@@ -180,6 +175,26 @@ class SceneView:
                     pin.SE3(np.eye(3), centre).homogeneous
                 )
                 self.node("footprints", side).set_property("visible", False)
+
+    def _arrow(self, path: tuple, color: int) -> None:
+        """A hidden unit arrow along +Z at ``path``; its child ``length`` is scaled."""
+        G = _meshcat().geometry
+        material = G.MeshLambertMaterial(color=color)
+        shaft = self.node(*path, "length", "shaft")
+        shaft.set_object(G.Cylinder(1.0, 0.018), material)
+        shaft.set_transform(self._along_z(0.5))
+        head = self.node(*path, "length", "head")
+        head.set_object(G.Cylinder(0.12, 0.0, radiusTop=0.0, radiusBottom=0.045), material)
+        head.set_transform(self._along_z(1.0))
+        self.node(*path).set_property("visible", False)
+
+    def set_pushes(self, pushes) -> None:
+        """Pushes to draw as arrows pointing at the pushed point while they act: a list of
+        (frame id, force (3,) [N], start [s], duration [s])."""
+        self.pushes = list(pushes)
+        if self.overlays.forces:
+            for i in range(len(self.pushes)):
+                self._arrow(("pushes", str(i)), COLORS["push"])
 
     def _frame_path(self, xy: np.ndarray) -> None:
         """Ground and camera that cover a path (x, y of the pelvis) longer than the default."""
@@ -209,8 +224,9 @@ class SceneView:
         return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
 
     # -- poses ---------------------------------------------------------------------------
-    def frame(self, q, forces: dict | None = None) -> dict[str, tuple]:
-        """Transforms and properties of every animated node for one state.
+    def frame(self, q, forces: dict | None = None, t: float | None = None) -> dict[str, tuple]:
+        """Transforms and properties of every animated node for one state (at time ``t``,
+        which decides the pushes shown).
 
         Returns:
             {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z])}, as a
@@ -248,11 +264,31 @@ class SceneView:
                     length = ov.force_scale * np.linalg.norm(f) / self.weight
                     out.append((("forces", side), "transform", T))
                     out.append((("forces", side, "length"), "scale", [1.0, 1.0, max(length, 1e-3)]))
+        if ov.forces:
+            w = forces.get("ground")
+            show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
+            out.append((("forces", "ground"), "visible", bool(show)))
+            if show:
+                f = np.asarray(w[:3])
+                cop = np.array([-w[4] / f[2], w[3] / f[2], 0.0])
+                length = ov.force_scale * np.linalg.norm(f) / self.weight
+                out.append((("forces", "ground"), "transform",
+                            pin.SE3(_arrow_rotation(f), cop).homogeneous))  # fmt: skip
+                out.append((("forces", "ground", "length"), "scale", [1.0, 1.0, max(length, 1e-3)]))
+            for i, (fid, f, start, duration) in enumerate(self.pushes):
+                on = t is not None and start <= t < start + duration
+                out.append((("pushes", str(i)), "visible", bool(on)))
+                if on:  # the arrow's tip on the pushed point
+                    length = max(ov.force_scale * np.linalg.norm(f) / self.weight, 1e-3)
+                    tail = self.data.oMf[fid].translation - length * f / np.linalg.norm(f)
+                    out.append((("pushes", str(i)), "transform",
+                                pin.SE3(_arrow_rotation(f), tail).homogeneous))  # fmt: skip
+                    out.append((("pushes", str(i), "length"), "scale", [1.0, 1.0, length]))
         return out
 
-    def show(self, q, forces: dict | None = None) -> None:
+    def show(self, q, forces: dict | None = None, t: float | None = None) -> None:
         """Put the scene in one state."""
-        for path, kind, value in self.frame(q, forces):
+        for path, kind, value in self.frame(q, forces, t):
             node = self.node(*path)
             if kind == "transform":
                 node.set_transform(value)
@@ -272,11 +308,12 @@ class SceneView:
         if len(t) < 2:
             raise HumanoidError("a trajectory needs at least two records to animate")
         n = int(math.floor((t[-1] - t[0]) / speed * fps)) + 1
+        self.set_pushes(_pushes(self.model, traj.metadata))
         anim = mc.animation.Animation(default_framerate=fps)
         for k in range(n):
             time_sim = t[0] + k * speed / fps
             q, forces = _sample(self.model, traj, time_sim, self.feet)
-            for path, kind, value in self.frame(q, forces):
+            for path, kind, value in self.frame(q, forces, time_sim):
                 target = anim.at_frame(self.vis, k)[ROOT + "/" + "/".join(path)]
                 if kind == "transform":
                     target.set_transform(value)
@@ -284,7 +321,7 @@ class SceneView:
                     target.set_property("visible", "boolean", value)
                 else:
                     target.set_property("scale", "vector3", value)
-        self.show(*_sample(self.model, traj, t[0], self.feet))
+        self.show(*_sample(self.model, traj, t[0], self.feet), t[0])
         self._frame_path(np.asarray(traj.q)[:, :2])
         self.vis.set_animation(anim, play=True, repetitions=0 if loop else 1)
         return n
@@ -300,13 +337,23 @@ def _sample(model, traj, time_sim: float, feet):
     s = float(np.clip((time_sim - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0))
     q = pin.interpolate(model, traj.q[i], traj.q[i + 1], s)
     forces = {}
-    for side in feet:
+    for side in (*feet, "ground"):
         if side in traj.forces:
             a, b = traj.forces[side][i], traj.forces[side][i + 1]
             forces[side] = (
                 (1 - s) * a + s * b if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else a
             )
     return q, forces
+
+
+def _pushes(model, meta) -> list[tuple]:
+    """(frame id, force, start, duration) of the pushes of a trajectory's scene."""
+    out = []
+    for p in meta.get("scene", {}).get("effects", {}).get("pushes", []):
+        if model.existFrame(p["frame"]) and np.linalg.norm(p["force"]) > 0:
+            out.append((model.getFrameId(p["frame"]), np.asarray(p["force"], dtype=float),
+                        float(p["start"]), float(p["duration"])))  # fmt: skip
+    return out
 
 
 def humanoid_for(traj):

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_model, landing_run
+from conftest import MODELS, get_model, landing_run
 
 import humanoid as hm
 from humanoid.scene import Scene
@@ -190,3 +190,64 @@ def test_talos_is_drawn_from_its_meshes():
     assert len(meshes) == h.visual_model.ngeoms > 20
     kinds = {c["object"]["geometries"][0]["type"] for c in meshes}
     assert "_meshfile" in kinds and kinds <= {"_meshfile", "CylinderGeometry", "BoxGeometry"}
+
+
+def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
+    """push.toml's 80 N at the thorax: the arrow's tip is on the thorax frame, it points along
+    the force, its length is the force scale, and it is hidden before and after the push; the
+    animation keys its visibility on and off at the push's window."""
+    from humanoid.simulate import simulate
+
+    scene = Scene.load(MODELS / "scenes" / "push.toml").replace(duration=1.0)
+    traj = simulate(scene, quiet=True)
+    h = get_model("male", "quaternion")
+    rec, view = _recorded(h)
+    view.set_pushes(viewer._pushes(h.model, traj.metadata))
+    assert "/meshcat/humanoid/pushes/0/length/shaft" in _paths(rec, "set_object")
+    i = int(np.searchsorted(traj.t, 0.6))
+    out = {(p, k): v for p, k, v in view.frame(traj.q[i], {}, traj.t[i])}
+    assert out[(("pushes", "0"), "visible")] is True
+    T = out[(("pushes", "0"), "transform")]
+    length = out[(("pushes", "0", "length"), "scale")][2]
+    assert length == pytest.approx(0.5 * 80.0 / (h.mass * 9.81))
+    assert np.allclose(T[:3, 2], [1.0, 0.0, 0.0])  # along the force
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, traj.q[i])
+    tip = T[:3, 3] + length * T[:3, 2]
+    assert np.allclose(tip, data.oMf[h.model.getFrameId("thorax")].translation)
+    for t in (0.4, 0.85):
+        k = int(np.searchsorted(traj.t, t))
+        shown = {(p, kk): v for p, kk, v in view.frame(traj.q[k], {}, traj.t[k])}
+        assert shown[(("pushes", "0"), "visible")] is False
+    rec, view = _recorded(h)
+    view.animate(traj, fps=10.0)
+    anim = next(c for c in rec.commands if c["type"] == "set_animation")
+    clip = next(a["clip"] for a in anim["animations"] if a["path"].endswith("/pushes/0"))
+    keys = next(t for t in clip["tracks"] if t["name"] == ".visible")["keys"]
+    on = [k["time"] / 10.0 for k in keys if k["value"]]
+    assert on and min(on) == pytest.approx(0.5) and max(on) == pytest.approx(0.7)
+
+
+def test_the_ground_force_is_an_arrow_at_its_centre_of_pressure():
+    """Lying on the floor at the end of the drop: one arrow, the floor's total force, at the
+    centre of pressure of the contact points (inside their span), carrying the weight."""
+    from humanoid.simulate import Simulation
+
+    scene = Scene.load(MODELS / "scenes" / "drop.toml").replace(duration=0.05, record_rate=1000.0)
+    scene = scene.replace(initial=type(scene.initial)(lift=0.0))  # standing on the floor
+    sim = Simulation(scene)
+    traj = sim.run(quiet=True)
+    h = get_model("male", "quaternion")
+    _, view = _recorded(h)
+    w = traj.forces["ground"][-1]
+    out = {(p, k): v for p, k, v in view.frame(traj.q[-1], {"ground": w})}
+    assert out[(("forces", "ground"), "visible")] is True
+    cop = out[(("forces", "ground"), "transform")][:3, 3]
+    points = sim.ground_step.points
+    assert cop[2] == 0.0
+    assert np.all(cop[:2] >= points[:, :2].min(axis=0)) and np.all(cop[:2] <= points[:, :2].max(axis=0))
+    # the CoP of the impulses themselves
+    lam = sim.ground_step.impulses
+    assert np.allclose(cop[:2], (points[:, :2] * lam[:, 2:3]).sum(axis=0) / lam[:, 2].sum(), atol=1e-3)
+    length = out[(("forces", "ground", "length"), "scale")][2]
+    assert length == pytest.approx(0.5 * np.linalg.norm(w[:3]) / (h.mass * 9.81))

@@ -232,6 +232,17 @@ class StepContacts:
         """Total ground impulse, world axes [N s] (divide by dt for the mean force)."""
         return self.impulses.sum(axis=0) if len(self.impulses) else np.zeros(3)
 
+    @property
+    def wrench(self) -> np.ndarray:
+        """Total ground impulse and its moment about the world origin, the impulses acting at
+        the points' projections on the floor (fx, fy, fz, tx, ty, tz) [N s, N m s]: the centre
+        of pressure is (-ty / fz, tx / fz, 0)."""
+        if not len(self.impulses):
+            return np.zeros(6)
+        floor = self.points * np.array([1.0, 1.0, 0.0])
+        return np.concatenate([self.impulses.sum(axis=0),
+                               np.cross(floor, self.impulses).sum(axis=0)])  # fmt: skip
+
 
 class ContactSolver:
     """One velocity-level step of the ground contacts and unilateral rows (joint ranges)."""

@@ -24,10 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..constraints.limits import JointRanges
 from ..effects import Effect
 from ..errors import HumanoidError
 
 __all__ = ["ControllerGains", "WalkingController"]
+
+RANGE_MARGIN = 0.3  # [rad] joint-range rows this close to a limit enter the QP
+RANGE_TIME = 0.05  # [s] the velocity damper's time constant (see update)
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -62,12 +66,13 @@ class WalkingController(Effect):
         com: ``(t, c, dc, ddc)`` horizontal CoM reference from preview control.
         z_c: CoM height [m]. q_posture: posture reference.
         baumgarte: The simulator's Baumgarte gains, used in the stance-foot constraints.
+        period: The control period [s] (the joint ranges' velocity damper looks this far).
     """
 
     name = "walking"
     velocity_dependent = True
 
-    def __init__(self, h, model, plan, com, z_c, q_posture, baumgarte, gains=None):
+    def __init__(self, h, model, plan, com, z_c, q_posture, baumgarte, gains=None, period=1e-3):
         self.h, self.model, self.plan = h, model, plan
         self.data = model.createData()
         self.t_ref, self.c_ref, self.dc_ref, self.ddc_ref = com
@@ -81,6 +86,8 @@ class WalkingController(Effect):
         self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
         self.last = None  # (dv, forces by side) of the last solve
         self.failures = 0
+        self.ranges = JointRanges(h)
+        self.period = period  # [s] the control period (torques are held over it)
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -195,6 +202,13 @@ class WalkingController(Effect):
         for i in range(4 * len(stance)):
             G[5 * i : 5 * i + 5, nv + 3 * i : nv + 3 * i + 3] = pyramid
         h_ineq = np.zeros(G.shape[0])
+        # joint ranges, a velocity damper: every row r(q) >= 0 near its limit may close its
+        # gap no faster than r' >= -r / T after this control period dt, r' + dt r'' >= -r / T,
+        # so the gap shrinks geometrically and is never crossed
+        r, Jr = self.ranges.rows(q, margin=RANGE_MARGIN)
+        if len(r):
+            G = np.vstack([G, np.hstack([-Jr, np.zeros((len(r), nf))])])
+            h_ineq = np.concatenate([h_ineq, (Jr @ v + r / RANGE_TIME) / self.period])
         x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1

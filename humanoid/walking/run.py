@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import DivergenceError, HumanoidError
+from ..constraints.limits import JointRanges
 from ..model import Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
 from ..simulate import Simulation, Trajectory, _guard, _Progress, _Recorder
@@ -68,6 +69,12 @@ def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
     targets = {s: data.oMf[h.frame_id(h.feet[i])].copy() for i, s in enumerate(SIDES)}
     q[2] -= drop
     q[0] += forward
+    inside = math.radians(5.0)  # hinges standing on a limit (straight elbows) move inside it
+    for jm in model.joints[2:]:
+        if jm.nq == 1:
+            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+            if hi - lo > 4 * inside:
+                q[jm.idx_q] = np.clip(q[jm.idx_q], lo + inside, hi - inside)
     for j in range(2, model.njoints):  # start the leg IK on the flexed branch of the knees
         jm = model.joints[j]
         if "knee" in model.names[j].lower() and jm.nq == 1:
@@ -142,7 +149,7 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
     t_ref, c_ref, dc_ref, ddc_ref, _, zmp_ref = com_trajectory(plan, c0[2], c0[:2])
     ctl = WalkingController(
         h, sim.model, plan, (t_ref, c_ref, dc_ref, ddc_ref), c0[2], q0, sim.baumgarte,
-        gains or ControllerGains(mu=min(0.6, 0.75 * mu)),
+        gains or ControllerGains(mu=min(0.6, 0.75 * mu)), period=dt,
     )  # fmt: skip
     sim.controller = ctl
     sim._forced = True
@@ -189,13 +196,15 @@ def walk(
     q0, soles, t_ref, c_ref, zmp_ref = setup.q0, setup.soles, setup.t_ref, setup.c_ref, setup.zmp
     n_steps = int(round(plan.duration / dt))
     control_every = max(1, int(round((control_dt or dt) / dt)))
+    ctl.period = control_every * dt
     every = max(1, int(round(1.0 / (record_rate * dt))))
     rec = _Recorder(n_steps // every + 1, sim.model, sim.contacts)
     series = {k: np.full(n_steps, np.nan) for k in (
         "t", "pelvis_z", "tilt", "consistency", "drift", "fz_left", "fz_right", "friction",
         "cop_margin", "com_x", "com_y", "com_z", "com_ref_x", "com_ref_y", "zmp_x", "zmp_y",
-        "tau_base", "impulse",
+        "tau_base", "impulse", "range",
     )}  # fmt: skip
+    ranges = JointRanges(h)
     weight = h.mass * 9.81
     q, v = q0.copy(), setup.v0
     pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
@@ -224,6 +233,7 @@ def walk(
             _check(
                 sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref, control_tick
             )
+            series["range"][k] = math.degrees(ranges.violation(q))
             _guard(t + dt, q_new, v_new)
             q, v = q_new, v_new
             if q[2] < 0.8 * z_start or series["tilt"][k] > 30.0:
@@ -342,6 +352,8 @@ def _acceptance(s, plan, status, message, weight, mu) -> dict:
         ("trunk_tilt", worst("tilt"), "< 30", worst("tilt") < 30.0, "deg"),
         ("consistency", worst("consistency"), "<= 1e-6", worst("consistency") <= 1e-6,
          "relative (plant vs controller accelerations)"),
+        ("joint_ranges", worst("range"), "<= 1e-6", worst("range") <= 1e-6,
+         "deg beyond a range (hinges; ball joints by their triplet angles)"),
     ]  # fmt: skip
     checks = {"completed": {"value": status, "limit": "completed", "ok": status == "completed",
                             "unit": message}}  # fmt: skip
