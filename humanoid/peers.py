@@ -398,6 +398,8 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
     _write_and_summarise(rows, Path(out), T, T_collapse)
     _plot(rows, Path(out) / "peers.png", T, T_collapse)
     _print_push_momentum()
+    for name in ("collapse", "drop"):
+        _print_fall(fall_comparison(name, duration=2.0 if quick else None))
     print(f"wrote {Path(out) / 'peers.csv'} and peers.png")
     return rows
 
