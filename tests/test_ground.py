@@ -178,3 +178,59 @@ def test_standing_on_the_ground_contact_holds_for_ten_seconds():
     assert abs(traj.q[-1, 2] - traj.q[0, 2]) < 1e-3
     assert np.abs(traj.forces["ground"][-100:, 2] - h.mass * G0).max() < 1e-3 * h.mass * G0
     assert traj.metadata["contact_solver_failures"] == 0
+
+
+def test_a_body_sliding_on_ice_feels_kinetic_friction_until_it_stops():
+    """slide.toml: tossed forward at 2 m/s onto a floor with mu = 0.1, it falls and slides on
+    its back. While it slides the floor's horizontal force is mu times its normal force (1e-6
+    relative: the cone's edge, not a pyramid's), against the CoM's motion; then it sticks, at
+    rest, its weight on the floor, the horizontal force zero."""
+    scene = Scene.load(MODELS / "scenes" / "slide.toml")
+    traj = hm.simulate(scene, quiet=True)
+    assert traj.status == "completed"
+    h = hm.load(MODELS / "adult_male.urdf")
+    model, data = h.model, h.model.createData()
+    mu = scene.effects.ground.mu
+    f = traj.forces["ground"]
+    sliding = 0
+    for k, (q, v) in enumerate(zip(traj.q, traj.v, strict=True)):
+        pin.centerOfMass(model, data, q, v)
+        vc = data.vcom[0][:2]
+        if q[2] < 0.2 and np.linalg.norm(vc) > 0.05 and f[k, 2] > 0.9 * h.mass * G0:
+            sliding += 1
+            ft = f[k, :2]
+            assert abs(np.linalg.norm(ft) - mu * f[k, 2]) < 1e-6 * f[k, 2]
+            assert ft @ vc < -0.99 * np.linalg.norm(ft) * np.linalg.norm(vc)
+    assert sliding > 50  # records (100 Hz): over half a second of sliding on its back
+    weight = h.mass * G0
+    assert np.abs(f[-1, :2]).max() < 1e-6 * weight and abs(f[-1, 2] - weight) < 1e-3 * weight
+    assert 0.5 * traj.v[-1] @ hm.mass_matrix(h, traj.q[-1]) @ traj.v[-1] < 1e-4
+
+
+@pytest.mark.parametrize("name", ["drop", "slide"])
+def test_ground_impulses_change_momentum_by_exactly_their_sum(name):
+    """Step by step through the first 1.2 s of a fall (impacts, sticking, sliding): the ground
+    and range impulses change the linear momentum by the sum of the ground impulses and the
+    angular momentum about the CoM by the sum of their moments at the body's contact points
+    (1e-9 relative); joint-range impulses add nothing (they are internal)."""
+    from humanoid.simulate import Simulation
+
+    scene = Scene.load(MODELS / "scenes" / f"{name}.toml")
+    sim = Simulation(scene)
+    model, data = sim.h.model, sim.h.model.createData()
+    q, v, dt = sim.q0, sim.v0, scene.dt
+    touching = 0
+    for k in range(1200):
+        v_free = v + dt * sim.acceleration(k * dt, q, v)
+        q_new, v_new = sim.ground_step_advance(k * dt, q, v, dt)
+        found = sim.ground_step
+        A = pin.computeCentroidalMap(model, data, q)
+        c = data.com[0].copy()
+        dh = A @ (v_new - v_free)
+        lam = found.impulses
+        expected = np.concatenate([lam.sum(axis=0), np.cross(found.points - c, lam).sum(axis=0)])
+        scale = max(np.abs(expected).max(), 1.0)
+        assert np.abs(dh - expected).max() < 1e-9 * scale, (k, dh, expected)
+        touching += len(lam) > 0
+        q, v = q_new, v_new
+    assert touching > 500
