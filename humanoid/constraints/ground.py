@@ -90,8 +90,8 @@ class _Shape:
             corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
             self.fixed = (corners * h) @ R.T + t
         elif isinstance(shape, coal.ConvexBase):
-            pts = np.array([shape.points(i) for i in range(shape.num_points)])
-            self.fixed = pts @ R.T + t
+            pts = np.array(shape.points())  # all the hull's vertices at once
+            self.fixed = _support_points(pts) @ R.T + t
         elif isinstance(shape, coal.Sphere):
             self.spheres.append((t.copy(), float(shape.radius)))
         elif isinstance(shape, coal.Capsule):
@@ -123,15 +123,34 @@ class _Shape:
         return np.vstack(pts)
 
 
+SUPPORT_DIRECTIONS = 256  # a convex hull keeps its support points in this many directions
+
+
+def _support_points(points: np.ndarray, n: int = SUPPORT_DIRECTIONS) -> np.ndarray:
+    """The points of a convex hull that are extreme in one of n directions spread evenly over
+    the sphere (a Fibonacci lattice): a scanned or smooth mesh's hull has thousands of
+    vertices, and the lowest point of the body in any orientation is one of these to within
+    the hull's curvature over the lattice's spacing (about 13 deg)."""
+    if len(points) <= n:
+        return points
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    r = np.sqrt(1.0 - z * z)
+    phi = np.pi * (1.0 + 5.0**0.5) * k
+    dirs = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    return points[np.unique(np.argmax(points @ dirs.T, axis=0))]
+
+
 def _extremes(points: np.ndarray, n: int) -> np.ndarray:
-    """Indices of at most n points that span the support polygon: the extremes in the
+    """Indices of at most n + 1 points that span the support polygon: the extremes in the
     horizontal plane along n directions (a flat mesh face may bring dozens of coplanar
-    points; its contact is its outline)."""
+    points; its contact is its outline), and the lowest point."""
     if len(points) <= n:
         return np.arange(len(points))
     ang = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
     dirs = np.column_stack([np.cos(ang), np.sin(ang)])
-    return np.unique(np.argmax(points[:, :2] @ dirs.T, axis=0))
+    # and the lowest point: a rounded surface's outline lies above its deepest point
+    return np.unique([*np.argmax(points[:, :2] @ dirs.T, axis=0), np.argmin(points[:, 2])])
 
 
 class Ground:
