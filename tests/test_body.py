@@ -455,3 +455,37 @@ def test_write_urdf_writes_build_urdf(h, m, sex, lengths, tmp_path):
     assert humanoid.build_urdf(params) == humanoid.build_urdf(params)  # deterministic
     for k, v in sorted(lengths.items()):
         assert f"{k} {v} m" in path.read_text()
+
+
+@pytest.mark.parametrize(("height", "mass", "sex"), [(1.62, 58.0, "female"), (1.91, 95.0, "male")])
+def test_built_trunk_segments_put_their_com_from_de_levas_upper_landmark(height, mass, sex):
+    """The builder's own output (not the shipped files): de Leva measures the trunk segments'
+    and the head's CoM from their upper landmark (pelvis and abdomen from the landmark above,
+    upper trunk from CERV, head from VERT, the top of the head), so in the standing body each
+    CoM lies com_fraction x length below that landmark: the next joint up, or the head's top.
+    Measured from the wrong end, the pelvis's CoM moves by (1 - 2 x 0.61) x 0.145 L."""
+    from humanoid.anthropometry import segments
+
+    params = BodyParameters(height, mass, sex)
+    seg = segments(params)
+    h = humanoid.load(body.build_urdf(params))
+    model, data = h.model, h.model.createData()
+    pin.forwardKinematics(model, data, h.standing_configuration())
+
+    def joint_of(link):
+        return model.frames[model.getFrameId(link)].parentJoint
+
+    def com(link):
+        j = joint_of(link)
+        return data.oMi[j].act(model.inertias[j].lever)
+
+    above = {"pelvis": "abdomen", "abdomen": "thorax", "thorax": "head"}
+    for name in ("pelvis", "abdomen", "thorax", "head"):
+        s = seg[name]
+        if name == "head":
+            top = data.oMi[joint_of("head")].translation + np.array([0.0, 0.0, s.length])
+        else:
+            top = data.oMi[joint_of(above[name])].translation
+        c = com(name)
+        assert c[2] < top[2]
+        assert top[2] - c[2] == pytest.approx(s.com_fraction * s.length, abs=1e-9), name
