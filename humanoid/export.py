@@ -135,8 +135,14 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
         f'  <default><geom contype="{int(collide)}" conaffinity="0" rgba="0.7 0.7 0.8 1"'
         + (f' friction="{ground:.17g} 0 0"/></default>' if collide else "/></default>"),
         "  <worldbody>",
-        *([f'    <geom name="floor" type="plane" size="0 0 1" contype="0" conaffinity="1" '
-           f'friction="{ground:.17g} 0 0"/>'] if collide else []),  # fmt: skip
+        *(
+            [
+                f'    <geom name="floor" type="plane" size="0 0 1" contype="0" conaffinity="1" '
+                f'friction="{ground:.17g} 0 0"/>'
+            ]
+            if collide
+            else []
+        ),  # fmt: skip
         *body(1, 2),
         "  </worldbody>",
         "</mujoco>",

@@ -508,14 +508,21 @@ def mujoco_fall(scene, h, he, q0, v0, dt: float, every: int, integrator: str = "
 
 def _fall_summary(h, qs, vs, t) -> dict:
     model, data = h.model, h.model.createData()
-    ke = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(qs, vs, strict=True)])
+    ke = np.array(
+        [pin.computeKineticEnergy(model, data, q, v) for q, v in zip(qs, vs, strict=True)]
+    )
     moving = np.flatnonzero(ke >= REST)
     rest = float(t[moving[-1] + 1]) if len(moving) and moving[-1] + 1 < len(t) else (
         float("nan") if len(moving) else 0.0)  # fmt: skip
     q = qs[-1]
     R = pin.Quaternion(q[3:7]).toRotationMatrix()
-    return {"time_to_rest": rest, "pelvis_height": float(q[2]), "pelvis_forward_z": float(R[2, 0]),
-            "com": pin.centerOfMass(model, data, q).copy(), "final_kinetic_energy": float(ke[-1])}
+    return {
+        "time_to_rest": rest,
+        "pelvis_height": float(q[2]),
+        "pelvis_forward_z": float(R[2, 0]),
+        "com": pin.centerOfMass(model, data, q).copy(),
+        "final_kinetic_energy": float(ke[-1]),
+    }
 
 
 def _print_fall(r: dict) -> None:

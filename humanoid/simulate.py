@@ -70,9 +70,7 @@ class Simulation:
         if e.springs > 0:
             self.effects.append(JointSprings(self.model, e.springs, q0))
         if e.joint_limits is not None and e.joint_limits.kind == "spring":
-            self.effects.append(
-                JointLimits(h, e.joint_limits.stiffness, e.joint_limits.damping)
-            )
+            self.effects.append(JointLimits(h, e.joint_limits.stiffness, e.joint_limits.damping))
         for p in e.pushes:
             self.effects.append(
                 Push(self.model.getFrameId(p.frame), p.force, p.start, p.duration, p.torque)
@@ -183,8 +181,9 @@ class Simulation:
                 points = [h.frame_id(n) for n in h.contact_points[side]]
                 if min(self.data.oMf[p].translation[2] for p in points) <= GROUND_TOLERANCE:
                     sole = h.frame_id(foot)
-                    rows.append(Weld(side, sole, self.data.oMf[sole]).jacobian(self.model,
-                                                                              self.data))
+                    rows.append(
+                        Weld(side, sole, self.data.oMf[sole]).jacobian(self.model, self.data)
+                    )
         return np.vstack(rows) if rows else np.zeros((0, self.model.nv))
 
     # -- forces --------------------------------------------------------------------------

@@ -189,11 +189,12 @@ def test_joint_range_constraints_conserve_momentum_and_never_add_energy():
     h = load(MALE)
     model, data = h.model, h.model.createData()
     dt = 5e-4
+    thrown = tuple(2.5 * rng.choice([-1.0, 1.0], h.nv - 6))
     scene = Scene(body=MALE, duration=0.6, dt=dt, integrator="semi_implicit_euler",
                   effects=Effects(gravity=(0.0, 0.0, 0.0), ground=GroundSpec(bodies=()),
                                   joint_limits=JointLimitSpec("constraint")),
                   initial=Initial(base_velocity=(0.1, 0.0, 0.2, 0.3, -0.2, 0.5),
-                                  joint_velocity=tuple(2.5 * rng.choice([-1.0, 1.0], h.nv - 6))))  # fmt: skip
+                                  joint_velocity=thrown))  # fmt: skip
     sim = Simulation(scene, humanoid=h)
     ranges = JointRanges(h)
     q, v = sim.q0, sim.v0

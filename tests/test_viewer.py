@@ -245,9 +245,13 @@ def test_the_ground_force_is_an_arrow_at_its_centre_of_pressure():
     cop = out[(("forces", "ground"), "transform")][:3, 3]
     points = sim.ground_step.points
     assert cop[2] == 0.0
-    assert np.all(cop[:2] >= points[:, :2].min(axis=0)) and np.all(cop[:2] <= points[:, :2].max(axis=0))
+    assert np.all(cop[:2] >= points[:, :2].min(axis=0)) and np.all(
+        cop[:2] <= points[:, :2].max(axis=0)
+    )
     # the CoP of the impulses themselves
     lam = sim.ground_step.impulses
-    assert np.allclose(cop[:2], (points[:, :2] * lam[:, 2:3]).sum(axis=0) / lam[:, 2].sum(), atol=1e-3)
+    assert np.allclose(
+        cop[:2], (points[:, :2] * lam[:, 2:3]).sum(axis=0) / lam[:, 2].sum(), atol=1e-3
+    )
     length = out[(("forces", "ground", "length"), "scale")][2]
     assert length == pytest.approx(0.5 * np.linalg.norm(w[:3]) / (h.mass * 9.81))

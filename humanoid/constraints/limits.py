@@ -14,7 +14,6 @@ All ball joints are decomposed at once (batched over the joints): this runs ever
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 __all__ = ["JointRanges"]
 
@@ -114,7 +113,9 @@ class JointRanges:
         # (the shoulder's flexion) is continuous across it
         mid = self._mid
         first = mid + _wrap(s * np.column_stack([alpha, beta, gamma]) - mid)
-        second = mid + _wrap(s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]) - mid)
+        second = mid + _wrap(
+            s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]) - mid
+        )
         lo, hi = self._blo - 1e-12, self._bhi + 1e-12
         in1 = np.all((first >= lo) & (first <= hi), axis=1)
         in2 = np.all((second >= lo) & (second <= hi), axis=1)

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..errors import DivergenceError, HumanoidError
 from ..constraints.limits import JointRanges
+from ..errors import DivergenceError, HumanoidError
 from ..model import Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
 from ..simulate import Simulation, Trajectory, _guard, _Progress, _Recorder
