@@ -162,11 +162,10 @@ def test_bench_step_quick(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "standing" in out and "tumble" in out
     rows = (tmp_path / "step.csv").read_text().splitlines()
-    assert (
-        rows[0].startswith("scene,contacts,pinocchio") and len(rows) == 4
-    )  # push, standing, tumble
+    assert rows[0].startswith("scene,contacts,pinocchio")
+    assert len(rows) == 4  # push, standing, tumble
     ground = {r["scene"]: r for r in csv.DictReader(open(tmp_path / "step_ground.csv"))}
-    assert set(ground) == {"balance", "collapse", "drop"}
+    assert set(ground) == {"balance", "collapse", "drop", "slide"}
     assert float(ground["drop"]["ours"]) > 0 and float(ground["drop"]["mujoco"]) > 0
     assert ground["balance"]["mujoco"] == "nan"  # its controller is ours: no MuJoCo column
 
