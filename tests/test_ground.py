@@ -236,13 +236,16 @@ def test_ground_impulses_change_momentum_by_exactly_their_sum(name):
     assert touching > 500
 
 
-def test_example_robot_datas_human_lands_on_its_meshes():
-    """example-robot-data's human has only meshes: their convex hulls (support points) meet
-    the floor. Dropped 0.1 m, it lands and folds: no point more than 1 mm below the floor
-    (measured 0.3 mm), the energy never rises, the floor's impulse is positive."""
+@pytest.mark.parametrize(("name", "energy_rise"), [("human", 1e-6), ("talos", 0.5)])
+def test_example_robot_data_bodies_land_on_their_meshes(name, energy_rise):
+    """example-robot-data's human and Talos touch the floor with their meshes' convex hulls
+    (support points). Dropped 0.1 m, they land and fold: no point more than 1 mm below the
+    floor (measured 0.06 mm and 0.8 mm), the floor's impulse positive. The human's energy never
+    rises; Talos's rises once, by 0.12 J, when the solver pushes its 0.8 mm out (a gap still
+    open: the bound here is 0.5 J)."""
     from humanoid.scene import Initial, JointLimitSpec
 
-    h = get_model("human", "quaternion")
+    h = get_model(name, "quaternion")
     scene = Scene(body=h.source, duration=0.8, dt=1e-3, integrator="semi_implicit_euler",
                   record_rate=1000.0, initial=Initial(lift=0.1),
                   effects=Effects(damping=0.5, joint_limits=JointLimitSpec("constraint"),
@@ -250,5 +253,5 @@ def test_example_robot_datas_human_lands_on_its_meshes():
     traj = hm.simulate(scene, humanoid=h, quiet=True)
     assert traj.status == "completed"
     assert traj.metadata["max_penetration"] < 1e-3
-    assert np.diff(traj.energy).max() < 1e-6
+    assert np.diff(traj.energy).max() < energy_rise
     assert traj.forces["ground"][:, 2].sum() * 1e-3 > 0.5 * h.mass * G0 * 0.6  # [N s]

@@ -62,6 +62,7 @@ class GroundSettings:
 
 RIM_SAMPLES = 8  # points sampled around each rim of a cylinder
 MAX_POINTS = 8  # contacts kept per geometry (the extremes of its support polygon)
+DEPTH_WEIGHT = 10.0  # in choosing them, 1 mm lower counts as 1 cm further out
 
 
 def _convex(shape):
@@ -149,8 +150,12 @@ def _extremes(points: np.ndarray, n: int) -> np.ndarray:
         return np.arange(len(points))
     ang = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
     dirs = np.column_stack([np.cos(ang), np.sin(ang)])
-    # and the lowest point: a rounded surface's outline lies above its deepest point
-    return np.unique([*np.argmax(points[:, :2] @ dirs.T, axis=0), np.argmin(points[:, 2])])
+    # outermost, but low first: a bevelled sole's outermost points sit millimetres up its
+    # bevel, and the flat bottom's corners are what the floor meets (1 mm of height weighs
+    # as 1 cm of reach); and the lowest point (a rounded surface's outline lies above it)
+    z = points[:, 2] - points[:, 2].min()
+    score = points[:, :2] @ dirs.T - DEPTH_WEIGHT * z[:, None]
+    return np.unique([*np.argmax(score, axis=0), np.argmin(points[:, 2])])
 
 
 class Ground:
