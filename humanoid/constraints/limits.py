@@ -80,7 +80,6 @@ class JointRanges:
                 self.balls.append((b, jm.idx_q, jm.idx_v, em.lowerPositionLimit[qi].copy(),
                                    em.upperPositionLimit[qi].copy()))  # fmt: skip
         nb = len(self.balls)
-        self.names = [b.name for b, *_ in self.balls]
         self._bq = np.array([iq for _, iq, *_ in self.balls], dtype=int).reshape(nb, 1)
         self._bv = np.array([iv for _, _, iv, *_ in self.balls], dtype=int)
         self._blo = np.array([lo for *_, lo, _ in self.balls]).reshape(nb, 3)
