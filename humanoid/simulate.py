@@ -37,7 +37,7 @@ from .effects import (
 from .errors import DivergenceError, ModelError, SceneError
 from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
 from .model import Humanoid, load
-from .scene import Scene
+from .scene import Contact, Scene
 from .trajectory import Trajectory, _Progress, _Recorder
 
 __all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
@@ -165,25 +165,21 @@ class Simulation:
         return pin.integrate(model, q, dt * v_new), v_new
 
     def _initial_contact_jacobian(self, q0) -> np.ndarray:
-        """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground)."""
+        """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground).
+        On the ground contact (no scheduled contacts), the feet standing on the floor count
+        as welded."""
         self._kinematics(q0)
+        contacts = self.contacts
+        if not contacts and self.ground is not None:
+            contacts = [ContactState(self.h, Contact(side)) for side in ("left", "right")]
         rows = []
-        for c in self.contacts:
+        for c in contacts:
             if c.spec.start == 0.0 and c.lowest(self.data) <= GROUND_TOLERANCE:
                 c.attach(self.data)
                 rows += [k.jacobian(self.model, self.data) for k in c.constraints]
                 c.release()
                 self._active = None
                 c.ever_attached = False
-        if not rows and self.ground is not None:  # feet standing on the ground: as if welded
-            h = self.h
-            for side, foot in zip(("left", "right"), h.feet, strict=True):
-                points = [h.frame_id(n) for n in h.contact_points[side]]
-                if min(self.data.oMf[p].translation[2] for p in points) <= GROUND_TOLERANCE:
-                    sole = h.frame_id(foot)
-                    rows.append(
-                        Weld(side, sole, self.data.oMf[sole]).jacobian(self.model, self.data)
-                    )
         return np.vstack(rows) if rows else np.zeros((0, self.model.nv))
 
     # -- forces --------------------------------------------------------------------------
