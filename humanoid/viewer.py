@@ -260,31 +260,31 @@ class SceneView:
                     f, tau = np.asarray(w[:3]), np.asarray(w[3:6])
                     o = sole.translation
                     cop = np.array([o[0] - tau[1] / f[2], o[1] + tau[0] / f[2], o[2]])
-                    T = pin.SE3(_arrow_rotation(f), cop).homogeneous
-                    length = ov.force_scale * np.linalg.norm(f) / self.weight
-                    out.append((("forces", side), "transform", T))
-                    out.append((("forces", side, "length"), "scale", [1.0, 1.0, max(length, 1e-3)]))
+                    out += self._arrow_pose(("forces", side), f, tail=cop)
         if ov.forces:
             w = forces.get("ground")
             show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
             out.append((("forces", "ground"), "visible", bool(show)))
             if show:
-                f = np.asarray(w[:3])
-                cop = np.array([-w[4] / f[2], w[3] / f[2], 0.0])
-                length = ov.force_scale * np.linalg.norm(f) / self.weight
-                out.append((("forces", "ground"), "transform",
-                            pin.SE3(_arrow_rotation(f), cop).homogeneous))  # fmt: skip
-                out.append((("forces", "ground", "length"), "scale", [1.0, 1.0, max(length, 1e-3)]))
+                cop = np.array([-w[4] / w[2], w[3] / w[2], 0.0])
+                out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
             for i, (fid, f, start, duration) in enumerate(self.pushes):
                 on = t is not None and start <= t < start + duration
                 out.append((("pushes", str(i)), "visible", bool(on)))
                 if on:  # the arrow's tip on the pushed point
-                    length = max(ov.force_scale * np.linalg.norm(f) / self.weight, 1e-3)
-                    tail = self.data.oMf[fid].translation - length * f / np.linalg.norm(f)
-                    out.append((("pushes", str(i)), "transform",
-                                pin.SE3(_arrow_rotation(f), tail).homogeneous))  # fmt: skip
-                    out.append((("pushes", str(i), "length"), "scale", [1.0, 1.0, length]))
+                    out += self._arrow_pose(
+                        ("pushes", str(i)), f, tip=self.data.oMf[fid].translation
+                    )
         return out
+
+    def _arrow_pose(self, path: tuple, f: np.ndarray, tail=None, tip=None) -> list[tuple]:
+        """Transform and scale of the arrow at ``path`` for a force f [N] (0.5 m per body
+        weight by default, at least 1 mm), starting at ``tail`` or ending at ``tip``."""
+        length = max(self.overlays.force_scale * np.linalg.norm(f) / self.weight, 1e-3)
+        if tip is not None:
+            tail = tip - length * f / np.linalg.norm(f)
+        return [(path, "transform", pin.SE3(_arrow_rotation(f), tail).homogeneous),
+                ((*path, "length"), "scale", [1.0, 1.0, length])]  # fmt: skip
 
     def show(self, q, forces: dict | None = None, t: float | None = None) -> None:
         """Put the scene in one state."""
