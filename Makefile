@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models bench bench-accuracy clean
+.PHONY: demo test lint format models bench bench-accuracy wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,7 +18,7 @@ demo: $(STAMP)
 	$(PY) -m humanoid build --height 1.62 --mass 62 --sex female -o results/adult_female.urdf
 	$(PY) -m humanoid info results/adult_male.urdf | tee results/adult_male.txt
 	$(PY) -m humanoid info results/adult_female.urdf | tee results/adult_female.txt
-	$(PY) -m humanoid simulate models/scenes/push.toml -o results/push.npz
+	$(PY) -m humanoid simulate push -o results/push.npz
 	$(PY) -m humanoid view results/push.npz --html results/push.html
 	$(PY) -m humanoid walk -o results/walk.npz --html results/walk.html --figure results/walk.png
 	@echo "demo: results in results/: walk.npz, walk.png, walk.html (open it in a browser)"
@@ -39,6 +39,9 @@ bench: $(STAMP)
 
 bench-accuracy: $(STAMP)
 	$(PY) -m humanoid bench accuracy -o docs/bench
+
+wheel-check: $(STAMP)
+	bash scripts/wheel_check.sh $(PY)
 
 models: $(STAMP)
 	$(PY) scripts/make_models.py

@@ -23,6 +23,7 @@ from .errors import (
     HumanoidError,
     ModelError,
     SceneError,
+    TrajectoryError,
 )
 from .model import Humanoid, example_robot_names, load, load_example
 from .scene import Scene
@@ -42,6 +43,7 @@ __all__ = [
     "SceneError",
     "Segment",
     "Trajectory",
+    "TrajectoryError",
     "bias_forces",
     "body_dimensions",
     "build_urdf",

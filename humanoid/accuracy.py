@@ -40,11 +40,10 @@ import pinocchio as pin
 
 __all__ = ["run_accuracy_benchmark"]
 
-ROOT = Path(__file__).resolve().parent.parent
 # Records at 25 Hz: a whole number of steps for every swept dt (8 ms ... 0.5 ms) and for the
 # adaptive integrator's 40 ms tick, so that every run is compared at the same instants.
 RECORD_RATE = 25.0
-MALE = str(ROOT / "models" / "adult_male.urdf")
+MALE = "adult_male"
 
 
 @dataclass(frozen=True)
@@ -298,7 +297,7 @@ def _fall_rows(h, quick: bool):
     except ImportError:
         he = None
     for name in ("collapse", "drop"):
-        base = Scene.load(ROOT / "models" / "scenes" / f"{name}.toml")
+        base = Scene.load(name)
         base = base.replace(duration=T, record_rate=RECORD_RATE)
 
         def variant(dt, tol, base=base):

@@ -157,9 +157,10 @@ def _check_finite_range(name: str, value: float, lo: float, hi: float, unit: str
         raise BodyParameterError(f"{name} must be a number in [{lo}, {hi}] {unit}, got {value!r}")
     try:
         value = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
+        shown = repr(value) if len(repr(value)) < 40 else f"{repr(value)[:37]}..."
         raise BodyParameterError(
-            f"{name} must be a number in [{lo}, {hi}] {unit}, got {value!r}"
+            f"{name} must be a number in [{lo}, {hi}] {unit}, got {shown}"
         ) from None
     if not math.isfinite(value) or not lo <= value <= hi:
         raise BodyParameterError(f"{name} must be in [{lo}, {hi}] {unit}, got {value!r}")
@@ -197,7 +198,14 @@ class BodyParameters:
             raise BodyParameterError(f"sex must be one of {SEXES}, got {self.sex!r}")
         valid = (*SEGMENT_NAMES, "ankle_height")
         lengths = {}
-        for key, value in dict(self.segment_lengths or {}).items():
+        try:
+            given = dict(self.segment_lengths or {})
+        except (TypeError, ValueError):
+            raise BodyParameterError(
+                f"segment_lengths must be a mapping of names to lengths, got "
+                f"{type(self.segment_lengths).__name__}"
+            ) from None
+        for key, value in given.items():
             if key not in valid:
                 raise BodyParameterError(
                     f"unknown segment length {key!r}; valid names: {', '.join(valid)}"

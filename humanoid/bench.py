@@ -24,7 +24,8 @@ import pinocchio as pin
 
 __all__ = ["run_step_benchmark"]
 
-SCENES = Path(__file__).resolve().parent.parent / "models" / "scenes"
+from .data import SCENES
+from .errors import HumanoidError
 
 
 def _best(fn, n: int, rounds: int) -> float:
@@ -113,6 +114,8 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
             f"{r['pin backend'] / p:>6.2f} {r['as shipped'] * 1e6:>11.1f} "
             f"{r['as shipped'] / p:>6.2f}"
         )
+    if not rows and not ground:
+        raise HumanoidError(f"no scenes to time: none found in {SCENES}")
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     with open(folder / "step.csv", "w", newline="") as fh:

@@ -7,12 +7,18 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
 from .errors import HumanoidError
 
 __all__ = ["main"]
+
+BODY_HELP = (
+    "a URDF file, a shipped body (adult_male, adult_female) or an example-robot-data robot "
+    "(human, talos...)"
+)
 
 
 def _segment_length(text: str) -> tuple[str, float]:
@@ -26,12 +32,19 @@ def _segment_length(text: str) -> tuple[str, float]:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+    from .data import scene_names
+
     p = argparse.ArgumentParser(
         prog="humanoid", description="Physics-based human body models on Pinocchio."
     )
+    p.add_argument("--version", action="version", version=f"humanoid {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    b = sub.add_parser("build", help="write the URDF body of a person (de Leva 1996)")
+    def command(name, **kw):  # every option's help shows its default
+        return sub.add_parser(name, formatter_class=argparse.ArgumentDefaultsHelpFormatter, **kw)
+
+    b = command("build", help="write the URDF body of a person (de Leva 1996)")
     b.add_argument("--height", type=float, required=True, help="stature [m], 0.5-2.5")
     b.add_argument("--mass", type=float, required=True, help="body mass [kg], 10-300")
     b.add_argument("--sex", choices=("male", "female"), required=True)
@@ -45,21 +58,22 @@ def _parser() -> argparse.ArgumentParser:
     )
     b.add_argument("-o", "--output", required=True, help="URDF file to write")
 
-    i = sub.add_parser("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
-    i.add_argument("model", help="a URDF file or an example-robot-data name (human, talos...)")
+    i = command("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
+    i.add_argument("model", help=BODY_HELP)
     i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
     _massless_option(i)
 
-    s = sub.add_parser("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
-    s.add_argument("scene", help="scene file, e.g. models/scenes/standing.toml")
+    s = command("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
+    s.add_argument(
+        "scene", help="a scene file, or a shipped scene's name: " + ", ".join(scene_names())
+    )
     s.add_argument("-o", "--output", default="run.npz", help="trajectory file to write")
     s.add_argument("--duration", type=float, help="override the scene's duration [s]")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    w = sub.add_parser("walk", help="walk a body in forward simulation (torque control)")
-    w.add_argument("--model", default=None, help="URDF or example-robot-data name "
-                   "(default: models/adult_male.urdf)")  # fmt: skip
-    w.add_argument("--steps", type=int, default=10, help="number of steps (>= 2)")
+    w = command("walk", help="walk a body in forward simulation (torque control)")
+    w.add_argument("--model", default="adult_male", help=BODY_HELP)
+    w.add_argument("--steps", type=int, default=10, help="number of steps, 2-1000")
     w.add_argument("--speed", type=float, help="walking speed [m/s] (sets the step length)")
     w.add_argument("--step-length", type=float, help="step length [m]")
     w.add_argument("--mu", type=float, default=0.8, help="friction coefficient of the checks")
@@ -69,7 +83,7 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--quiet", action="store_true", help="no progress bar")
     _massless_option(w)
 
-    v = sub.add_parser("view", help="show a model or a run in the browser (live, or as HTML)")
+    v = command("view", help="show a model or a run in the browser (live, or as HTML)")
     v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
     v.add_argument("--html", help="write one self-contained HTML file instead of serving")
     v.add_argument("--speed", type=float, default=1.0, help="playback speed (1 = real time)")
@@ -80,13 +94,13 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
     _massless_option(v)
 
-    x = sub.add_parser("export", help="export a model to another simulator's format")
-    x.add_argument("model", help="a URDF or an example-robot-data name")
+    x = command("export", help="export a model to another simulator's format")
+    x.add_argument("model", help=BODY_HELP)
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     x.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
     _massless_option(x)
 
-    bench = sub.add_parser("bench", help="benchmarks: step cost, work-precision (accuracy)")
+    bench = command("bench", help="benchmarks: step cost, work-precision (accuracy)")
     bench.add_argument("kind", choices=("step", "accuracy"))
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
@@ -97,40 +111,88 @@ def _massless_option(parser) -> None:
     """``--massless`` of the commands that load a model (see ``humanoid.load``)."""
     parser.add_argument("--massless", choices=("error", "merge"), default="error",
                         help="joints that move no mass: refuse the model, or lock them into "
-                        "their parents (default: %(default)s)")  # fmt: skip
+                        "their parents")  # fmt: skip
+
+
+OUTPUTS = {  # the options of each command that name a file or folder to write
+    "build": ("output",),
+    "simulate": ("output",),
+    "walk": ("output", "html", "figure"),
+    "view": ("html",),
+    "export": ("mjcf",),
+    "bench": ("output",),
+}
+
+
+def check_output(path: str, option: str, folder: bool = False) -> Path:
+    """An output path that can be written, checked before any work starts: not an existing
+    directory (or an existing file, for a folder), its parent creatable and writable."""
+    p = Path(path)
+    if folder:
+        if p.exists() and not p.is_dir():
+            raise HumanoidError(f"{option} {path}: exists and is not a folder")
+        parent = p
+    else:
+        if p.is_dir():
+            raise HumanoidError(f"{option} {path}: is a folder; give a file name")
+        parent = p.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise HumanoidError(f"{option} {path}: cannot create {parent}: {exc.strerror}") from None
+    if not os.access(parent, os.W_OK):
+        raise HumanoidError(f"{option} {path}: {parent} is not writable")
+    if p.exists() and not folder and not os.access(p, os.W_OK):
+        raise HumanoidError(f"{option} {path}: the file is not writable")
+    return p
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit code."""
+    """Run the command line; returns the exit code (0 done, 2 bad input, 3 a run that did
+    not complete or failed its checks). A closed output pipe (``| head``) ends it quietly."""
     args = _parser().parse_args(argv)
     try:
-        if args.command == "build":
-            return _build(args)
-        if args.command == "info":
-            return _info(args)
-        if args.command == "simulate":
-            return _simulate(args)
-        if args.command == "walk":
-            return _walk(args)
-        if args.command == "view":
-            return _view(args)
-        if args.command == "export":
-            from .export import write_mjcf
-
-            path = write_mjcf(load_any(args.model, args.ball_joints, args.massless), args.mjcf)
-            print(f"wrote {path}")
-            return 0
-        if args.command == "bench":
-            if args.kind == "accuracy":
-                from .accuracy import run_accuracy_benchmark
-
-                return run_accuracy_benchmark(quick=args.quick, out=args.output)
-            from .bench import run_step_benchmark
-
-            return run_step_benchmark(quick=args.quick, out=args.output)
+        for name in OUTPUTS.get(args.command, ()):
+            value = getattr(args, name, None)
+            if value is not None:
+                option = "--" + name.replace("_", "-") if name != "output" else "-o"
+                check_output(value, option, folder=args.command == "bench")
+        return _dispatch(args)
     except HumanoidError as exc:
         print(f"humanoid {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader went away (``humanoid info ... | head``): stop writing, no traceback
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+
+
+def _dispatch(args) -> int:
+    if args.command == "build":
+        return _build(args)
+    if args.command == "info":
+        return _info(args)
+    if args.command == "simulate":
+        return _simulate(args)
+    if args.command == "walk":
+        return _walk(args)
+    if args.command == "view":
+        return _view(args)
+    if args.command == "export":
+        from .export import write_mjcf
+
+        path = write_mjcf(load_any(args.model, args.ball_joints, args.massless), args.mjcf)
+        print(f"wrote {path}")
+        return 0
+    if args.command == "bench":
+        if args.kind == "accuracy":
+            from .accuracy import run_accuracy_benchmark
+
+            return run_accuracy_benchmark(quick=args.quick, out=args.output)
+        from .bench import run_step_benchmark
+
+        return run_step_benchmark(quick=args.quick, out=args.output)
     return 1  # pragma: no cover - argparse rejects unknown commands
 
 
@@ -145,12 +207,10 @@ def _build(args) -> int:
 
 
 def load_any(name: str, ball_joints: str = "quaternion", massless: str = "error"):
-    """A URDF path, or else an example-robot-data robot name."""
-    from .model import example_robot_names, load, load_example
+    """A URDF path, a shipped body's name or an example-robot-data robot's name."""
+    from .model import load
 
-    if not Path(name).exists() and name in example_robot_names():
-        return load_example(name, ball_joints=ball_joints, massless=massless)
-    return load(Path(name), ball_joints=ball_joints, massless=massless)
+    return load(name, ball_joints=ball_joints, massless=massless)
 
 
 def _info(args) -> int:
@@ -177,12 +237,20 @@ def _simulate(args) -> int:
 
 def _walk(args) -> int:
     from .walking import GaitParameters, format_summary, plot_walk, walk
+    from .walking.plan import MAX_STEPS
 
-    model = args.model or str(Path(__file__).resolve().parent.parent / "models" / "adult_male.urdf")
-    h = load_any(model, "quaternion", args.massless)
-    kw = {"steps": args.steps}
+    for option, value, hi in (("--speed", args.speed, 3.0), ("--step-length", args.step_length,
+                              1.0), ("--mu", args.mu, 10.0)):  # fmt: skip
+        low_ok = value is not None and (value >= 0 if option == "--mu" else value > 0)
+        if value is not None and not (math.isfinite(value) and low_ok and value <= hi):
+            bound = "[0" if option == "--mu" else "(0"
+            raise HumanoidError(f"{option} must be in {bound}, {hi:g}], got {value}")
     if args.step_length is not None and args.speed is not None:
         raise HumanoidError("give --speed or --step-length, not both")
+    if not 2 <= args.steps <= MAX_STEPS:
+        raise HumanoidError(f"--steps must be in [2, {MAX_STEPS}], got {args.steps}")
+    h = load_any(args.model, "quaternion", args.massless)
+    kw = {"steps": args.steps}
     if args.step_length is not None:
         kw["step_length"] = args.step_length
     gait = GaitParameters.for_speed(args.speed, **kw) if args.speed else GaitParameters(**kw)

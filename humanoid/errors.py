@@ -29,16 +29,35 @@ class SceneError(HumanoidError, ValueError):
     """A scene file or scene value is invalid (unknown key, wrong type, impossible value)."""
 
 
+class TrajectoryError(HumanoidError, ValueError):
+    """A saved run (.npz) cannot be read: missing, truncated, corrupt or inconsistent."""
+
+
 class DivergenceError(HumanoidError):
     """A simulation diverged: non-finite or exploding state, or a step size that collapsed."""
 
 
+MAX_STATE = 1e6  # [m, rad, m/s, rad/s] no entry of a body's state is larger
+
+
 def finite_vector(x, n: int, what: str, size: str) -> np.ndarray:
-    """``x`` as a flat float array of ``n`` finite entries; else ConfigurationError naming
-    ``what`` and its ``size`` symbol, as in "q must have nq = 47 entries"."""
-    x = np.asarray(x, dtype=float).reshape(-1)
+    """``x`` as a flat float array of ``n`` finite entries of at most :data:`MAX_STATE`; else
+    ConfigurationError naming ``what`` and its ``size`` symbol, as in "q must have nq = 47
+    entries"."""
+    if x is None or isinstance(x, str | bytes | dict):
+        raise ConfigurationError(f"{what} must be {n} numbers ({size}), got {type(x).__name__}")
+    try:
+        x = np.array(x, dtype=float).reshape(-1)  # a copy: callers may normalise it
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ConfigurationError(f"{what} must be {n} numbers ({size}): {exc}") from None
     if x.shape != (n,):
         raise ConfigurationError(f"{what} must have {size} = {n} entries, got {x.shape[0]}")
     if not np.all(np.isfinite(x)):
-        raise ConfigurationError(f"{what} has non-finite entries")
+        bad = np.flatnonzero(~np.isfinite(x))
+        raise ConfigurationError(f"{what} has non-finite entries (at {bad[:8].tolist()})")
+    if np.abs(x).max(initial=0.0) > MAX_STATE:
+        raise ConfigurationError(
+            f"{what} has entries beyond {MAX_STATE:g} (largest {np.abs(x).max():.3g}): "
+            "not the state of a body"
+        )
     return x

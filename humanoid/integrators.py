@@ -44,6 +44,7 @@ class LieGroupSpace:
         self.model = model
         self.nq, self.nv = model.nq, model.nv
         self._blocks = []  # (slice, kind) of joints whose dexp is not the identity
+        self._neutral = pin.neutral(model)
         for jm in model.joints[1:]:
             s = slice(jm.idx_v, jm.idx_v + jm.nv)
             name = jm.shortname()
@@ -51,8 +52,11 @@ class LieGroupSpace:
                 self._blocks.append((s, 6))
             elif name == "JointModelSpherical":
                 self._blocks.append((s, 3))
-            elif jm.nq != jm.nv:
-                raise NotImplementedError(f"no dexp for joint type {name}")
+            elif jm.nq != jm.nv and jm.nv > 1:
+                # any other Lie group (planar: SE(2)): Pinocchio's dIntegrate gives the right
+                # Jacobian Jr(d), the same at any base point; the unbounded revolute (SO(2),
+                # cos/sin in q) is abelian and its dexp is the identity
+                self._blocks.append((s, 0))
 
     def integrate(self, q: np.ndarray, d: np.ndarray) -> np.ndarray:
         return pin.integrate(self.model, q, d)
@@ -60,11 +64,16 @@ class LieGroupSpace:
     def dexp_inv(self, d: np.ndarray, w: np.ndarray) -> np.ndarray:
         """The rate of the increment d whose end point moves with tangent velocity w."""
         out = w.copy()
+        Jr = None
         for s, kind in self._blocks:
             if kind == 6:
                 out[s] = pin.Jlog6(pin.exp6(d[s])) @ w[s]
-            else:
+            elif kind == 3:
                 out[s] = pin.Jlog3(pin.exp3(d[s])) @ w[s]
+            else:
+                if Jr is None:
+                    Jr = pin.dIntegrate(self.model, self._neutral, d, pin.ARG1)
+                out[s] = np.linalg.solve(Jr[s, s], w[s])
         return out
 
 
@@ -157,6 +166,9 @@ class DormandPrince:
         rtol, atol: Relative and absolute tolerances.
         max_step: Largest step [s].
         min_step: Smallest step [s]; below it the run stops with an error.
+        max_substeps: Most internal steps (accepted or rejected) in one call of
+            :meth:`advance` (one tick of the scene); beyond it the run stops with an error (a
+            spinning-up body can keep the step just above ``min_step`` for minutes).
         stats: Counters of the run.
     """
 
@@ -164,6 +176,7 @@ class DormandPrince:
     atol: float = 1e-8
     max_step: float = 0.05
     min_step: float = 1e-10
+    max_substeps: int = 20000
     stats: AdaptiveStats = field(default_factory=AdaptiveStats)
     _h: float | None = None
 
@@ -172,7 +185,14 @@ class DormandPrince:
         from .errors import DivergenceError
 
         h = self._h or min(self.max_step, t_end - t, 1e-3)
+        substeps = 0
         while t < t_end - 1e-15:
+            substeps += 1
+            if substeps > self.max_substeps:
+                raise DivergenceError(
+                    f"the adaptive integrator took {self.max_substeps} steps inside one tick "
+                    f"at t = {t:.6f} s (step {h:.3g} s): the motion is too stiff or diverging"
+                )
             h = min(h, t_end - t, self.max_step)
             kq, kv = _rk_stages(space, f, t, q, v, h, DP_A, DP_C)
             self.stats.evaluations += len(DP_C)

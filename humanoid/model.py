@@ -2,10 +2,14 @@
 
 What loading does, in order:
 
-1. Reads the URDF (a path, a string of XML, or an example-robot-data robot by name with
-   :func:`load_example`) and checks it: well-formed XML, finite non-negative masses, positive
-   semi-definite inertias, mesh files that exist. Each problem is a :class:`ModelError` naming
-   the file and the element.
+1. Reads the URDF (a path, a string of XML, a shipped body's name such as ``"adult_male"``,
+   or an example-robot-data robot's name such as ``"talos"``) and checks it before Pinocchio
+   sees it: well-formed XML; one tree of links (no cycle, no link with two parents, no joint
+   from a link to itself); known joint types; every origin, axis and size three finite numbers
+   separated by spaces; finite non-negative masses and positive semi-definite inertias; mesh
+   files that exist. After building, each joint's inertia must equal the sum of its links'
+   declared inertias (urdfdom drops what it cannot read without a word). Each problem is a
+   :class:`ModelError` naming the file and the element.
 2. Builds the Pinocchio model with a ``JointModelFreeFlyer`` root at the URDF's root link (the
    pelvis of a human), and its visual and collision geometry.
 3. Finds the feet by name (``sole`` before ``foot`` before ``ankle``, with ``left``/``l`` and
@@ -23,17 +27,24 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from .errors import ModelError, finite_vector
+from .errors import ConfigurationError, ModelError, finite_vector
 from .fusion import Fusion, fuse_ball_joints
 
-__all__ = ["Humanoid", "child_link", "example_robot_names", "load", "load_example"]
+__all__ = [
+    "Humanoid",
+    "child_link",
+    "example_robot_names",
+    "load",
+    "load_example",
+    "load_recipe",
+]
 
 SIDES = ("left", "right")
 CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
@@ -60,6 +71,9 @@ class Humanoid:
         source: The file it came from, or ``"<string>"``.
         fusion: The Euler <-> quaternion state maps (None in Euler mode).
         euler_model: The model with hinge triplets (the same as ``model`` in Euler mode).
+        recipe: What loads this body again on any machine (:func:`load_recipe`): the URDF
+            text (and the path it came from), or an example-robot-data robot's name, with the
+            loading options. Saved runs carry it.
     """
 
     model: pin.Model
@@ -72,6 +86,8 @@ class Humanoid:
     source: str
     fusion: Fusion | None
     euler_model: pin.Model
+    recipe: dict = field(default_factory=dict)
+    _quaternions: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def mass(self) -> float:
@@ -194,10 +210,38 @@ def load_example(
     name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error"
 ) -> Humanoid:
     """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) with :func:`load`."""
-    path, package_dir = example_robot_path(name)
-    return load(
-        path, ball_joints=ball_joints, feet=feet, package_dirs=[package_dir], massless=massless
-    )
+    if name not in example_robot_names():
+        example_robot_path(name)  # raises, listing the valid names
+    return load(name, ball_joints=ball_joints, feet=feet, massless=massless)
+
+
+def load_recipe(recipe: dict) -> Humanoid:
+    """Load a body again from its :attr:`Humanoid.recipe` (as a saved run stores it).
+
+    Raises:
+        ModelError: the recipe is not one :func:`load` wrote, or its body does not load.
+    """
+    if not isinstance(recipe, dict) or not ({"urdf", "example"} & recipe.keys()):
+        raise ModelError("not a body recipe: needs 'urdf' (the URDF text) or 'example' (a name)")
+    options = {k: recipe[k] for k in ("ball_joints", "massless") if k in recipe}
+    feet = recipe.get("feet")
+    if feet is not None:
+        options["feet"] = tuple(feet)
+    if "example" in recipe:
+        return load_example(str(recipe["example"]), **options)
+    text = recipe["urdf"]
+    if not isinstance(text, str):
+        raise ModelError(f"a body recipe's 'urdf' must be URDF text, got {type(text).__name__}")
+    path = recipe.get("path")
+    # the original file, where it still holds the same text, resolves relative mesh paths
+    if isinstance(path, str) and Path(path).is_file():
+        try:
+            same = Path(path).read_text(encoding="utf-8") == text
+        except (OSError, UnicodeDecodeError):
+            same = False
+        if same:
+            return load(path, **options)
+    return load(text, **options)
 
 
 def load(
@@ -206,7 +250,9 @@ def load(
     """Load a humanoid URDF with a free-flyer root.
 
     Args:
-        source: A path to a URDF file, or the URDF text itself.
+        source: A path to a URDF file, the URDF text itself, the name of a shipped body
+            (:func:`humanoid.data.body_names`) or of an example-robot-data robot
+            (:func:`example_robot_names`). A file of that name in the working directory wins.
         ball_joints: ``"quaternion"`` fuses hinge triplets into spherical joints;
             ``"euler"`` keeps the URDF's revolute joints.
         feet: Optional (left, right) frame names of the feet; found by name if omitted.
@@ -229,15 +275,23 @@ def load(
         raise ModelError(f"ball_joints must be one of {BALL_MODES}, got {ball_joints!r}")
     if massless not in MASSLESS_MODES:
         raise ModelError(f"massless must be one of {MASSLESS_MODES}, got {massless!r}")
+    source, example, package_dirs = _named(source, package_dirs)
     text, path = _read(source)
     dirs = _package_dirs(path, package_dirs)
     label = str(path) if path else "<string>"
-    _validate(text, label, path, dirs)
+    recipe = {"example": example} if example else {"urdf": text}
+    if path is not None and not example:
+        recipe["path"] = str(path)
+    recipe |= {"ball_joints": ball_joints, "massless": massless}
+    if feet is not None:
+        recipe["feet"] = list(feet)
+    declared = _validate(text, label, path, dirs)
     try:
         model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
         geoms = [_geometry(model, text, path, kind, dirs) for kind in ("VISUAL", "COLLISION")]
     except (RuntimeError, ValueError) as exc:
         raise ModelError(f"{label}: Pinocchio cannot build the model: {exc}") from None
+    _check_built(model, declared, label)
     model, geoms = _massless_joints(model, geoms, massless, label)
 
     foot_frames = _find_feet(model, feet, label)
@@ -259,7 +313,24 @@ def load(
         source=label,
         fusion=fusion,
         euler_model=euler_model,
+        recipe=recipe,
     )
+
+
+def _named(source, package_dirs):
+    """A shipped body's or an example-robot-data robot's name, turned into its file:
+    (source, robot name or None, package_dirs)."""
+    if not isinstance(source, str) or "<" in source or Path(source).exists():
+        return source, None, package_dirs
+    from .data import body_path
+
+    shipped = body_path(source)
+    if shipped is not None:
+        return shipped, None, package_dirs
+    if source in example_robot_names():
+        path, package_dir = example_robot_path(source)
+        return path, source, [*package_dirs, package_dir]
+    return source, None, package_dirs
 
 
 def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
@@ -310,7 +381,13 @@ def _read(source) -> tuple[str, Path | None]:
     if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
         path = Path(source)
         if not path.is_file():
-            raise ModelError(f"URDF file not found: {path}")
+            from .data import body_names
+
+            raise ModelError(
+                f"URDF file not found: {path} (a body may also be named: shipped bodies "
+                f"{', '.join(body_names())}; example-robot-data robots "
+                f"{', '.join(example_robot_names())})"
+            )
         try:
             return path.read_text(encoding="utf-8"), path.resolve()
         except (OSError, UnicodeDecodeError) as exc:
@@ -333,27 +410,77 @@ def _package_dirs(path: Path | None, extra) -> list[str]:
     return dirs
 
 
-def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> None:
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+URDF_MAX_BYTES = 64 * 2**20  # a humanoid's URDF is kilobytes; larger is not a body
+
+
+def _numbers(element, attribute: str, n: int, where: str, default: str | None = None):
+    """An attribute of n finite numbers separated by spaces (urdfdom silently drops the whole
+    <inertial> of an origin written with commas, or with inf, or with two numbers)."""
+    text = element.get(attribute, default)
+    if text is None:
+        raise ModelError(f"{where}: <{element.tag}> needs {attribute}=")
+    try:
+        x = [float(s) for s in text.split()]
+    except ValueError:
+        x = []
+    if len(x) != n or not all(math.isfinite(a) for a in x):
+        raise ModelError(
+            f"{where}: <{element.tag} {attribute}={text!r}> must be {n} finite number(s) "
+            "separated by spaces"
+        )
+    return np.array(x)
+
+
+def _origin(element, where: str) -> pin.SE3:
+    """The <origin> child of an element as an SE3 (identity if absent)."""
+    o = element.find("origin")
+    if o is None:
+        return pin.SE3.Identity()
+    xyz = _numbers(o, "xyz", 3, where, "0 0 0")
+    rpy = _numbers(o, "rpy", 3, where, "0 0 0")
+    return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
+
+
+def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> dict:
+    """Check a URDF before Pinocchio sees it (its parser crashes on cycles, and urdfdom
+    drops what it cannot read without a word). Returns each link's declared inertia
+    (``pin.Inertia`` in the link frame), for :func:`_check_built`."""
+    if len(text) > URDF_MAX_BYTES:
+        raise ModelError(f"{label}: {len(text)} bytes is too large for a URDF")
     try:
         root = etree.fromstring(text.encode("utf-8"))
-    except etree.XMLSyntaxError as exc:
+    except (etree.XMLSyntaxError, ValueError) as exc:
         raise ModelError(f"{label}: malformed URDF XML: {exc}") from None
     if root.tag != "robot":
         raise ModelError(f"{label}: the root element is <{root.tag}>, expected <robot>")
+    _check_tree(root, label)
+    for color in root.iter("color"):
+        owner = next((a.get("name") for a in color.iterancestors("material")), "?")
+        rgba = _numbers(color, "rgba", 4, f"{label}: material {owner!r}")
+        if np.any(rgba < 0) or np.any(rgba > 1):
+            raise ModelError(f"{label}: material {owner!r}: rgba must be in [0, 1], got {rgba}")
+    declared = {}
     for link in root.iter("link"):
         name = link.get("name", "?")
+        where = f"{label}: link {name!r}"
+        for kind in ("visual", "collision"):
+            for g in link.iter(kind):
+                _origin(g, f"{where} <{kind}>")
+                _check_shape(g, f"{where} <{kind}>")
         inertial = link.find("inertial")
         if inertial is None:
+            declared[name] = pin.Inertia.Zero()
             continue
-        where = f"{label}: link {name!r}"
+        placement = _origin(inertial, f"{where} <inertial>")
         try:
             mass = float(inertial.find("mass").get("value"))
             I = inertial.find("inertia")
             v = {k: float(I.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
         except (AttributeError, TypeError, ValueError):
             raise ModelError(f"{where}: <inertial> needs <mass value> and <inertia>") from None
-        if not math.isfinite(mass) or mass < 0:
-            raise ModelError(f"{where}: mass must be finite and >= 0, got {mass}")
+        if not math.isfinite(mass) or mass < 0 or mass > 1e9:
+            raise ModelError(f"{where}: mass must be finite, >= 0 and <= 1e9 kg, got {mass}")
         M = np.array(
             [
                 [v["ixx"], v["ixy"], v["ixz"]],
@@ -361,13 +488,15 @@ def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> None
                 [v["ixz"], v["iyz"], v["izz"]],
             ]
         )
-        if not np.all(np.isfinite(M)):
-            raise ModelError(f"{where}: inertia has non-finite entries")
+        if not np.all(np.isfinite(M)) or np.abs(M).max() > 1e12:
+            raise ModelError(f"{where}: inertia has non-finite or absurd (> 1e12) entries")
         eig = np.linalg.eigvalsh(M)
         if eig[0] < -1e-9 * max(1.0, abs(eig[-1])):
             raise ModelError(
                 f"{where}: inertia is not positive semi-definite (eigenvalues {eig.round(9)})"
             )
+        R = placement.rotation
+        declared[name] = pin.Inertia(mass, placement.translation, R @ M @ R.T)
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "")
         if _resolve_mesh(filename, path, dirs) is None:
@@ -375,6 +504,115 @@ def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> None
             raise ModelError(
                 f"{label}: link {owner!r}: mesh {filename!r} not found "
                 f"(searched {', '.join(dirs) or 'no package folders'})"
+            )
+
+    return declared
+
+
+def _check_tree(root, label: str) -> None:
+    """Links and joints form one tree: unique names, known joint types, every joint between
+    two existing and different links, each link with at most one parent, one root, no cycle."""
+    links = [link.get("name") for link in root.findall("link")]
+    if not links:
+        raise ModelError(f"{label}: no <link>")
+    if None in links:
+        raise ModelError(f"{label}: a <link> has no name")
+    dup = sorted({n for n in links if links.count(n) > 1})
+    if dup:
+        raise ModelError(f"{label}: links defined twice: {', '.join(dup)}")
+    known, parent, names = set(links), {}, set()
+    children: dict[str, list[str]] = {}
+    for joint in root.findall("joint"):
+        name = joint.get("name")
+        where = f"{label}: joint {name!r}"
+        if name is None or name in names:
+            raise ModelError(f"{where}: a joint needs a unique name")
+        names.add(name)
+        kind = joint.get("type")
+        if kind not in JOINT_TYPES:
+            raise ModelError(f"{where}: type {kind!r} is not one of {', '.join(JOINT_TYPES)}")
+        ends = []
+        for end in ("parent", "child"):
+            e = joint.find(end)
+            link = e.get("link") if e is not None else None
+            if link not in known:
+                raise ModelError(f"{where}: <{end} link={link!r}> is not a link of the file")
+            ends.append(link)
+        p, c = ends
+        if p == c:
+            raise ModelError(f"{where}: parent and child are the same link {p!r}")
+        if c in parent:
+            raise ModelError(f"{where}: link {c!r} already has the parent {parent[c]!r}")
+        parent[c] = p
+        children.setdefault(p, []).append(c)
+        _origin(joint, where)
+        if kind in ("revolute", "continuous", "prismatic", "planar"):
+            axis = joint.find("axis")
+            if axis is not None and not np.any(_numbers(axis, "xyz", 3, where, "1 0 0")):
+                raise ModelError(f"{where}: <axis xyz> is zero")
+        dynamics = joint.find("dynamics")
+        if dynamics is not None:
+            for key in ("damping", "friction"):
+                if dynamics.get(key) is not None:
+                    _numbers(dynamics, key, 1, where)
+        limit = joint.find("limit")
+        if kind in ("revolute", "prismatic") and limit is None:
+            raise ModelError(f"{where}: a {kind} joint needs <limit>")
+        if limit is not None:
+            for key in ("lower", "upper", "effort", "velocity"):
+                if limit.get(key) is not None:
+                    _numbers(limit, key, 1, where)
+    roots = [n for n in links if n not in parent]
+    if len(roots) != 1:
+        raise ModelError(
+            f"{label}: the links must form one tree with one root; roots: "
+            f"{', '.join(roots) or 'none (a cycle)'}"
+        )
+    seen, stack = set(), [roots[0]]
+    while stack:
+        n = stack.pop()
+        seen.add(n)
+        stack.extend(children.get(n, []))
+    if len(seen) != len(links):
+        cut = sorted(known - seen)
+        raise ModelError(f"{label}: links in a cycle, not reachable from {roots[0]!r}: "
+                         f"{', '.join(cut)}")  # fmt: skip
+
+
+def _check_shape(element, where: str) -> None:
+    """A visual or collision geometry's sizes: finite and positive."""
+    g = element.find("geometry")
+    if g is None or len(g) == 0:
+        raise ModelError(f"{where}: needs a <geometry> with a shape")
+    shape = g[0]
+    sizes = {"box": [("size", 3)], "cylinder": [("radius", 1), ("length", 1)],
+             "sphere": [("radius", 1)], "capsule": [("radius", 1), ("length", 1)]}  # fmt: skip
+    for attribute, n in sizes.get(shape.tag, []):
+        if np.any(_numbers(shape, attribute, n, where) <= 0):
+            raise ModelError(f"{where}: <{shape.tag} {attribute}> must be positive")
+    if shape.tag == "mesh" and shape.get("scale") is not None:
+        _numbers(shape, "scale", 3, where)
+
+
+def _check_built(model: pin.Model, declared: dict, label: str) -> None:
+    """What Pinocchio built equals what the URDF declares: each joint's inertia is the sum of
+    its links' declared inertias (a link that urdfdom dropped would be missing)."""
+    frames = {}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY:
+            frames.setdefault(f.parentJoint, []).append(f)
+    for j in range(1, model.njoints):
+        expected = pin.Inertia.Zero()
+        for f in frames.get(j, []):
+            expected += f.placement.act(declared.get(f.name, pin.Inertia.Zero()))
+        built = model.inertias[j]
+        scale = max(1.0, float(np.abs(expected.matrix()).max()))
+        if np.abs(built.matrix() - expected.matrix()).max() > 1e-6 * scale:
+            names = ", ".join(f.name for f in frames.get(j, []))
+            raise ModelError(
+                f"{label}: link(s) {names}: Pinocchio built mass {built.mass:.6g} kg where the "
+                f"URDF declares {expected.mass:.6g} kg (an element the URDF parser could not "
+                "read was dropped)"
             )
 
 
@@ -567,10 +805,42 @@ def _foot_box(model, data, geoms, joint, foot):
     )
 
 
-def check_configuration(h: Humanoid, q, v=None):
-    """``q`` (and ``v``) as float arrays of the model's sizes, finite; else ConfigurationError."""
+QUATERNION_TOLERANCE = 1e-4  # a quaternion of q may be off unit norm by this (and is normalised)
+
+
+def quaternion_rows(model: pin.Model) -> np.ndarray:
+    """First q index of each unit quaternion in q (free flyer and ball joints)."""
+    rows = []
+    for jm in model.joints[1:]:
+        name = jm.shortname()
+        if name == "JointModelFreeFlyer":
+            rows.append(jm.idx_q + 3)
+        elif name == "JointModelSpherical":
+            rows.append(jm.idx_q)
+    return np.array(rows, dtype=int)
+
+
+_NO_VELOCITY = object()
+
+
+def check_configuration(h: Humanoid, q, v=_NO_VELOCITY):
+    """``q`` (and ``v``) as float arrays of the model's sizes, finite and bounded, every
+    quaternion of unit norm to :data:`QUATERNION_TOLERANCE` (normalised); else
+    ConfigurationError."""
     q = finite_vector(q, h.nq, "q", "nq")
-    if v is None:
+    if h._quaternions is None:
+        h._quaternions = quaternion_rows(h.model)
+    if len(h._quaternions):
+        idx = h._quaternions[:, None] + np.arange(4)
+        norms = np.linalg.norm(q[idx], axis=1)
+        off = np.abs(norms - 1.0) > QUATERNION_TOLERANCE
+        if off.any():
+            i = int(h._quaternions[np.argmax(off)])
+            raise ConfigurationError(
+                f"q[{i}:{i + 4}] is a quaternion of norm {norms[np.argmax(off)]:.6g}, not 1"
+            )
+        q[idx] /= norms[:, None]
+    if v is _NO_VELOCITY:
         return q
     v = finite_vector(v, h.nv, "v", "nv")
     return q, v

@@ -36,8 +36,7 @@ from .model import child_link
 
 __all__ = ["fall_comparison", "push_momentum", "run_peer_comparison"]
 
-ROOT = Path(__file__).resolve().parent.parent
-MALE = str(ROOT / "models" / "adult_male.urdf")
+MALE = "adult_male"
 # the target accuracy per scene: relative energy drift (tumble, swing), weld drift [m]
 # (stance, collapse), state error against the rigid reference (walk)
 TARGETS = {"tumble": 1e-6, "swing": 1e-6, "stance": 1e-6, "collapse": 1e-6, "walk": 1e-3}
@@ -445,7 +444,7 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     from .scene import Scene
     from .simulate import Simulation
 
-    scene = Scene.load(ROOT / "models" / "scenes" / f"{name}.toml")
+    scene = Scene.load(name)
     if duration is not None:
         scene = scene.replace(duration=duration)
     dt, n = scene.dt, int(round(scene.duration / scene.dt))

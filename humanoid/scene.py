@@ -2,7 +2,7 @@
 
 A scene names the body, the initial state, the time step and integrator, the effects it wants
 and the stabilisation of its constraints. Everything it does not name is not simulated.
-Example (``models/scenes/standing.toml``)::
+Example (the shipped ``standing`` scene, :mod:`humanoid.data`)::
 
     name = "standing"
     duration = 2.0            # [s]
@@ -11,7 +11,8 @@ Example (``models/scenes/standing.toml``)::
     record_rate = 100.0       # [Hz]
 
     [body]
-    urdf = "../adult_male.urdf"   # relative to this file; or height/mass/sex
+    urdf = "adult_male"   # a shipped body or robot by name, or a path relative to this file
+                          # (or height/mass/sex instead of urdf)
     ball_joints = "quaternion"
 
     [initial]
@@ -43,7 +44,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 from .anthropometry import BodyParameters
@@ -159,7 +160,7 @@ class Scene:
     """A simulation scene (see the module docstring for its TOML form)."""
 
     name: str = "scene"
-    body: str | BodyParameters = "models/adult_male.urdf"
+    body: str | BodyParameters = "adult_male"  # a URDF path or a body's name (see load)
     ball_joints: str = "quaternion"
     massless: str = "error"  # error | merge: joints that move no mass (see humanoid.load)
     duration: float = 1.0  # [s]
@@ -180,14 +181,22 @@ class Scene:
     # -- files ---------------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path) -> Scene:
-        """Read and validate a scene TOML file."""
+        """Read and validate a scene TOML file (or a shipped scene by name: ``"push"``)."""
+        from .data import scene_names, scene_path
+
+        if not Path(path).is_file() and scene_path(str(path)) is not None:
+            path = scene_path(str(path))
         path = Path(path)
         if not path.is_file():
-            raise SceneError(f"scene file not found: {path}")
+            raise SceneError(
+                f"scene file not found: {path} (shipped scenes: {', '.join(scene_names())})"
+            )
         try:
             doc = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise SceneError(f"{path}: not valid TOML: {exc}") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as exc:
+            raise SceneError(f"{path}: not valid TOML: {type(exc).__name__}: {exc}") from None
+        except OSError as exc:
+            raise SceneError(f"cannot read scene file {path}: {exc}") from None
         scene = cls.from_dict(doc, source=str(path), base=path.parent)
         scene.check()
         return scene
@@ -353,7 +362,10 @@ class _Reader:
     def number(self, value, key) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.fail(key, f"expected a number, got {type(value).__name__} {value!r}")
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:
+            self.fail(key, f"the number {value} is too large")
 
     def numbers(self, value, key) -> tuple[float, ...]:
         value = self.typed(value, list, key)
@@ -362,6 +374,10 @@ class _Reader:
     def dataclass(self, cls, d, name: str, nested: bool = False):
         """Fields of ``cls`` from a table, each checked against its annotation."""
         d = self.section(d, name, {f.name for f in fields(cls)})
+        missing = [f.name for f in fields(cls) if f.name not in d
+                   and f.default is MISSING and f.default_factory is MISSING]  # fmt: skip
+        if missing:
+            self.fail(name, f"missing key(s) {', '.join(missing)}")
         out = {}
         for f in fields(cls):
             if f.name not in d:
@@ -381,7 +397,7 @@ class _Reader:
                 out[f.name] = value if isinstance(value, str) else self.numbers(value, key)
             elif t.startswith("float |"):
                 is_number = isinstance(value, int | float) and not isinstance(value, bool)
-                out[f.name] = float(value) if is_number else self.numbers(value, key)
+                out[f.name] = self.number(value, key) if is_number else self.numbers(value, key)
             else:  # pragma: no cover - every field type is listed above
                 raise TypeError(f"no reader for {t}")
         try:
@@ -390,9 +406,25 @@ class _Reader:
             raise SceneError(f"{self.source}: [{name}] {exc}") from None
 
 
+def _finite(obj, key: str) -> None:
+    """Every number of a scene is finite (NaN never means "off"); only a contact's end may be
+    infinite (for ever)."""
+    if isinstance(obj, float):
+        if math.isnan(obj) or (math.isinf(obj) and not key.endswith(".end")):
+            raise SceneError(f"{key}: must be a finite number, got {obj!r}")
+    elif isinstance(obj, tuple | list):
+        for i, x in enumerate(obj):
+            _finite(x, f"{key}[{i}]")
+    elif hasattr(obj, "__dataclass_fields__"):
+        for f in fields(obj):
+            _finite(getattr(obj, f.name), f"{key}.{f.name}" if key else f.name)
+
+
 def _validate(s: Scene) -> None:
     def bad(key, reason):
         raise SceneError(f"{key}: {reason}")
+
+    _finite(s, "")
 
     for key in ("duration", "dt", "record_rate"):
         value = getattr(s, key)

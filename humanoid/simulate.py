@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -506,6 +505,7 @@ class Simulation:
             "status": status,
             "message": message,
             "model": self.h.source,
+            "body": self.h.recipe,
             "ball_joints": self.h.ball_joints,
             "nq": model.nq,
             "nv": model.nv,
@@ -625,7 +625,7 @@ def load_body(scene: Scene) -> Humanoid:
     if isinstance(scene.body, BodyParameters):
         return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
     try:
-        return load(Path(scene.body), ball_joints=scene.ball_joints, massless=scene.massless)
+        return load(scene.body, ball_joints=scene.ball_joints, massless=scene.massless)
     except ModelError as exc:
         raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
 

@@ -6,13 +6,15 @@ from __future__ import annotations
 import json
 import sys
 import time
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from .errors import HumanoidError
+from .errors import TrajectoryError
 
 __all__ = ["Trajectory"]
 
@@ -71,15 +73,54 @@ class Trajectory:
 
     @classmethod
     def load(cls, path: str | Path) -> Trajectory:
+        """Read a run saved by :meth:`save`.
+
+        Raises:
+            TrajectoryError: naming the file: missing, not an .npz, truncated, an array
+                missing or of the wrong shape, non-finite states, unreadable metadata.
+        """
         try:
             with np.load(path, allow_pickle=False) as z:
                 forces = {k[6:]: z[k] for k in z.files if k.startswith("force/")}
-                return cls(
-                    z["t"], z["q"], z["v"], z["tau"], forces, z["energy"], z["residual"],
-                    json.loads(str(z["metadata"])),
-                )  # fmt: skip
-        except (OSError, KeyError, ValueError) as exc:
-            raise HumanoidError(f"cannot read trajectory {path}: {exc}") from None
+                arrays = [z[k] for k in ("t", "q", "v", "tau", "energy", "residual")]
+                meta = json.loads(str(z["metadata"]))
+        except FileNotFoundError:
+            raise TrajectoryError(f"trajectory file not found: {path}") from None
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile,
+                zlib.error, RecursionError) as exc:  # fmt: skip
+            raise TrajectoryError(f"cannot read trajectory {path}: {exc}") from None
+        t, q, v, tau, energy, residual = arrays
+        _check_run(path, t, q, v, tau, energy, residual, forces, meta)
+        return cls(t, q, v, tau, forces, energy, residual, meta)
+
+
+def _check_run(path, t, q, v, tau, energy, residual, forces, meta) -> None:
+    """The arrays of a saved run fit together; states are finite (forces may hold NaN: a
+    released contact)."""
+
+    def bad(why):
+        raise TrajectoryError(f"trajectory {path} is inconsistent: {why}")
+
+    if not isinstance(meta, dict):
+        bad("its metadata is not a table")
+    if t.ndim != 1:
+        bad(f"t has shape {t.shape}")
+    n = len(t)
+    for name, a, dims in (("q", q, 2), ("v", v, 2), ("tau", tau, 2), ("energy", energy, 1),
+                          ("residual", residual, 1)):  # fmt: skip
+        if a.ndim != dims or a.shape[0] != n or a.dtype.kind != "f":
+            bad(f"{name} has shape {a.shape} and type {a.dtype} for {n} records")
+    if v.shape != tau.shape:
+        bad(f"v {v.shape} and tau {tau.shape} differ")
+    for name, size in (("nq", q.shape[1]), ("nv", v.shape[1])):
+        if name in meta and meta[name] != size:
+            bad(f"its metadata says {name} = {meta[name]}, its arrays {size}")
+    for name, a in (("t", t), ("q", q), ("v", v), ("tau", tau), ("energy", energy)):
+        if not np.all(np.isfinite(a)):
+            bad(f"{name} has non-finite entries")
+    for name, a in forces.items():
+        if a.ndim != 2 or a.shape[0] != n or a.dtype.kind != "f":
+            bad(f"force {name!r} has shape {a.shape}")
 
 
 class _Progress:

@@ -357,12 +357,16 @@ def _pushes(model, meta) -> list[tuple]:
 
 
 def humanoid_for(traj):
-    """The Humanoid a trajectory was recorded on (from its metadata)."""
+    """The Humanoid a trajectory was recorded on (from its metadata: the body's recipe, which
+    carries the URDF text or a robot's name; runs saved before recipes existed name a file or
+    the body parameters)."""
     from .anthropometry import BodyParameters
     from .body import build_urdf
-    from .model import load
+    from .model import load, load_recipe
 
     meta = traj.metadata
+    if isinstance(meta.get("body"), dict):
+        return load_recipe(meta["body"])
     mode = meta.get("ball_joints", "quaternion")
     body = meta.get("scene", {}).get("body", {})
     if meta.get("model", "<string>") != "<string>":

@@ -29,7 +29,7 @@ def main() -> None:
     parser.add_argument("--integrator", default="rk4")
     parser.add_argument("--out", default=str(ROOT / "results" / "long_run"))
     args = parser.parse_args()
-    scene = Scene.load(ROOT / "models" / "scenes" / "standing.toml").replace(
+    scene = Scene.load("standing").replace(
         duration=60.0 * args.minutes, dt=1e-3, record_rate=100.0, integrator=args.integrator
     )
     sim = Simulation(scene)

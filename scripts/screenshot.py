@@ -28,9 +28,9 @@ def main() -> None:
     args = parser.parse_args()
     from playwright.sync_api import sync_playwright
 
-    scene = hm.Scene.load(ROOT / "models" / "scenes" / "push.toml").replace(duration=1.2)
+    scene = hm.Scene.load("push").replace(duration=1.2)
     traj = hm.simulate(scene, quiet=True)
-    h = hm.load(ROOT / "models" / "adult_male.urdf")
+    h = hm.load("adult_male")
     with tempfile.TemporaryDirectory() as tmp:
         page_file = export_html(h, Path(tmp) / "push.html", traj=traj, title="push")
         with sync_playwright() as p:

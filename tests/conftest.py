@@ -9,9 +9,9 @@ import pinocchio as pin
 import pytest
 
 import humanoid as hm
+from humanoid.data import BODIES, SCENES  # noqa: F401 - the tests import them from here
 
 ROOT = Path(__file__).resolve().parent.parent
-MODELS = ROOT / "models"
 
 
 @pytest.fixture(scope="session")
@@ -32,9 +32,9 @@ def get_model(name: str, mode: str) -> hm.Humanoid:
     key = (name, mode)
     if key not in _CACHE:
         if name == "male":
-            _CACHE[key] = hm.load(MODELS / "adult_male.urdf", ball_joints=mode)
+            _CACHE[key] = hm.load(BODIES / "adult_male.urdf", ball_joints=mode)
         elif name == "female":
-            _CACHE[key] = hm.load(MODELS / "adult_female.urdf", ball_joints=mode)
+            _CACHE[key] = hm.load(BODIES / "adult_female.urdf", ball_joints=mode)
         else:
             path, _ = hm.model.example_robot_path(name)
             _CACHE[key] = hm.load(path, ball_joints=mode)
@@ -93,7 +93,7 @@ def landing_run(duration: float):
     q0[2] += 0.05
     feet = (Contact("left", unilateral=True), Contact("right", unilateral=True))
     scene = Scene(
-        body=str(MODELS / "adult_male.urdf"),
+        body=str(BODIES / "adult_male.urdf"),
         duration=duration,
         dt=1e-3,
         initial=Initial(configuration=tuple(q0)),

@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import MODELS
+from conftest import BODIES, SCENES
 
 import humanoid as hm
 from humanoid.cli import main
@@ -54,7 +54,7 @@ def test_build_errors_go_to_stderr_without_traceback(tmp_path, capsys, argv, mes
 
 
 def test_info_summarises_our_body(capsys):
-    assert main(["info", str(MODELS / "adult_male.urdf")]) == 0
+    assert main(["info", str(BODIES / "adult_male.urdf")]) == 0
     out = capsys.readouterr().out
     assert "nq = 47, nv = 39" in out
     assert "mass         75.0000 kg" in out
@@ -68,9 +68,9 @@ def test_info_prints_the_range_of_every_joint(capsys):
     (what the joint-range constraints hold); the same numbers in Euler mode."""
     import re
 
-    assert main(["info", str(MODELS / "adult_male.urdf")]) == 0
+    assert main(["info", str(BODIES / "adult_male.urdf")]) == 0
     quaternion = capsys.readouterr().out
-    assert main(["info", str(MODELS / "adult_male.urdf"), "--ball-joints", "euler"]) == 0
+    assert main(["info", str(BODIES / "adult_male.urdf"), "--ball-joints", "euler"]) == 0
     euler = capsys.readouterr().out
     table = quaternion.split("range [deg]")[1].split("segment (link)")[0].strip().splitlines()
     ranges = {}
@@ -124,7 +124,7 @@ def test_import_is_light():
 
 def test_simulate_command_writes_the_run_and_a_summary(tmp_path, capsys):
     out = tmp_path / "run.npz"
-    scene = str(MODELS / "scenes" / "standing.toml")
+    scene = str(SCENES / "standing.toml")
     assert main(["simulate", scene, "-o", str(out), "--duration", "0.05", "--quiet"]) == 0
     text = capsys.readouterr().out
     for word in ("simulated", "wall time", "real-time factor", "residual", "energy"):
@@ -141,7 +141,7 @@ def test_simulate_command_saves_a_diverged_run_and_fails(tmp_path, capsys):
         'dt = 0.01\nduration = 1.0\nintegrator = "euler"\n'
         '[controller]\nkind = "posture"\nkp = 1e6\nkd = 1e4\n'
         '[[effects.contacts]]\nfoot = "left"\n[[effects.contacts]]\nfoot = "right"\n'
-        f'[body]\nurdf = "{MODELS / "adult_male.urdf"}"\n'
+        f'[body]\nurdf = "{BODIES / "adult_male.urdf"}"\n'
     )
     out = tmp_path / "run.npz"
     assert main(["simulate", str(scene), "-o", str(out), "--quiet"]) == 3
@@ -172,10 +172,10 @@ def test_bench_step_quick(tmp_path, capsys):
 
 def test_view_writes_html_for_a_model_and_a_run(tmp_path, capsys):
     out = tmp_path / "model.html"
-    assert main(["view", str(MODELS / "adult_female.urdf"), "--html", str(out)]) == 0
+    assert main(["view", str(BODIES / "adult_female.urdf"), "--html", str(out)]) == 0
     assert out.is_file() and "humanoidCommands" in out.read_text()
     run = tmp_path / "run.npz"
-    scene = str(MODELS / "scenes" / "standing.toml")
+    scene = str(SCENES / "standing.toml")
     assert main(["simulate", scene, "-o", str(run), "--duration", "0.1", "--quiet"]) == 0
     page = tmp_path / "run.html"
     assert main(["view", str(run), "--html", str(page), "--speed", "0.5", "--no-com"]) == 0
@@ -186,7 +186,7 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
     import signal
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "humanoid", "view", str(MODELS / "adult_male.urdf")],
+        [sys.executable, "-m", "humanoid", "view", str(BODIES / "adult_male.urdf")],
         stdout=subprocess.PIPE,
         text=True,
     )

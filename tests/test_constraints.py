@@ -339,12 +339,12 @@ def test_weld_wrench_is_in_world_axes_on_a_tilted_foot(name):
 def test_projection_leaves_the_velocity_on_the_constraint_manifold():
     """After the projection of a perturbed state, the welds hold in position (|e| < 1e-12) and
     in velocity (J v = 0, the projection's velocity impulse)."""
-    from conftest import MODELS
+    from conftest import BODIES
 
     from humanoid.scene import Contact, Effects, Scene
     from humanoid.simulate import Simulation
 
-    scene = Scene(body=str(MODELS / "adult_male.urdf"),
+    scene = Scene(body=str(BODIES / "adult_male.urdf"),
                   effects=Effects(contacts=(Contact("left"), Contact("right"))))  # fmt: skip
     sim = Simulation(scene)
     rng = np.random.default_rng(62)

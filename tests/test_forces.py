@@ -6,14 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS
+from conftest import BODIES
 from scipy.integrate import simpson
 
 from humanoid.model import load
 from humanoid.scene import Contact, Controller, Effects, Initial, PushSpec, Scene
 from humanoid.simulate import simulate
 
-MALE = str(MODELS / "adult_male.urdf")
+MALE = str(BODIES / "adult_male.urdf")
 FORCE = np.array([80.0, 20.0, -10.0])  # [N], world axes
 TORQUE = np.array([0.0, 3.0, -2.0])  # [N m], world axes
 

@@ -7,7 +7,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS, get_model
+from conftest import BODIES, SCENES, get_model
 
 import humanoid as hm
 from humanoid.constraints.ground import ContactSolver, Ground, GroundSettings
@@ -86,7 +86,7 @@ def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu):
 def fall(request):
     """The shipped drop (from 0.5 m) and collapse (from standing) scenes, recorded at every
     step."""
-    scene = Scene.load(MODELS / "scenes" / f"{request.param}.toml").replace(record_rate=1000.0)
+    scene = Scene.load(SCENES / f"{request.param}.toml").replace(record_rate=1000.0)
     return scene, hm.simulate(scene, quiet=True)
 
 
@@ -102,7 +102,7 @@ def test_a_falling_body_comes_to_rest_on_the_floor(fall):
     assert meta["contact_solver_failures"] <= 4  # of 4000 steps (ADMM at its 1000-iteration cap)
     assert np.diff(traj.energy).max() < 1e-6
     assert traj.energy[-1] < traj.energy[0] - 0.5 * 75.0 * G0  # the CoM fell by over 0.5 m
-    h = hm.load(MODELS / "adult_male.urdf")
+    h = hm.load(BODIES / "adult_male.urdf")
     ke = 0.5 * traj.v[-1] @ hm.mass_matrix(h, traj.q[-1]) @ traj.v[-1]
     assert ke < 1e-4
     assert traj.q[-1, 2] < 0.3  # the pelvis is down: it fell over
@@ -112,7 +112,7 @@ def test_a_falling_body_comes_to_rest_on_the_floor(fall):
 def test_joint_ranges_hold_in_the_fall(fall):
     """Every joint, hinge and ball (its triplet angles), stays in its range to 1 degree."""
     scene, traj = fall
-    h = hm.load(MODELS / "adult_male.urdf")
+    h = hm.load(BODIES / "adult_male.urdf")
     ranges = JointRanges(h)
     worst = max(ranges.violation(q) for q in traj.q)
     assert np.degrees(worst) < 1.0
@@ -139,7 +139,7 @@ def test_range_rows_match_finite_differences(name):
 
 
 def test_ground_scene_errors_name_the_key():
-    male = str(MODELS / "adult_male.urdf")
+    male = str(BODIES / "adult_male.urdf")
     with pytest.raises(SceneError, match="integrator.*semi_implicit_euler"):
         Scene(body=male, integrator="rk4", effects=Effects(ground=GroundSpec()))
     with pytest.raises(SceneError, match="effects.ground.mu"):
@@ -156,11 +156,11 @@ def test_standing_on_the_ground_contact_holds_for_ten_seconds():
     """balance.toml: no welds, the feet held by friction on unilateral point contacts, the
     posture hold on. For 10 s the soles move less than 0.1 mm, the body stays up and the
     floor carries its weight."""
-    scene = Scene.load(MODELS / "scenes" / "balance.toml")
+    scene = Scene.load(SCENES / "balance.toml")
     assert scene.duration == 10.0
     traj = hm.simulate(scene, quiet=True)
     assert traj.status == "completed"
-    h = hm.load(MODELS / "adult_male.urdf")
+    h = hm.load(BODIES / "adult_male.urdf")
     data = h.model.createData()
     soles = [h.frame_id(f) for f in h.feet]
 
@@ -185,10 +185,10 @@ def test_a_body_sliding_on_ice_feels_kinetic_friction_until_it_stops():
     its back. While it slides the floor's horizontal force is mu times its normal force (1e-6
     relative: the cone's edge, not a pyramid's), against the CoM's motion; then it sticks, at
     rest, its weight on the floor, the horizontal force zero."""
-    scene = Scene.load(MODELS / "scenes" / "slide.toml")
+    scene = Scene.load(SCENES / "slide.toml")
     traj = hm.simulate(scene, quiet=True)
     assert traj.status == "completed"
-    h = hm.load(MODELS / "adult_male.urdf")
+    h = hm.load(BODIES / "adult_male.urdf")
     model, data = h.model, h.model.createData()
     mu = scene.effects.ground.mu
     f = traj.forces["ground"]
@@ -215,7 +215,7 @@ def test_ground_impulses_change_momentum_by_exactly_their_sum(name):
     (1e-9 relative); joint-range impulses add nothing (they are internal)."""
     from humanoid.simulate import Simulation
 
-    scene = Scene.load(MODELS / "scenes" / f"{name}.toml")
+    scene = Scene.load(SCENES / f"{name}.toml")
     sim = Simulation(scene)
     model, data = sim.h.model, sim.h.model.createData()
     q, v, dt = sim.q0, sim.v0, scene.dt

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS, get_model
+from conftest import BODIES, get_model
 
 import humanoid as hm
 from humanoid.model import example_robot_path
@@ -110,7 +110,7 @@ def test_bad_ball_joint_mode(male_urdf):
         (
             lambda t: re.sub(r'(<link name="left_thigh">\s*<inertial>\s*<origin[^>]*/>\s*'
                              r'<mass value=")[^"]*', r"\g<1>-1.0", t),
-            r"link 'left_thigh': mass must be finite and >= 0, got -1.0",
+            r"link 'left_thigh': mass must be finite, >= 0 and <= 1e9 kg, got -1.0",
         ),
         (
             lambda t: re.sub(r'(<link name="head">\s*<inertial>\s*<origin[^>]*/>\s*'
@@ -155,14 +155,14 @@ def test_a_users_urdf_with_relative_meshes(tmp_path):
 
 
 def test_shipped_models_equal_the_builder():
-    """models/*.urdf are what scripts/make_models.py writes with the current builder."""
+    """The shipped bodies are what scripts/make_models.py writes with the current builder."""
     expected = {
         "adult_male.urdf": hm.BodyParameters(1.75, 75.0, "male"),
         "adult_female.urdf": hm.BodyParameters(1.62, 62.0, "female"),
     }
     for name, params in expected.items():
-        assert (MODELS / name).read_text() == hm.build_urdf(params), (
-            f"models/{name} is stale: run `make models`"
+        assert (BODIES / name).read_text() == hm.build_urdf(params), (
+            f"{name} is stale: run `make models`"
         )
 
 
@@ -219,3 +219,28 @@ def test_a_body_without_mass_is_refused(male_urdf):
     text = re.sub(r"<inertial>.*?</inertial>", "", male_urdf, flags=re.S)
     with pytest.raises(hm.ModelError, match="has no mass"):
         hm.load(text)
+
+
+def test_bodies_and_robots_load_by_name():
+    male = hm.load("adult_male")
+    assert male.source == str(BODIES / "adult_male.urdf")
+    assert male.mass == pytest.approx(75.0, abs=1e-9)
+    assert hm.load("adult_female").mass == pytest.approx(62.0, abs=1e-9)
+    assert hm.load("talos").recipe["example"] == "talos"
+    with pytest.raises(hm.ModelError, match="adult_female.*talos"):
+        hm.load("adult_mal")  # the message lists the names that would have worked
+
+
+def test_a_body_loads_again_from_its_recipe_without_its_file(tmp_path):
+    from humanoid.model import load_recipe
+
+    urdf = tmp_path / "me.urdf"
+    urdf.write_text(hm.build_urdf(hm.BodyParameters(1.9, 90.0, "male")))
+    h = hm.load(urdf, ball_joints="euler")
+    urdf.unlink()
+    again = load_recipe(h.recipe)
+    assert again.mass == pytest.approx(90.0, abs=1e-9)
+    assert again.ball_joints == "euler" and again.model.nq == h.model.nq
+    for bad in ({}, {"urdf": 3}, "talos", {"example": "robby"}):
+        with pytest.raises(hm.ModelError):
+            load_recipe(bad)

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS
+from conftest import BODIES, SCENES
 
+import humanoid as hm
 from humanoid.constraints import constrained_dynamics
 from humanoid.effects import JointDamping, Push
 from humanoid.scene import (
@@ -20,7 +21,7 @@ from humanoid.scene import (
 )
 from humanoid.simulate import Simulation, Trajectory, _Recorder, simulate
 
-MALE = str(MODELS / "adult_male.urdf")
+MALE = str(BODIES / "adult_male.urdf")
 SPIN = (0.0, 0.0, 0.0, 0.3, 2.0, 0.5)
 
 
@@ -283,7 +284,7 @@ def test_switch_contacts_follows_a_schedule():
 def test_contact_checks_report_and_release():
     """A passive collapse on point contacts at the sole corners: the toes pull (bilateral
     points report it), so unilateral points are released."""
-    stand = Scene.load(MODELS / "scenes" / "standing.toml")
+    stand = Scene.load(SCENES / "standing.toml")
     pinned = tuple(Contact(foot, "points", 0.8) for foot in ("left", "right"))
     passive = Effects(gravity=stand.effects.gravity, damping=2.0, contacts=pinned,
                       joint_limits=JointLimitSpec(stiffness=2000.0, damping=20.0))  # fmt: skip
@@ -302,7 +303,7 @@ def test_pinocchio_backend_matches_the_reference_solve():
     """Same motion and forces; identical to round-off without Baumgarte terms, and within
     1e-5 with them over 0.7 s of a push (measured 2e-6: Pinocchio's 6D contact defines its
     Baumgarte error terms differently from our log6 residual)."""
-    scene = Scene.load(MODELS / "scenes" / "push.toml").replace(duration=0.7)
+    scene = Scene.load(SCENES / "push.toml").replace(duration=0.7)
     for baumgarte, tol_q, tol_f in ((0.0, 1e-10, 1e-7), (20.0, 1e-5, 0.1)):  # [rad or m], [N]
         ref = simulate(scene.replace(stabilisation=Stabilisation(baumgarte=baumgarte)), quiet=True)
         stab = Stabilisation(baumgarte=baumgarte, backend="pinocchio")
@@ -312,7 +313,7 @@ def test_pinocchio_backend_matches_the_reference_solve():
 
 
 def test_standing_scene_holds_and_forces_carry_the_weight():
-    scene = Scene.load(MODELS / "scenes" / "standing.toml").replace(duration=0.5)
+    scene = Scene.load(SCENES / "standing.toml").replace(duration=0.5)
     traj = simulate(scene, quiet=True)
     weight = 75.0 * 9.81
     fz = traj.forces["left"][:, 2] + traj.forces["right"][:, 2]
@@ -359,3 +360,23 @@ def test_friction_is_checked_on_the_cone_not_a_pyramid(kind):
             c.wrench = np.concatenate([f, np.zeros(3)])
         problems = c.check(data)
         assert any("friction" in p for p in problems) == outside, problems
+
+
+def test_a_saved_run_opens_on_another_machine(tmp_path):
+    """A run carries its body (the URDF text): it opens after its URDF file is gone."""
+    from humanoid.viewer import humanoid_for
+
+    urdf = tmp_path / "me.urdf"
+    urdf.write_text(hm.build_urdf(hm.BodyParameters(1.9, 90.0, "female")))
+    traj = hm.simulate(Scene(body=str(urdf), duration=0.01), quiet=True)
+    traj.save(tmp_path / "run.npz")
+    urdf.unlink()
+    h = humanoid_for(hm.Trajectory.load(tmp_path / "run.npz"))
+    assert h.mass == pytest.approx(90.0, abs=1e-9)
+    assert h.model.nq == traj.q.shape[1]
+
+
+def test_shipped_scenes_open_by_name():
+    assert Scene.load("push").name == "push"
+    with pytest.raises(hm.SceneError, match="shipped scenes: balance, collapse"):
+        Scene.load("psuh")

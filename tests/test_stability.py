@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS, get_model
+from conftest import BODIES, get_model
 
 import humanoid as hm
 from humanoid.errors import ConfigurationError, SceneError
@@ -15,7 +15,7 @@ from humanoid.integrators import LieGroupSpace, explicit_euler, rk4, semi_implic
 from humanoid.scene import Contact, Controller, Effects, Initial, Scene, Stabilisation
 from humanoid.simulate import Simulation, simulate
 
-MALE = str(MODELS / "adult_male.urdf")
+MALE = str(BODIES / "adult_male.urdf")
 
 
 # -- 1. intermediate-axis (Dzhanibekov) tumbling --------------------------------------------
@@ -227,18 +227,18 @@ def test_non_finite_input_is_rejected_at_entry(tmp_path):
     q[9] = np.inf
     with pytest.raises(ConfigurationError, match="non-finite"):
         hm.mass_matrix(h, q)
-    with pytest.raises(SceneError, match="NaN or inf"):
+    with pytest.raises(SceneError, match=r"base_velocity\[2\]: must be a finite number"):
         Scene(body=MALE, initial=Initial(base_velocity=(0, 0, np.nan, 0, 0, 0))).check(h)
-    with pytest.raises(SceneError, match="force: must be 3 finite numbers"):
+    with pytest.raises(SceneError, match=r"force\[1\]: must be a finite number"):
         Scene(
             body=MALE,
             effects=Effects(pushes=(hm.scene.PushSpec("thorax", (1.0, np.inf, 0.0), 0, 1),)),
         )
-    with pytest.raises(SceneError, match="gravity: must be 3 finite numbers"):
+    with pytest.raises(SceneError, match=r"gravity\[1\]: must be a finite number"):
         Scene(body=MALE, effects=Effects(gravity=(0.0, np.nan, -9.81)))
     bad = tmp_path / "bad.toml"
     bad.write_text(f'[body]\nurdf = "{MALE}"\n[initial]\nbase_velocity = [0, 0, nan, 0, 0, 0]\n')
-    with pytest.raises(SceneError, match="NaN or inf"):
+    with pytest.raises(SceneError, match=r"bad.toml: initial.base_velocity\[2\]: must be a fin"):
         Scene.load(bad)
     sim = Simulation(Scene(body=MALE, duration=0.01))
     with pytest.raises(ConfigurationError):

@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS, get_model, landing_run
+from conftest import SCENES, get_model, landing_run
 
 import humanoid as hm
 from humanoid.scene import Scene
@@ -198,7 +198,7 @@ def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
     animation keys its visibility on and off at the push's window."""
     from humanoid.simulate import simulate
 
-    scene = Scene.load(MODELS / "scenes" / "push.toml").replace(duration=1.0)
+    scene = Scene.load(SCENES / "push.toml").replace(duration=1.0)
     traj = simulate(scene, quiet=True)
     h = get_model("male", "quaternion")
     rec, view = _recorded(h)
@@ -233,7 +233,7 @@ def test_the_ground_force_is_an_arrow_at_its_centre_of_pressure():
     centre of pressure of the contact points (inside their span), carrying the weight."""
     from humanoid.simulate import Simulation
 
-    scene = Scene.load(MODELS / "scenes" / "drop.toml").replace(duration=0.05, record_rate=1000.0)
+    scene = Scene.load(SCENES / "drop.toml").replace(duration=0.05, record_rate=1000.0)
     scene = scene.replace(initial=type(scene.initial)(lift=0.0))  # standing on the floor
     sim = Simulation(scene)
     traj = sim.run(quiet=True)

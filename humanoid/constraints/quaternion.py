@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from ..errors import SceneError
+
 __all__ = ["CoordinateMap", "QuaternionNorm"]
 
 
@@ -44,7 +46,10 @@ class CoordinateMap:
             elif jm.nq == 1 and jm.nv == 1:
                 self.scalars.append((jm.idx_q, jm.idx_v))
             else:
-                raise NotImplementedError(f"coordinate formulation of {name}")
+                raise SceneError(
+                    f"stabilisation.quaternions = 'coordinates' handles free-flyer, ball and "
+                    f"1-DoF joints; joint {model.names[jm.id]!r} is a {name}: use 'lie'"
+                )
         self.quat_rows = np.array([iq for iq, _ in self.quats], dtype=int)
 
     def configuration(self, x: np.ndarray) -> np.ndarray:

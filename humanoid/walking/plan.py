@@ -13,11 +13,14 @@ cosine in z (zero velocity and acceleration at both ends: they land softly).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import HumanoidError
+
+MAX_STEPS = 1000
 
 __all__ = ["FootstepPlan", "GaitParameters"]
 
@@ -46,12 +49,14 @@ class GaitParameters:
     t_end: float = 1.2
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.steps, int) and self.steps >= 2):
-            raise HumanoidError(f"steps must be an integer >= 2, got {self.steps!r}")
+        if not (isinstance(self.steps, int) and 2 <= self.steps <= MAX_STEPS):
+            raise HumanoidError(f"steps must be an integer in [2, {MAX_STEPS}], got {self.steps!r}")
         for name in ("step_length", "t_single", "t_double", "step_height", "t_start", "t_end"):
             value = getattr(self, name)
-            if not (np.isfinite(value) and value > 0):
-                raise HumanoidError(f"{name} must be > 0, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise HumanoidError(f"{name} must be a number, got {value!r}")
+            if not (math.isfinite(value) and 0 < value <= 100):
+                raise HumanoidError(f"{name} must be in (0, 100], got {value!r}")
         if self.step_length > 1.0:
             raise HumanoidError(f"step_length must be at most 1 m, got {self.step_length}")
 

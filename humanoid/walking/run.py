@@ -253,7 +253,8 @@ def walk(
     for key in series:
         series[key] = series[key][:n]
     meta = {
-        "status": status, "message": message, "model": h.source, "ball_joints": h.ball_joints,
+        "status": status, "message": message, "model": h.source, "body": h.recipe,
+        "ball_joints": h.ball_joints,
         "nq": model.nq, "nv": model.nv, "joint_names": list(model.names), "feet": list(h.feet),
         "dt": dt, "record_rate": record_rate, "scene": scene.to_dict(), "events": sim.events,
         "violations": sim.violations, "counters": sim.counters, "steps": n, "wall_time": wall,

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The wheel works anywhere: build it, install it in a fresh venv outside the repo, and run the
+# command line and the README's snippets from another directory. CI runs this after `make test`.
+# Usage: bash scripts/wheel_check.sh [PYTHON]   (default: python3)
+set -euo pipefail
+REPO="$(cd "$(dirname "$0")/.." && pwd)"
+PYTHON="${1:-python3}"
+WORK="$(mktemp -d /tmp/humanoid-wheel.XXXXXX)"
+trap 'rm -rf "$WORK"' EXIT
+echo "== wheel check in $WORK"
+quiet() { sed '/neither a file nor a directory/d' >&2; }  # this machine's pip index warnings
+"$PYTHON" -m pip wheel --quiet --no-deps "$REPO" -w "$WORK/dist" 2> >(quiet)
+WHEEL="$(ls "$WORK"/dist/humanoid_toolkit-*.whl)"
+echo "built $(basename "$WHEEL")"
+"$PYTHON" -m venv "$WORK/venv"
+"$WORK/venv/bin/pip" install --quiet "$WHEEL" 2> >(quiet)
+mkdir "$WORK/elsewhere"
+cd "$WORK/elsewhere"
+BIN="$WORK/venv/bin"
+where="$("$BIN/python" -c 'import humanoid; print(humanoid.__file__)')"
+case "$where" in
+    "$WORK"/venv/*) echo "imports $where" ;;
+    *) echo "humanoid imported from $where, not from the installed wheel" >&2; exit 1 ;;
+esac
+"$BIN/humanoid" --version
+"$BIN/humanoid" info adult_female | head -3
+"$BIN/humanoid" walk --steps 2 --quiet -o walk.npz --html walk.html | tail -3
+for scene in $("$BIN/python" -c 'import humanoid.data as d; print(*d.scene_names())'); do
+    "$BIN/humanoid" simulate "$scene" --duration 0.2 --quiet -o "$scene.npz" | head -1
+done
+"$BIN/humanoid" view push.npz --html push.html
+"$BIN/humanoid" view talos --html talos.html
+"$BIN/humanoid" bench step --quick -o bench > bench.txt
+rows=$(($(wc -l < bench/step.csv) - 1))
+if [ "$rows" -lt 1 ]; then echo "bench step wrote no rows" >&2; exit 1; fi
+echo "bench step --quick: $rows scenes timed"
+"$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md"
+echo "== wheel check passed"
