@@ -329,10 +329,31 @@ def run_summary(traj) -> str:
         f"simulated    {sim_time:.3f} s in {m['steps']} steps of {m['dt']} s",
         f"wall time    {wall:.2f} s (real-time factor {sim_time / max(wall, 1e-9):.2f})",
         f"residual     {m['max_residual']:.2e} (largest constraint position error, m or rad)",
-        f"energy       drift {drift:+.3e} J ({drift / scale:+.2e} relative)",
+        f"energy       {_energy_word(m.get('scene', {}))} {drift:+.3e} J "
+        f"({drift / scale:+.2e} relative)",
         f"events       {len(m['events'])} contact events, violations {m['violations'] or 'none'}",
     ]
     return "\n".join(lines)
+
+
+def _energy_word(scene: dict) -> str:
+    """ "drift" where the scene conserves energy (an error of the integrator), else "change"
+    with what takes or gives energy."""
+    e, why = scene.get("effects", {}), []
+    if e.get("damping", 0.0) > 0:
+        why.append("damping")
+    if e.get("pushes"):
+        why.append("pushes")
+    if scene.get("controller", {}).get("kind", "none") != "none":
+        why.append("controller")
+    if e.get("ground") is not None:
+        why.append("ground impacts and friction")
+    limits = e.get("joint_limits")
+    if limits and limits.get("kind") == "constraint":
+        why.append("joint-range impacts")
+    elif limits and limits.get("damping", 0.0) > 0:
+        why.append("joint-range damping")
+    return f"change ({', '.join(why)}):" if why else "drift"
 
 
 def summary(h) -> str:
@@ -351,7 +372,11 @@ def summary(h) -> str:
         f"height       {top:.4f} m standing (top of the visual geometry)",
         f"CoM height   {com[2]:.4f} m standing ({com[2] / top:.3f} x height)",
         f"feet         {h.feet[0]}, {h.feet[1]}",
-        "contacts     " + ", ".join(h.contact_points["left"] + h.contact_points["right"]),
+        "contacts     "
+        + (
+            ", ".join(h.contact_points["left"] + h.contact_points["right"])
+            or "none (the feet have no geometry)"
+        ),
         "",
         f"{'joint':<28} {'type':<28} {'nq':>2} {'nv':>2}  range [deg]",
     ]

@@ -22,7 +22,7 @@ class ContactState:
         self.spec = spec
         self.side = spec.foot
         self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
-        self.points = [h.frame_id(n) for n in h.contact_points[self.side]]
+        self.points = [h.frame_id(n) for n in h.require_contact_points(self.side)]
         self.attached = False
         self.ever_attached = False
         self.constraints = []

@@ -118,9 +118,28 @@ class Humanoid:
         data = m.createData()
         pin.framesForwardKinematics(m, data, q)
         names = [n for side in SIDES for n in self.contact_points[side]]
-        zmin = min(data.oMf[m.getFrameId(n)].translation[2] for n in names)
+        if names:
+            zmin = min(data.oMf[m.getFrameId(n)].translation[2] for n in names)
+        else:  # no sole points: the lowest geometry, else the lowest frame, on z = 0
+            boxes = [b for g in (self.collision_model, self.visual_model)
+                     if (b := _world_box(m, data, g)) is not None]  # fmt: skip
+            zmin = (min(b[0][2] for b in boxes) if boxes
+                    else min(f.translation[2] for f in data.oMf))  # fmt: skip
         q[2] -= zmin
         return q
+
+    def require_contact_points(self, side: str) -> tuple[str, ...]:
+        """The sole contact frames of a side, or a ModelError saying how to give them."""
+        names = self.contact_points[side]
+        if not names:
+            raise ModelError(
+                f"{self.source}: the {side} foot {self.feet[SIDES.index(side)]!r} has no "
+                "geometry to place sole contact points on, and contacts need them: add "
+                f"{side}_heel_inner, {side}_heel_outer, {side}_toe_inner and {side}_toe_outer "
+                "frames (or a collision box) to the foot in the URDF, or name other foot links "
+                "with load(..., feet=(left, right))"
+            )
+        return names
 
     def sole_box(self, side: str) -> tuple[np.ndarray, np.ndarray]:
         """Corners (min, max) of the sole's contact points in the sole frame [m] (x, y, z).
@@ -130,9 +149,8 @@ class Humanoid:
         data = self.model.createData()
         pin.framesForwardKinematics(self.model, data, self.standing_configuration())
         sole = data.oMf[self.frame_id(self.feet[SIDES.index(side)])]
-        pts = np.array(
-            [sole.actInv(data.oMf[self.frame_id(n)].translation) for n in self.contact_points[side]]
-        )
+        names = self.require_contact_points(side)
+        pts = np.array([sole.actInv(data.oMf[self.frame_id(n)].translation) for n in names])
         return pts.min(axis=0), pts.max(axis=0)
 
     def standing_height(self) -> float:
@@ -159,20 +177,36 @@ class Humanoid:
         return out
 
     def to_euler(self, q, v=None, hint=None):
-        """State of the Euler model (hinge triplets) for a state of this model.
+        """State of the Euler model (hinge triplets) for a state of this model, or for a
+        sequence of states (arrays of shape (N, nq) and (N, nv): a trajectory).
 
         ``hint`` (an Euler configuration near the answer) picks between the two Euler-angle
-        solutions of a ball joint; see :meth:`humanoid.fusion.Fusion.to_euler`.
+        solutions of a ball joint; see :meth:`humanoid.fusion.Fusion.to_euler`. Along a
+        sequence each state's hint is the previous answer, so the angles stay continuous.
         """
-        return (q, v) if self.fusion is None else self.fusion.to_euler(q, v, hint)
+        if self.fusion is None:
+            return q, v
+        if np.ndim(q) != 2:
+            return self.fusion.to_euler(q, v, hint)
+        qs, vs = [], []
+        for i, qi in enumerate(q):
+            qe, ve = self.fusion.to_euler(qi, None if v is None else v[i], hint)
+            hint = qe
+            qs.append(qe)
+            vs.append(ve)
+        return np.array(qs).reshape(-1, self.euler_model.nq), None if v is None else np.array(vs)
 
     def from_euler(self, q_euler, v_euler=None):
-        """State of this model for a state of the Euler model."""
-        return (
-            (q_euler, v_euler)
-            if self.fusion is None
-            else self.fusion.to_quaternion(q_euler, v_euler)
-        )
+        """State of this model for a state (or a sequence of states, (N, nq)) of the Euler
+        model."""
+        if self.fusion is None:
+            return q_euler, v_euler
+        if np.ndim(q_euler) != 2:
+            return self.fusion.to_quaternion(q_euler, v_euler)
+        out = [self.fusion.to_quaternion(qe, None if v_euler is None else v_euler[i])
+               for i, qe in enumerate(q_euler)]  # fmt: skip
+        q = np.array([o[0] for o in out]).reshape(-1, self.model.nq)
+        return q, None if v_euler is None else np.array([o[1] for o in out])
 
 
 def _upright(model: pin.Model) -> np.ndarray:
@@ -740,7 +774,12 @@ def _add_sole_frames(model: pin.Model, geoms, feet):
                 sole = foot
             soles.append(sole)
             continue
-        lo, hi = _foot_box(model, data, geoms, joint, foot)
+        box = _foot_box(model, data, geoms, joint)
+        if box is None:  # no contact points: fine until a scene or a walk asks for contacts
+            contacts[side] = ()
+            soles.append(foot)
+            continue
+        lo, hi = box
         inner_y = lo[1] if side == "left" else hi[1]
         outer_y = hi[1] if side == "left" else lo[1]
         oMi = data.oMi[joint]
@@ -793,16 +832,14 @@ def _world_box(model, data, geometry_model, joints=None):
     return corners.min(axis=0), corners.max(axis=0)
 
 
-def _foot_box(model, data, geoms, joint, foot):
-    """World bounding box of the foot's geometry: collision geometry first, visual otherwise."""
+def _foot_box(model, data, geoms, joint):
+    """World bounding box of the foot's geometry: collision geometry first, visual otherwise
+    (None if the foot has none)."""
     for gm in (geoms[1], geoms[0]):
         box = _world_box(model, data, gm, {joint})
         if box is not None:
             return box
-    raise ModelError(
-        f"the foot {foot!r} has no geometry to place sole contact points on; add "
-        "{side}_heel_inner, _heel_outer, _toe_inner and _toe_outer frames to the URDF"
-    )
+    return None
 
 
 QUATERNION_TOLERANCE = 1e-4  # a quaternion of q may be off unit norm by this (and is normalised)

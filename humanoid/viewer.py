@@ -167,6 +167,8 @@ class SceneView:
         if ov.footprints:
             green = G.MeshLambertMaterial(color=COLORS["footprint"], opacity=0.5, transparent=True)
             for side in self.feet:
+                if not self.h.contact_points[side]:
+                    continue  # no sole points, no footprint
                 lo, hi = self.h.sole_box(side)
                 box = G.Box([hi[0] - lo[0], hi[1] - lo[1], 0.004])
                 self.node("footprints", side, "box").set_object(box, green)

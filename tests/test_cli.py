@@ -297,3 +297,22 @@ def test_massless_models_are_refused_or_merged_on_request(tmp_path, capsys):
     assert err.startswith("humanoid walk: error:") and "--massless merge" in err
     assert main(["info", "romeo", "--massless", "merge"]) == 0
     assert "nv = 37" in capsys.readouterr().out
+
+
+def test_simulate_calls_energy_change_drift_only_where_energy_is_conserved(tmp_path, capsys):
+    assert main(["simulate", "tumble", "--duration", "0.05", "-o", str(tmp_path / "t.npz")]) == 0
+    assert "energy       drift " in capsys.readouterr().out
+    assert main(["simulate", "push", "--duration", "0.05", "-o", str(tmp_path / "p.npz")]) == 0
+    out = capsys.readouterr().out
+    assert "energy       change (pushes, controller, joint-range damping):" in out
+    assert "drift" not in out.split("energy")[1].splitlines()[0]
+
+
+def test_the_version_and_defaults_in_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"humanoid {hm.__version__}"
+    with pytest.raises(SystemExit):
+        main(["walk", "--help"])
+    assert "(default: adult_male)" in capsys.readouterr().out

@@ -167,3 +167,23 @@ def test_euler_mode_keeps_urdf_joints():
     assert he.fusion is None and he.model is he.euler_model
     assert he.model.nv == he.model.nq - 1 == 39
     assert all(j.nq == 1 for j in he.model.joints[2:])
+
+
+def test_to_euler_and_back_take_sequences_of_states():
+    h = get_model("male", "quaternion")
+    rng = np.random.default_rng(5)
+    q0 = h.standing_configuration()
+    qs = np.array([pin.integrate(h.model, q0, 0.3 * rng.normal(size=h.nv)) for _ in range(4)])
+    vs = rng.normal(size=(4, h.nv))
+    qe, ve = h.to_euler(qs, vs)
+    assert qe.shape == (4, h.euler_model.nq) and ve.shape == (4, h.euler_model.nv)
+    for i in range(4):
+        one_q, one_v = h.to_euler(qs[i], vs[i], hint=qe[i - 1] if i else None)
+        assert np.allclose(one_q, qe[i]) and np.allclose(one_v, ve[i])
+    back_q, back_v = h.from_euler(qe, ve)
+    assert back_q.shape == qs.shape
+    for a, b in zip(back_q, qs, strict=True):
+        assert np.allclose(pin.difference(h.model, a, b), 0.0, atol=1e-9)
+    assert np.allclose(back_v, vs, atol=1e-9)
+    empty_q, empty_v = h.to_euler(np.zeros((0, h.nq)))
+    assert empty_q.shape == (0, h.euler_model.nq) and empty_v is None

@@ -244,3 +244,19 @@ def test_a_body_loads_again_from_its_recipe_without_its_file(tmp_path):
     for bad in ({}, {"urdf": 3}, "talos", {"example": "robby"}):
         with pytest.raises(hm.ModelError):
             load_recipe(bad)
+
+
+def test_a_humanoid_without_foot_geometry_loads_and_says_how_to_add_contacts():
+    """example-robot-data's simple_humanoid has no geometry: it loads (contact points are
+    needed only by contacts), stands with its lowest frame on the floor, and a scene that asks
+    for a foot contact gets an error saying how to give the points."""
+    h = hm.load("simple_humanoid")
+    assert h.contact_points == {"left": (), "right": ()}
+    q = h.standing_configuration()
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, q)
+    assert min(f.translation[2] for f in data.oMf) == pytest.approx(0.0, abs=1e-12)
+    scene = hm.Scene(body="simple_humanoid", duration=0.01,
+                     effects=hm.scene.Effects(contacts=(hm.scene.Contact("left"),)))  # fmt: skip
+    with pytest.raises(hm.ModelError, match=r"left_heel_inner.*frames .*feet=\(left, right\)"):
+        hm.simulate(scene, quiet=True)

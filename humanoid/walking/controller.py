@@ -81,7 +81,7 @@ class WalkingController(Effect):
         self.alpha, self.beta = baumgarte.alpha, baumgarte.beta
         self.gains = gains or ControllerGains()
         self.sole = {s: h.frame_id(h.feet[i]) for i, s in enumerate(("left", "right"))}
-        self.corners = {s: [h.frame_id(n) for n in h.contact_points[s]] for s in self.sole}
+        self.corners = {s: [h.frame_id(n) for n in h.require_contact_points(s)] for s in self.sole}
         self.tau = np.zeros(model.nv)
         self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
         self.last = None  # (dv, forces by side) of the last solve
