@@ -187,10 +187,10 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "bench":
         if args.kind == "accuracy":
-            from .accuracy import run_accuracy_benchmark
+            from .bench.accuracy import run_accuracy_benchmark
 
             return run_accuracy_benchmark(quick=args.quick, out=args.output)
-        from .bench import run_step_benchmark
+        from .bench.step import run_step_benchmark
 
         return run_step_benchmark(quick=args.quick, out=args.output)
     return 1  # pragma: no cover - argparse rejects unknown commands

@@ -47,8 +47,12 @@ import tomllib
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from pathlib import Path
 
+import numpy as np
+
 from .anthropometry import BodyParameters
-from .errors import BodyParameterError, SceneError
+from .body import build_urdf
+from .errors import BodyParameterError, ModelError, SceneError
+from .model import Humanoid, load, quaternion_rows
 
 __all__ = [
     "Contact",
@@ -210,8 +214,6 @@ class Scene:
         Raises:
             SceneError: naming the scene file, the key and the reason.
         """
-        from .simulate import initial_state, load_body
-
         h = humanoid or load_body(self)
         for i, p in enumerate(self.effects.pushes):
             if not h.model.existFrame(p.frame):
@@ -568,3 +570,51 @@ def _toml(d: dict, prefix: str = "") -> str:
         for item in items:
             out += f"\n[[{prefix}{k}]]\n" + _toml(item, f"{prefix}{k}.")
     return out
+
+
+def load_body(scene: Scene) -> Humanoid:
+    """The scene's body: a URDF path or BodyParameters."""
+    if isinstance(scene.body, BodyParameters):
+        return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
+    try:
+        return load(scene.body, ball_joints=scene.ball_joints, massless=scene.massless)
+    except ModelError as exc:
+        raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
+
+
+def initial_state(scene: Scene, h: Humanoid):
+    """(q0, v0) of a scene; NaN or inf is rejected here, at entry."""
+    model = h.model
+    ini = scene.initial
+    if isinstance(ini.configuration, str):
+        q = h.standing_configuration()
+    else:
+        q = np.array(ini.configuration, dtype=float)
+        if q.shape != (model.nq,):
+            raise SceneError(
+                f"{scene.source}: initial.configuration: needs nq = {model.nq} numbers, "
+                f"got {q.size}"
+            )
+    q[2] += ini.lift
+    v = np.zeros(model.nv)
+    v[:6] = ini.base_velocity
+    jv = np.asarray(ini.joint_velocity, dtype=float)
+    if jv.ndim == 0:
+        v[6:] = jv
+    elif jv.shape == (model.nv - 6,):
+        v[6:] = jv
+    else:
+        raise SceneError(
+            f"{scene.source}: initial.joint_velocity: needs 1 or {model.nv - 6} numbers, "
+            f"got {jv.size}"
+        )
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):  # a configuration list
+        raise SceneError(f"{scene.source}: initial state has NaN or inf entries")
+    for iq in quaternion_rows(model):  # free flyer, ball joints: unit quaternions
+        norm = np.linalg.norm(q[iq : iq + 4])
+        if abs(norm - 1.0) > 1e-6:
+            raise SceneError(
+                f"{scene.source}: initial.configuration: q[{iq}:{iq + 4}] is a quaternion of "
+                f"norm {norm:.6f}, not 1"
+            )
+    return q, v

@@ -17,8 +17,6 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from .anthropometry import BodyParameters
-from .body import build_urdf
 from .constraints import Baumgarte, Weld, solve_kkt, update_kinematics
 from .constraints.ground import ContactSolver, Ground, GroundSettings
 from .constraints.limits import JointRanges
@@ -33,10 +31,10 @@ from .effects import (
     Push,
     joint_mask,
 )
-from .errors import DivergenceError, ModelError, SceneError
+from .errors import DivergenceError, SceneError
 from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
-from .model import Humanoid, load
-from .scene import Contact, Scene
+from .model import Humanoid
+from .scene import Contact, Scene, load_body
 from .trajectory import Trajectory, _Progress, _Recorder
 
 __all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
@@ -618,56 +616,6 @@ def _guard(t, q, v):
             f"the state is exploding at t = {t:.6f} s (|v| = {speed:.3g} > {MAX_SPEED:g}): "
             "reduce the time step or the gains"
         )
-
-
-def load_body(scene: Scene) -> Humanoid:
-    """The scene's body: a URDF path or BodyParameters."""
-    if isinstance(scene.body, BodyParameters):
-        return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
-    try:
-        return load(scene.body, ball_joints=scene.ball_joints, massless=scene.massless)
-    except ModelError as exc:
-        raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
-
-
-def initial_state(scene: Scene, h: Humanoid):
-    """(q0, v0) of a scene; NaN or inf is rejected here, at entry."""
-    model = h.model
-    ini = scene.initial
-    if isinstance(ini.configuration, str):
-        q = h.standing_configuration()
-    else:
-        q = np.array(ini.configuration, dtype=float)
-        if q.shape != (model.nq,):
-            raise SceneError(
-                f"{scene.source}: initial.configuration: needs nq = {model.nq} numbers, "
-                f"got {q.size}"
-            )
-    q[2] += ini.lift
-    v = np.zeros(model.nv)
-    v[:6] = ini.base_velocity
-    jv = np.asarray(ini.joint_velocity, dtype=float)
-    if jv.ndim == 0:
-        v[6:] = jv
-    elif jv.shape == (model.nv - 6,):
-        v[6:] = jv
-    else:
-        raise SceneError(
-            f"{scene.source}: initial.joint_velocity: needs 1 or {model.nv - 6} numbers, "
-            f"got {jv.size}"
-        )
-    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
-        raise SceneError(f"{scene.source}: initial state has NaN or inf entries")
-    for jm in model.joints[1:]:
-        if jm.nq == jm.nv + 1:  # free flyer, spherical: unit quaternions
-            iq = jm.idx_q + (3 if jm.nq == 7 else 0)
-            quat = q[iq : iq + 4]
-            if abs(np.linalg.norm(quat) - 1.0) > 1e-6:
-                raise SceneError(
-                    f"{scene.source}: initial.configuration: quaternion of joint "
-                    f"{model.names[jm.id]} has norm {np.linalg.norm(quat):.6f}, not 1"
-                )
-    return q, v
 
 
 def simulate(scene: Scene, humanoid: Humanoid | None = None, quiet: bool = False) -> Trajectory:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from humanoid.accuracy import run_accuracy_benchmark
+from humanoid.bench.accuracy import run_accuracy_benchmark
 
 
 def main() -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from humanoid.bench import run_step_benchmark
+from humanoid.bench.step import run_step_benchmark
 
 
 def main() -> None:

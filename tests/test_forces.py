@@ -90,8 +90,8 @@ def test_mujoco_sees_the_same_momentum_change():
     generalised force of a moving point constant over each 1 ms step; ours meets its own
     angular impulse to 1e-9)."""
     pytest.importorskip("mujoco")
-    from humanoid.peers import MALE as PEER_MALE
-    from humanoid.peers import push_momentum
+    from humanoid.bench.common import MALE as PEER_MALE
+    from humanoid.bench.peers import push_momentum
 
     r = push_momentum(load(PEER_MALE))
     impulse = r["impulse"]

@@ -24,8 +24,8 @@ import pinocchio as pin
 
 __all__ = ["run_step_benchmark"]
 
-from .data import SCENES
-from .errors import HumanoidError
+from ..data import SCENES
+from ..errors import HumanoidError
 
 
 def _best(fn, n: int, rounds: int) -> float:
@@ -52,7 +52,7 @@ def _pinocchio_step(sim, q, v, dt):
             pin.integrate(model, q, (v + dt * a) * dt)
 
         return step
-    from .simulate import proximal_settings, rigid_constraints
+    from ..simulate import proximal_settings, rigid_constraints
 
     cms, cds, data = rigid_constraints(model, constraints)
     prox = proximal_settings(sum(cm.residualSize() for cm in cms) > 6 * len(sim.contacts))
@@ -66,8 +66,8 @@ def _pinocchio_step(sim, q, v, dt):
 
 def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time one step per shipped scene; print a table and write ``step.csv``."""
-    from .scene import Effects, Scene, Stabilisation
-    from .simulate import Simulation
+    from ..scene import Effects, Scene, Stabilisation
+    from ..simulate import Simulation
 
     n, rounds = (200, 3) if quick else (1000, 7)
     rows, ground = [], []
@@ -132,12 +132,13 @@ def _ground_steps(paths, duration: float, folder: Path) -> None:
     """Scenes with ground contact: the mean wall time of our step over the first ``duration``
     seconds of the scene (the number of contacts changes as the body falls, so a single state
     would not be representative), against ``mj_step`` on the same fall in MuJoCo (its soft
-    contacts, the Euler-mode body: :func:`humanoid.peers.mujoco_fall`) in the same run.
+    contacts, the Euler-mode body: :func:`humanoid.bench.peers.mujoco_fall`) in the same run.
     Scenes with a controller have no MuJoCo column (the controller is ours)."""
-    from .model import load
-    from .peers import MALE, mujoco_fall
-    from .scene import Scene
-    from .simulate import Simulation
+    from ..model import load
+    from ..scene import Scene
+    from ..simulate import Simulation
+    from .common import MALE
+    from .peers import mujoco_fall
 
     try:
         import mujoco  # noqa: F401 - the peer is optional

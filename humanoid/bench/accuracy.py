@@ -38,12 +38,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["run_accuracy_benchmark"]
+from .common import CONTROL_DT, MALE, RECORD_RATE, WALK_STEPS, run_scene, state_error
 
-# Records at 25 Hz: a whole number of steps for every swept dt (8 ms ... 0.5 ms) and for the
-# adaptive integrator's 40 ms tick, so that every run is compared at the same instants.
-RECORD_RATE = 25.0
-MALE = "adult_male"
+__all__ = ["run_accuracy_benchmark"]
 
 
 @dataclass(frozen=True)
@@ -61,7 +58,7 @@ class Row:
 
 
 def _scenes(quick: bool) -> dict:
-    from .scene import Contact, Controller, Effects, Initial, PushSpec, Scene, Stabilisation
+    from ..scene import Contact, Controller, Effects, Initial, PushSpec, Scene, Stabilisation
 
     T = 0.5 if quick else 2.0
     rate = RECORD_RATE
@@ -94,28 +91,9 @@ def _scenes(quick: bool) -> dict:
     }  # fmt: skip
 
 
-def _run(scene, h):
-    """(trajectory, wall time) of a scene."""
-    from .simulate import Simulation
-
-    sim = Simulation(scene, humanoid=h)
-    start = time.perf_counter()
-    traj = sim.run(quiet=True)
-    return traj, time.perf_counter() - start
-
-
 def _momentum(h, q, v) -> np.ndarray:
     data = h.model.createData()
     return pin.computeCentroidalMomentum(h.model, data, q, v).angular.copy()
-
-
-def _state_error(model, ref, qs, vs) -> float:
-    """The largest state difference from the reference over the records, on the manifold:
-    max(|pin.difference(q_ref, q)|, |v - v_ref|)."""
-    return max(
-        max(np.abs(pin.difference(model, a, b)).max() for a, b in zip(ref.q, qs, strict=True)),
-        float(np.abs(np.asarray(vs) - ref.v).max()),
-    )
 
 
 def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
@@ -124,7 +102,7 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
     error = np.inf
     if traj.status == "completed" and len(traj.t) == len(ref.t):
         assert np.allclose(traj.t, ref.t), "runs must be recorded at the same instants"
-        error = _state_error(model, ref, traj.q, traj.v)
+        error = state_error(model, ref, traj.q, traj.v)
     energy = momentum = np.nan  # invariants of the conservative scenes only
     if conservative:
         e = traj.energy
@@ -144,8 +122,8 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
 
 def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Run the sweeps, write accuracy.csv and one work-precision PNG per scene."""
-    from .model import load
-    from .scene import Effects, Stabilisation
+    from ..model import load
+    from ..scene import Effects, Stabilisation
 
     h = load(MALE)
     dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
@@ -155,12 +133,12 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
     for name, scene in _scenes(quick).items():
         conservative = name in ("tumble", "swing")
         ref_scene = scene.replace(integrator="adaptive", rtol=1e-12, atol=1e-12, dt=min(dts))
-        ref, _ = _run(ref_scene, h)
-        check, _ = _run(ref_scene.replace(rtol=1e-10, atol=1e-10, dt=2 * min(dts)), h)
+        ref, _ = run_scene(ref_scene, h)
+        check, _ = run_scene(ref_scene.replace(rtol=1e-10, atol=1e-10, dt=2 * min(dts)), h)
         convergence[name] = float(np.abs(pin.difference(h.model, ref.q[-1], check.q[-1])).max())
 
         def add(method, setting, sc, name=name, conservative=conservative, ref=ref):
-            traj, wall = _run(sc, h)
+            traj, wall = run_scene(sc, h)
             rows.append(_measure(name, method, setting, traj, wall, ref, h, conservative))
             print(f"  {name:<7} {method:<28} {setting:<12} {wall:8.3f} s  "
                   f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
@@ -229,13 +207,9 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
     return 0
 
 
-WALK_STEPS = 2  # the walking segment: two steps, about 4.4 s
-CONTROL_DT = 2e-3  # the walking controller's fixed rate in the benchmark [s]
-
-
 def _walk_run(h, integrator, dt, tol=1e-6):
     """(trajectory, wall time) of the walking segment with the controller at CONTROL_DT."""
-    from .walking import GaitParameters, walk
+    from ..walking import GaitParameters, walk
 
     start = time.perf_counter()
     result = walk(h, GaitParameters(steps=WALK_STEPS), dt=dt, integrator=integrator,
@@ -274,14 +248,14 @@ def _fall_rows(h, quick: bool):
     """The shipped falls (``collapse``: standing passive; ``drop``: from 0.5 m) for their
     first T seconds (the impacts and the fall itself): the step swept at the shipped solver
     tolerance, the contact solver's tolerance swept at the shipped 1 ms step, and MuJoCo's
-    soft contacts (its default parameters, Euler-mode body, see :mod:`humanoid.peers`) over
+    soft contacts (its default parameters, Euler-mode body, see :mod:`humanoid.bench.peers`) over
     the same steps. The reference: our scheme at a quarter of the smallest step and
     tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
     The error is the configuration error (:func:`_configuration_error`). Returns the rows and
     the references' convergence."""
     from dataclasses import replace
 
-    from .scene import Scene
+    from ..scene import Scene
 
     T = 0.5 if quick else 1.0
     dts = (2e-3, 1e-3, 5e-4) if quick else (2e-3, 1e-3, 5e-4, 2.5e-4)
@@ -290,7 +264,7 @@ def _fall_rows(h, quick: bool):
     try:
         import mujoco  # noqa: F401 - an optional extra
 
-        from .model import load
+        from ..model import load
         from .peers import mujoco_fall
 
         he = load(MALE, ball_joints="euler")
@@ -305,8 +279,8 @@ def _fall_rows(h, quick: bool):
             return base.replace(dt=dt, effects=replace(base.effects, ground=ground))
 
         ref_dt = min(dts) / 4
-        ref, _ = _run(variant(ref_dt, 1e-10), h)
-        check, _ = _run(variant(2 * ref_dt, 1e-10), h)
+        ref, _ = run_scene(variant(ref_dt, 1e-10), h)
+        check, _ = run_scene(variant(2 * ref_dt, 1e-10), h)
         convergence[name] = _configuration_error(h.model, ref, check.q)
 
         def add(method, setting, traj, wall, name=name, ref=ref):
@@ -320,9 +294,9 @@ def _fall_rows(h, quick: bool):
 
         for dt in dts:
             add(f"ours, tolerance {FALL_TOLERANCE:g}", f"dt={dt:g}",
-                *_run(variant(dt, FALL_TOLERANCE), h))  # fmt: skip
+                *run_scene(variant(dt, FALL_TOLERANCE), h))  # fmt: skip
         for tol in tols:
-            add("ours, dt 1 ms", f"tol={tol:g}", *_run(variant(1e-3, tol), h))
+            add("ours, dt 1 ms", f"tol={tol:g}", *run_scene(variant(1e-3, tol), h))
         if he is None:
             continue
         for dt in dts:

@@ -32,11 +32,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .model import child_link
+from ..model import child_link
+from .common import MALE
 
 __all__ = ["fall_comparison", "push_momentum", "run_peer_comparison"]
 
-MALE = "adult_male"
 # the target accuracy per scene: relative energy drift (tumble, swing), weld drift [m]
 # (stance, collapse), state error against the rigid reference (walk)
 TARGETS = {"tumble": 1e-6, "swing": 1e-6, "stance": 1e-6, "collapse": 1e-6, "walk": 1e-3}
@@ -69,7 +69,7 @@ def _free_state(h, scene: str):
 def _mujoco_model(h, xml_extra: str = "", gravity=True, integrator="RK4", dt=1e-3):
     import mujoco
 
-    from .export import to_mjcf
+    from ..export import to_mjcf
 
     xml = to_mjcf(h, timestep=dt, integrator=integrator)
     if not gravity:
@@ -90,7 +90,7 @@ def _energy(m, d):
 def _mujoco_free(h, scene, integrator, dt, T):
     import mujoco
 
-    from .export import mujoco_state
+    from ..export import mujoco_state
 
     m = _mujoco_model(h, gravity=False, integrator=integrator, dt=dt)
     m.opt.gravity[:] = 0.0
@@ -109,7 +109,7 @@ def _mujoco_free(h, scene, integrator, dt, T):
 
 
 def _ours_free(h, scene, integrator, dt, T):
-    from .scene import Effects, Initial, Scene
+    from ..scene import Effects, Initial, Scene
 
     q, v = _free_state(h, scene)
     scene = Scene(
@@ -122,9 +122,9 @@ def _ours_free(h, scene, integrator, dt, T):
 
 def _measured(scene, h, measure):
     """(wall time, measure(trajectory)) of one of our runs; the measure is inf if it failed."""
-    from .accuracy import _run
+    from .common import run_scene
 
-    traj, wall = _run(scene, h)
+    traj, wall = run_scene(scene, h)
     return wall, (float(measure(traj)) if traj.status == "completed" else float("inf"))
 
 
@@ -160,7 +160,7 @@ def _relpose(oMi: pin.SE3) -> np.ndarray:
 def _welded_scene(T, dt, controlled: bool):
     """Both feet welded where they stand: the pushed stance under the posture hold, or (not
     controlled) the passive collapse."""
-    from .scene import Contact, Controller, Effects, PushSpec, Scene
+    from ..scene import Contact, Controller, Effects, PushSpec, Scene
 
     pushes = (PushSpec("thorax", PUSH, 0.0, 0.4),) if controlled else ()
     return Scene(
@@ -182,8 +182,8 @@ def _mujoco_welded(h, scene, integrator, weld):
     (wall time, largest foot drift [m]), inf if it diverged."""
     import mujoco
 
-    from .export import StateMap
-    from .simulate import Simulation
+    from ..export import StateMap
+    from ..simulate import Simulation
 
     ours = Simulation(scene, humanoid=h)  # the initial state, controller and pushes
     efforts = [e for e in ours.effects if not e.external]
@@ -262,10 +262,10 @@ def push_momentum(h, frame: str = "thorax", force=PUSH, duration: float = 0.3,
     import mujoco
     from scipy.integrate import simpson
 
-    from .effects import Push
-    from .export import StateMap
-    from .scene import Effects, Initial, PushSpec, Scene
-    from .simulate import simulate
+    from ..effects import Push
+    from ..export import StateMap
+    from ..scene import Effects, Initial, PushSpec, Scene
+    from ..simulate import simulate
 
     T = duration + 0.1
     q0, v0 = _free_state(h, "tumble")
@@ -320,11 +320,11 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
     error is inf if the walk failed."""
     import mujoco
 
-    from .accuracy import CONTROL_DT, RECORD_RATE, WALK_STEPS, _state_error
-    from .errors import HumanoidError
-    from .export import StateMap
-    from .walking import GaitParameters
-    from .walking.run import prepare
+    from ..errors import HumanoidError
+    from ..export import StateMap
+    from ..walking import GaitParameters
+    from ..walking.run import prepare
+    from .common import CONTROL_DT, RECORD_RATE, WALK_STEPS, state_error
 
     setup = prepare(h, GaitParameters(steps=WALK_STEPS), dt=CONTROL_DT)
     sim, ctl, plan, model = setup.sim, setup.ctl, setup.plan, h.model
@@ -367,7 +367,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
     wall = time.perf_counter() - start
     if len(qs) != len(reference.t):
         return wall, float("inf"), drift
-    return wall, _state_error(model, reference, qs, vs), drift
+    return wall, state_error(model, reference, qs, vs), drift
 
 
 def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
@@ -405,7 +405,7 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
 
 def _print_push_momentum() -> None:
     """The same push in both engines: momentum changes beside the impulse."""
-    from .model import load
+    from ..model import load
 
     r = push_momentum(load(MALE))
     impulse = r["impulse"]
@@ -440,9 +440,9 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     its back), the final CoM, the deepest penetration, and the wall time per step measured
     in the same run; and the RMS difference of the final joint angles [deg].
     """
-    from .model import load
-    from .scene import Scene
-    from .simulate import Simulation
+    from ..model import load
+    from ..scene import Scene
+    from ..simulate import Simulation
 
     scene = Scene.load(name)
     if duration is not None:
@@ -471,7 +471,7 @@ def _fall_model(scene, he, dt: float, integrator: str = "Euler"):
     joint damping, and a floor with the scene's friction."""
     import mujoco
 
-    from .export import to_mjcf
+    from ..export import to_mjcf
 
     xml = to_mjcf(he, timestep=dt, integrator=integrator, ground=scene.effects.ground.mu,
                   limits=True, damping=scene.effects.damping)  # fmt: skip
@@ -484,7 +484,7 @@ def mujoco_fall(scene, h, he, q0, v0, dt: float, every: int, integrator: str = "
     t = 0), the wall time of the steps alone, and the deepest penetration [m]."""
     import mujoco
 
-    from .export import StateMap
+    from ..export import StateMap
 
     m = _fall_model(scene, he, dt, integrator)
     d = mujoco.MjData(m)
@@ -546,8 +546,8 @@ def _print_fall(r: dict) -> None:
 
 
 def _sweep(quick, T, T_collapse, walk) -> list[dict]:
-    from .model import load
-    from .scene import Stabilisation
+    from ..model import load
+    from ..scene import Stabilisation
 
     h = load(MALE)
     dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)

@@ -1,0 +1,37 @@
+"""What the benchmarks share: the reference body, record rate, walking segment, running a
+scene with its wall time, and the state error against a reference run."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["CONTROL_DT", "MALE", "RECORD_RATE", "WALK_STEPS", "run_scene", "state_error"]
+
+MALE = "adult_male"
+# Records at 25 Hz: a whole number of steps for every swept dt (8 ms ... 0.5 ms) and for the
+# adaptive integrator's 40 ms tick, so that every run is compared at the same instants.
+RECORD_RATE = 25.0
+WALK_STEPS = 2  # the walking segment: two steps, about 4.4 s
+CONTROL_DT = 2e-3  # the walking controller's fixed rate in the benchmark [s]
+
+
+def run_scene(scene, h):
+    """(trajectory, wall time) of a scene."""
+    from ..simulate import Simulation
+
+    sim = Simulation(scene, humanoid=h)
+    start = time.perf_counter()
+    traj = sim.run(quiet=True)
+    return traj, time.perf_counter() - start
+
+
+def state_error(model, ref, qs, vs) -> float:
+    """The largest state difference from the reference over the records, on the manifold:
+    max(|pin.difference(q_ref, q)|, |v - v_ref|)."""
+    return max(
+        max(np.abs(pin.difference(model, a, b)).max() for a, b in zip(ref.q, qs, strict=True)),
+        float(np.abs(np.asarray(vs) - ref.v).max()),
+    )
