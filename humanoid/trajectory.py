@@ -6,8 +6,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-import zipfile
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -86,9 +84,12 @@ class Trajectory:
                 meta = json.loads(str(z["metadata"]))
         except FileNotFoundError:
             raise TrajectoryError(f"trajectory file not found: {path}") from None
-        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile,
-                zlib.error, RecursionError) as exc:  # fmt: skip
-            raise TrajectoryError(f"cannot read trajectory {path}: {exc}") from None
+        except Exception as exc:  # noqa: BLE001 - numpy's parser of a corrupt header raises
+            # anything (OSError, ValueError, zipfile.BadZipFile, zlib.error, SyntaxError,
+            # tokenize.TokenError...): every one means the file is not a run
+            raise TrajectoryError(
+                f"cannot read trajectory {path}: {type(exc).__name__}: {exc}"
+            ) from None
         t, q, v, tau, energy, residual = arrays
         _check_run(path, t, q, v, tau, energy, residual, forces, meta)
         return cls(t, q, v, tau, forces, energy, residual, meta)

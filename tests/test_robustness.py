@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import io
 import re
 import subprocess
 import sys
+import zipfile
 
 import numpy as np
 import pinocchio as pin
@@ -149,6 +151,13 @@ def test_corrupt_run_files_get_a_trajectory_error_naming_the_file(tmp_path):
         (tmp_path / name).write_bytes(content)
         with pytest.raises(hm.TrajectoryError, match=name):
             hm.Trajectory.load(tmp_path / name)
+    buf = io.BytesIO()
+    np.save(buf, np.zeros(3))
+    broken = buf.getvalue().replace(b"'shape': (", b"'shape': )h (")  # numpy: SyntaxError
+    with zipfile.ZipFile(tmp_path / "header.npz", "w") as zf:
+        zf.writestr("t.npy", broken)
+    with pytest.raises(hm.TrajectoryError, match="header.npz"):
+        hm.Trajectory.load(tmp_path / "header.npz")
     with pytest.raises(hm.TrajectoryError, match="not found"):
         hm.Trajectory.load(tmp_path / "missing.npz")
     good = hm.Trajectory.load(path)
