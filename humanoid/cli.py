@@ -239,12 +239,19 @@ def _walk(args) -> int:
     from .walking import GaitParameters, format_summary, plot_walk, walk
     from .walking.plan import MAX_STEPS
 
-    for option, value, hi in (("--speed", args.speed, 3.0), ("--step-length", args.step_length,
-                              1.0), ("--mu", args.mu, 10.0)):  # fmt: skip
-        low_ok = value is not None and (value >= 0 if option == "--mu" else value > 0)
-        if value is not None and not (math.isfinite(value) and low_ok and value <= hi):
-            bound = "[0" if option == "--mu" else "(0"
-            raise HumanoidError(f"{option} must be in {bound}, {hi:g}], got {value}")
+    ranges = {  # option: (value, whether 0 is allowed, upper bound)
+        "--speed": (args.speed, False, 3.0),
+        "--step-length": (args.step_length, False, 1.0),
+        "--mu": (args.mu, True, 10.0),
+    }
+    for option, (value, zero, hi) in ranges.items():
+        if value is None:
+            continue
+        above = value >= 0 if zero else value > 0
+        if not (math.isfinite(value) and above and value <= hi):
+            raise HumanoidError(
+                f"{option} must be in {'[' if zero else '('}0, {hi:g}], got {value}"
+            )
     if args.step_length is not None and args.speed is not None:
         raise HumanoidError("give --speed or --step-length, not both")
     if not 2 <= args.steps <= MAX_STEPS:

@@ -243,10 +243,10 @@ def example_robot_path(name: str) -> tuple[Path, Path]:
 def load_example(
     name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error"
 ) -> Humanoid:
-    """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) with :func:`load`."""
-    if name not in example_robot_names():
-        example_robot_path(name)  # raises, listing the valid names
-    return load(name, ball_joints=ball_joints, feet=feet, massless=massless)
+    """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) as :func:`load`
+    does (the robot's, even where a file of that name is in the working directory)."""
+    path, package_dir = example_robot_path(name)  # raises, listing the valid names
+    return _load(path, name, ball_joints, feet, [package_dir], massless)
 
 
 def load_recipe(recipe: dict) -> Humanoid:
@@ -305,11 +305,17 @@ def load(
             cannot be found, a joint moves no mass (``massless="error"``), or no feet can be
             identified.
     """
+    source, example, package_dirs = _named(source, package_dirs)
+    return _load(source, example, ball_joints, feet, package_dirs, massless)
+
+
+def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoid:
+    """:func:`load` of a path or URDF text; ``example``: the example-robot-data robot it is
+    (its recipe names it), or None."""
     if ball_joints not in BALL_MODES:
         raise ModelError(f"ball_joints must be one of {BALL_MODES}, got {ball_joints!r}")
     if massless not in MASSLESS_MODES:
         raise ModelError(f"massless must be one of {MASSLESS_MODES}, got {massless!r}")
-    source, example, package_dirs = _named(source, package_dirs)
     text, path = _read(source)
     dirs = _package_dirs(path, package_dirs)
     label = str(path) if path else "<string>"
