@@ -27,7 +27,7 @@ from .errors import (
 )
 from .model import Humanoid, example_robot_names, load, load_example
 from .scene import Scene
-from .simulate import Trajectory, simulate
+from .simulation import Trajectory, simulate
 
 __version__ = "0.1.0"
 

@@ -220,7 +220,7 @@ def _info(args) -> int:
 
 def _simulate(args) -> int:
     from .scene import Scene
-    from .simulate import simulate
+    from .simulation import simulate
 
     scene = Scene.load(args.scene)
     if args.duration is not None:
@@ -290,7 +290,7 @@ def _view(args) -> int:
     )
     traj = None
     if args.target.endswith(".npz"):
-        from .simulate import Trajectory
+        from .simulation import Trajectory
 
         traj = Trajectory.load(args.target)
         h = humanoid_for(traj)

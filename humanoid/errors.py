@@ -61,3 +61,8 @@ def finite_vector(x, n: int, what: str, size: str) -> np.ndarray:
             "not the state of a body"
         )
     return x
+
+
+class RunFailed(HumanoidError):
+    """A run's task failed: the body fell, or its controller found no solution. The run stops
+    and keeps what it computed (status ``failed``)."""

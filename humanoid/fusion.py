@@ -187,7 +187,7 @@ def _triplet_axes(model, j1, j2, j3) -> tuple[np.ndarray, np.ndarray]:
     return axes, G
 
 
-def _find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, int]]:
+def find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, int]]:
     children = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
@@ -219,7 +219,7 @@ def _find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, in
     return triplets
 
 
-def _ball_name(model, ids) -> str:
+def ball_name(model, ids) -> str:
     names = [model.names[j] for j in ids]
     prefix = names[0]
     for n in names[1:]:
@@ -242,7 +242,7 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
         ``(fusion, geometry_models)``: the :class:`Fusion` (with the new model and the state
         maps) and the geometry models re-attached to the fused model.
     """
-    triplets = _find_triplets(model, geometry_models)
+    triplets = find_triplets(model, geometry_models)
     first = {t[0]: t for t in triplets}
     inner = {j for t in triplets for j in t[1:]}
     new = pin.Model()
@@ -257,7 +257,7 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
         if j in first:
             j1, j2, j3 = first[j]
             P = model.jointPlacements[j1] * model.jointPlacements[j2] * model.jointPlacements[j3]
-            name = _ball_name(model, first[j])
+            name = ball_name(model, first[j])
             idx = [model.joints[k].idx_v for k in first[j]]
             jid = new.addJoint(
                 parent,

@@ -124,7 +124,7 @@ def _check_run(path, t, q, v, tau, energy, residual, forces, meta) -> None:
             bad(f"force {name!r} has shape {a.shape}")
 
 
-class _Progress:
+class Progress:
     """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
 
     def __init__(self, total: int, quiet: bool) -> None:
@@ -149,7 +149,7 @@ class _Progress:
             self.bar.close()
 
 
-class _Recorder:
+class Recorder:
     """Preallocated record arrays."""
 
     def __init__(self, n: int, model, contacts, ground: bool = False) -> None:
@@ -171,16 +171,15 @@ class _Recorder:
                 for name in ("heel_inner", "heel_outer", "toe_inner", "toe_outer"):
                     self.forces[f"{c.side}_{name}"] = np.full((n, 3), np.nan)
 
-    def add(self, sim, t, q, v) -> None:
-        """Record the state, the first-stage torques and forces of ``sim`` (a Simulation)."""
+    def add(self, sim, t, q, v, step) -> None:
+        """Record the state at t, and the torques and forces with which ``step`` (the
+        :class:`~humanoid.simulation.StepResult` of the step from it) started."""
         i = self.n
         if i >= len(self.t):
             return
         model, data = sim.model, sim.data
         self.t[i], self.q[i], self.v[i] = t, q, v
-        first = sim._first
-        if first is not None:
-            self.tau[i] = first[0]
+        self.tau[i] = step.torque
         self.energy[i] = pin.computeKineticEnergy(model, data, q, v) + pin.computePotentialEnergy(
             model, data, q
         )
@@ -189,8 +188,8 @@ class _Recorder:
             self.forces["ground"][i] = found.wrench / sim.scene.dt
         constraints = sim.active_constraints()
         if constraints:
-            sim._kinematics(q, v)
-            sol = first[1] if first is not None else None
+            sim.kinematics(q, v)
+            sol = step.solution
             if sol is not None:
                 split = sol.split(constraints)
                 for c in sim.contacts:

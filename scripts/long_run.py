@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from humanoid.scene import Scene
-from humanoid.simulate import Simulation
+from humanoid.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,18 +34,18 @@ def main() -> None:
     )
     sim = Simulation(scene)
     lap_times = []
-    original = sim.update_contacts
+    original = sim.schedule
     state = {"last": time.perf_counter(), "next": 60.0}
 
-    def timed(t, q, v):  # wall time of every simulated minute
+    def timed(sim, k, t, q, v, last):  # wall time of every simulated minute
         if t >= state["next"] - 1e-9:
             now = time.perf_counter()
             lap_times.append(now - state["last"])
             print(f"minute {len(lap_times):3d}: {lap_times[-1]:7.2f} s wall", flush=True)
             state["last"], state["next"] = now, state["next"] + 60.0
-        return original(t, q, v)
+        return original(sim, k, t, q, v, last)
 
-    sim.update_contacts = timed
+    sim.schedule = timed
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     traj = sim.run()
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # peak, before saving

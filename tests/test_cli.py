@@ -129,7 +129,7 @@ def test_simulate_command_writes_the_run_and_a_summary(tmp_path, capsys):
     text = capsys.readouterr().out
     for word in ("simulated", "wall time", "real-time factor", "residual", "energy"):
         assert word in text
-    from humanoid.simulate import Trajectory
+    from humanoid.simulation import Trajectory
 
     traj = Trajectory.load(out)
     assert traj.t[-1] == pytest.approx(0.05) and traj.status == "completed"

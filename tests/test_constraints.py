@@ -342,7 +342,7 @@ def test_projection_leaves_the_velocity_on_the_constraint_manifold():
     from conftest import BODIES
 
     from humanoid.scene import Contact, Effects, Scene
-    from humanoid.simulate import Simulation
+    from humanoid.simulation import Simulation
 
     scene = Scene(body=str(BODIES / "adult_male.urdf"),
                   effects=Effects(contacts=(Contact("left"), Contact("right"))))  # fmt: skip

@@ -213,7 +213,7 @@ def test_ground_impulses_change_momentum_by_exactly_their_sum(name):
     and range impulses change the linear momentum by the sum of the ground impulses and the
     angular momentum about the CoM by the sum of their moments at the body's contact points
     (1e-9 relative); joint-range impulses add nothing (they are internal)."""
-    from humanoid.simulate import Simulation
+    from humanoid.simulation import Simulation
 
     scene = Scene.load(SCENES / f"{name}.toml")
     sim = Simulation(scene)

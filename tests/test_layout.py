@@ -29,7 +29,7 @@ def _imports() -> dict[str, set[str]]:
 
 def test_no_import_cycles():
     graph = _imports()
-    assert "humanoid.scene" in graph["humanoid.simulate"]  # the walk sees the imports
+    assert "humanoid.scene" in graph["humanoid.simulation"]  # the walk sees the imports
 
     def reaches(start, goal, seen):
         for n in graph[start]:
@@ -46,3 +46,64 @@ def test_the_core_does_not_import_the_benchmarks():
     core = [m for m in graph if not m.startswith("humanoid.bench") and m != "humanoid.cli"]
     for m in core:
         assert not any(n.startswith("humanoid.bench") for n in graph[m]), m
+
+
+def _modules() -> dict[str, Path]:
+    return {
+        ".".join(p.relative_to(PACKAGE.parent).with_suffix("").parts): p
+        for p in PACKAGE.rglob("*.py")
+    }
+
+
+def _defined_private(tree) -> set[str]:
+    """The private names a module defines: functions, classes, assignments, attributes."""
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            names.add(node.name)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
+                names.add(node.attr)
+        elif isinstance(node, ast.arg):
+            names.add(node.arg)
+    return {n for n in names if n.startswith("_") and not n.startswith("__")}
+
+
+STDLIB_PRIVATE = {"_exit"}  # os._exit: the documented way to end a child process at once
+
+
+def test_no_private_name_is_used_outside_its_module():
+    """``from x import _y`` and ``obj._y`` where this module does not define ``_y`` are
+    uses of another module's private name (tests may; the package may not)."""
+    found = []
+    for name, path in sorted(_modules().items()):
+        tree = ast.parse(path.read_text())
+        own = _defined_private(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                found += [f"{name}: imports {a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]  # fmt: skip
+            elif isinstance(node, ast.Attribute):
+                attr = node.attr
+                private = attr.startswith("_") and not attr.startswith("__")
+                if private and attr not in own and attr not in STDLIB_PRIVATE:
+                    found.append(f"{name}: uses .{attr}")
+    assert not found, "\n".join(found)
+
+
+def test_no_module_is_shadowed_by_a_function():
+    """``humanoid.x`` names one thing: a module's name is not also a function of its package."""
+    import importlib
+
+    mods = _modules()
+    clashes = []
+    for name in sorted(mods):
+        parent, _, leaf = name.rpartition(".")
+        if not parent or leaf == "__init__":
+            continue
+        obj = getattr(importlib.import_module(parent), leaf, None)
+        if obj is not None and not isinstance(obj, type(importlib)):
+            clashes.append(f"{parent}.{leaf} is a {type(obj).__name__}, not the module")
+    assert not clashes, "\n".join(clashes)

@@ -19,7 +19,7 @@ from humanoid.scene import (
     Scene,
     Stabilisation,
 )
-from humanoid.simulate import Simulation, Trajectory, _Recorder, simulate
+from humanoid.simulation import Recorder, Simulation, Trajectory, simulate
 
 MALE = str(BODIES / "adult_male.urdf")
 SPIN = (0.0, 0.0, 0.0, 0.3, 2.0, 0.5)
@@ -112,7 +112,6 @@ def test_switched_off_effect_equals_zeroed_effect():
         JointDamping(full.model, 0.0),
         Push(full.model.getFrameId("thorax"), (0.0, 0.0, 0.0), 0.0, 1.0),
     ]
-    full._forced = True
     fat = full.run(quiet=True)
     assert np.array_equal(lean.q, fat.q)
     assert np.array_equal(lean.forces["left"], fat.forces["left"])
@@ -168,7 +167,8 @@ def test_coordinate_formulation_drifts_without_stabilisation_and_not_with_it():
         sim = Simulation(scene.replace(stabilisation=stab))
         x, xd = sim.cmap.from_tangent(sim.q0, sim.v0)
         for k in range(100):
-            x, xd = sim.step(k * scene.dt, x, xd, scene.dt)
+            step = sim.step(k * scene.dt, x, xd, scene.dt)
+            x, xd = step.q, step.v
             if stab.projection:
                 q = sim.cmap.configuration(x)
                 x, xd = sim.cmap.from_tangent(q, sim.cmap.H(x) @ xd)
@@ -201,7 +201,7 @@ def test_ten_minutes_at_1khz_fit_in_100_mb():
     """Records are preallocated from the duration: 10 min at 1 kHz, recorded at 100 Hz."""
     sim = Simulation(_scene(effects=Effects(contacts=(Contact("left"), Contact("right")))))
     n = int(600 / 1e-3) // int(1 / (100 * 1e-3)) + 1
-    rec = _Recorder(n, sim.model, sim.contacts)
+    rec = Recorder(n, sim.model, sim.contacts)
     total = sum(a.nbytes for a in (rec.t, rec.q, rec.v, rec.tau, rec.energy, rec.residual))
     total += sum(a.nbytes for a in rec.forces.values())
     assert total < 100e6, f"{total / 1e6:.1f} MB"
@@ -264,7 +264,6 @@ def test_switch_contacts_follows_a_schedule():
     with the impulse that makes its velocity consistent with the weld (J v = 0)."""
     sim = Simulation(_scene(effects=Effects(contacts=(Contact("left"), Contact("right")))))
     q, v = sim.q0.copy(), np.zeros(sim.model.nv)
-    sim._first = None
     v = sim.update_contacts(0.0, q, v)
     assert all(c.attached for c in sim.contacts)
     assert sim.switch_contacts(0.1, q, v, {"left"}) is v  # nothing landed: no impulse
@@ -275,7 +274,7 @@ def test_switch_contacts_follows_a_schedule():
     v = np.random.default_rng(3).normal(size=sim.model.nv)  # the body moving anyhow
     v_new = sim.switch_contacts(0.2, q, v, {"left", "right"})
     assert right.attached and sim.events[-1]["event"] == "attach"
-    sim._kinematics(q, v_new)
+    sim.kinematics(q, v_new)
     J = np.vstack([c.jacobian(sim.model, sim.data) for c in sim.active_constraints()])
     assert np.abs(J @ v_new).max() < 1e-9 * np.abs(v).max()
     assert np.abs(v_new - v).max() > 0.1  # the impulse did change the velocity
@@ -323,13 +322,13 @@ def test_standing_scene_holds_and_forces_carry_the_weight():
 
 
 def test_progress_bar_is_quiet_off_a_terminal_or_when_asked(monkeypatch):
-    from humanoid.simulate import _Progress
+    from humanoid.simulation import Progress
 
-    assert not _Progress(100, quiet=True).enabled
+    assert not Progress(100, quiet=True).enabled
     monkeypatch.setattr("sys.stderr.isatty", lambda: False)
-    assert not _Progress(100, quiet=False).enabled
+    assert not Progress(100, quiet=False).enabled
     monkeypatch.setattr("sys.stderr.isatty", lambda: True)
-    bar = _Progress(100, quiet=False)
+    bar = Progress(100, quiet=False)
     assert bar.enabled
     bar.update(64)  # before 2 s of wall time: no bar yet
     assert bar.bar is None

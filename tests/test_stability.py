@@ -13,7 +13,7 @@ import humanoid as hm
 from humanoid.errors import ConfigurationError, SceneError
 from humanoid.integrators import LieGroupSpace, explicit_euler, rk4, semi_implicit_euler
 from humanoid.scene import Contact, Controller, Effects, Initial, Scene, Stabilisation
-from humanoid.simulate import Simulation, simulate
+from humanoid.simulation import Simulation, simulate
 
 MALE = str(BODIES / "adult_male.urdf")
 

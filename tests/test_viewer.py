@@ -196,7 +196,7 @@ def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
     """push.toml's 80 N at the thorax: the arrow's tip is on the thorax frame, it points along
     the force, its length is the force scale, and it is hidden before and after the push; the
     animation keys its visibility on and off at the push's window."""
-    from humanoid.simulate import simulate
+    from humanoid.simulation import simulate
 
     scene = Scene.load(SCENES / "push.toml").replace(duration=1.0)
     traj = simulate(scene, quiet=True)
@@ -231,7 +231,7 @@ def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
 def test_the_ground_force_is_an_arrow_at_its_centre_of_pressure():
     """Lying on the floor at the end of the drop: one arrow, the floor's total force, at the
     centre of pressure of the contact points (inside their span), carrying the weight."""
-    from humanoid.simulate import Simulation
+    from humanoid.simulation import Simulation
 
     scene = Scene.load(SCENES / "drop.toml").replace(duration=0.05, record_rate=1000.0)
     scene = scene.replace(initial=type(scene.initial)(lift=0.0))  # standing on the floor

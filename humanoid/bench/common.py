@@ -20,7 +20,7 @@ CONTROL_DT = 2e-3  # the walking controller's fixed rate in the benchmark [s]
 
 def run_scene(scene, h):
     """(trajectory, wall time) of a scene."""
-    from ..simulate import Simulation
+    from ..simulation import Simulation
 
     sim = Simulation(scene, humanoid=h)
     start = time.perf_counter()

@@ -183,7 +183,7 @@ def _mujoco_welded(h, scene, integrator, weld):
     import mujoco
 
     from ..export import StateMap
-    from ..simulate import Simulation
+    from ..simulation import Simulation
 
     ours = Simulation(scene, humanoid=h)  # the initial state, controller and pushes
     efforts = [e for e in ours.effects if not e.external]
@@ -265,7 +265,7 @@ def push_momentum(h, frame: str = "thorax", force=PUSH, duration: float = 0.3,
     from ..effects import Push
     from ..export import StateMap
     from ..scene import Effects, Initial, PushSpec, Scene
-    from ..simulate import simulate
+    from ..simulation import simulate
 
     T = duration + 0.1
     q0, v0 = _free_state(h, "tumble")
@@ -353,7 +353,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             if k % every == 0:
                 qs.append(q)
                 vs.append(v)
-            sim._kinematics(q, v)
+            sim.kinematics(q, v)
             for w in welds.values():
                 drift = max(drift, float(np.linalg.norm(w.residual(model, sim.data)[:3])))
             tau = ctl.update(t, q, v, welds)
@@ -442,7 +442,7 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     """
     from ..model import load
     from ..scene import Scene
-    from ..simulate import Simulation
+    from ..simulation import Simulation
 
     scene = Scene.load(name)
     if duration is not None:

@@ -52,7 +52,7 @@ def _pinocchio_step(sim, q, v, dt):
             pin.integrate(model, q, (v + dt * a) * dt)
 
         return step
-    from ..simulate import proximal_settings, rigid_constraints
+    from ..simulation import proximal_settings, rigid_constraints
 
     cms, cds, data = rigid_constraints(model, constraints)
     prox = proximal_settings(sum(cm.residualSize() for cm in cms) > 6 * len(sim.contacts))
@@ -67,7 +67,7 @@ def _pinocchio_step(sim, q, v, dt):
 def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time one step per shipped scene; print a table and write ``step.csv``."""
     from ..scene import Effects, Scene, Stabilisation
-    from ..simulate import Simulation
+    from ..simulation import Simulation
 
     n, rounds = (200, 3) if quick else (1000, 7)
     rows, ground = [], []
@@ -87,7 +87,6 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
         for label, sc in (("as shipped", scene), ("dynamics", bare), ("pin backend", pin_backend)):
             sim = Simulation(sc)
             q, v = sim.q0.copy(), sim.v0.copy()
-            sim._first = None
             sim.update_contacts(0.0, q, v)
             variants[label] = (sim, q, v)
         sim0, q0, v0 = variants["dynamics"]
@@ -136,7 +135,7 @@ def _ground_steps(paths, duration: float, folder: Path) -> None:
     Scenes with a controller have no MuJoCo column (the controller is ours)."""
     from ..model import load
     from ..scene import Scene
-    from ..simulate import Simulation
+    from ..simulation import Simulation
     from .common import MALE
     from .peers import mujoco_fall
 

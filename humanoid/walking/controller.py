@@ -88,9 +88,21 @@ class WalkingController(Effect):
         self.failures = 0
         self.ranges = JointRanges(h)
         self.period = period  # [s] the control period (torques are held over it)
+        self.every = 1  # the QP is solved every this many simulation steps
+        self.fresh = False  # whether the QP was solved at this tick's state
+        self._solved_for = None  # the stance set of the last solve
 
     def force(self, model, data, t, q, v):
         return self.tau
+
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        """The run loop's hook: a new QP at every control tick, and whenever a foot lands or
+        lifts off, with the plant's stance welds."""
+        welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
+        self.fresh = k % self.every == 0 or set(welds) != self._solved_for
+        if self.fresh:
+            self.update(t, q, v, welds)
+            self._solved_for = set(welds)
 
     # -- references ----------------------------------------------------------------------
     def com_reference(self, t):

@@ -1,32 +1,43 @@
 """A walk as a simulation: the plan and controller drive the project's constrained dynamics.
 
-Per tick: the plan says which feet are on the ground (``Simulation.switch_contacts``); a foot
-that leaves it is released (the controller has moved its load away during double support), a
-foot that lands is welded where it is with the impulse that stops it; the controller solves its
-QP and holds its joint torques; the simulator integrates (semi-implicit Euler, 1 ms). After
-every step the checks of the acceptance criteria run on the simulated state and forces, and are
-kept as time series.
+The walk is three plug-ins of the one run loop (:meth:`humanoid.simulation.Simulation.run`):
+
+- :class:`FootstepSchedule`, the contact schedule: the plan says which feet are on the ground
+  (``Simulation.switch_contacts``); a foot that leaves it is released (the controller has moved
+  its load away during double support), a foot that lands is welded where it is with the
+  impulse that stops it;
+- the :class:`~humanoid.walking.controller.WalkingController`, which solves its QP at every
+  control tick and holds its joint torques;
+- :class:`WalkMonitor`, which after every step computes the acceptance checks on the simulated
+  state and forces, keeps them as time series, and stops the run at a fall.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
-from ..errors import DivergenceError, HumanoidError
+from ..errors import HumanoidError, RunFailed
 from ..model import Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
-from ..simulate import Simulation, Trajectory, _guard, _Progress, _Recorder
+from ..simulation import Simulation, StepResult, Trajectory
 from .controller import ControllerGains, WalkingController
 from .plan import FootstepPlan, GaitParameters
 from .preview import com_trajectory
 
-__all__ = ["WalkResult", "WalkSetup", "crouch", "prepare", "walk"]
+__all__ = [
+    "FootstepSchedule",
+    "WalkMonitor",
+    "WalkResult",
+    "WalkSetup",
+    "crouch",
+    "prepare",
+    "walk",
+]
 
 SIDES = ("left", "right")
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
@@ -152,8 +163,7 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
         gains or ControllerGains(mu=min(0.6, 0.75 * mu)), period=dt,
     )  # fmt: skip
     sim.controller = ctl
-    sim._forced = True
-    sim._first = None
+    sim.schedule = FootstepSchedule(plan, int(round(plan.duration / dt)))
     v0 = sim.update_contacts(0.0, q0, np.zeros(model.nv))  # both feet welded where they stand
     return WalkSetup(plan, q0, v0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
 
@@ -192,110 +202,105 @@ def walk(
     """
     gait = gait or GaitParameters()
     setup = prepare(h, gait, dt, mu, drop, gains, integrator, record_rate, rtol, atol)
-    model, plan, sim, ctl, scene = h.model, setup.plan, setup.sim, setup.ctl, setup.scene
-    q0, soles, t_ref, c_ref, zmp_ref = setup.q0, setup.soles, setup.t_ref, setup.c_ref, setup.zmp
-    n_steps = int(round(plan.duration / dt))
-    control_every = max(1, int(round((control_dt or dt) / dt)))
-    ctl.period = control_every * dt
-    every = max(1, int(round(1.0 / (record_rate * dt))))
-    rec = _Recorder(n_steps // every + 1, sim.model, sim.contacts)
-    series = {k: np.full(n_steps, np.nan) for k in (
-        "t", "pelvis_z", "tilt", "consistency", "drift", "fz_left", "fz_right", "friction",
-        "cop_margin", "com_x", "com_y", "com_z", "com_ref_x", "com_ref_y", "zmp_x", "zmp_y",
-        "tau_base", "impulse", "range",
-    )}  # fmt: skip
-    ranges = JointRanges(h)
-    weight = h.mass * 9.81
-    q, v = q0.copy(), setup.v0
-    pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
-    z_start = q[2]
-    status, message = "completed", ""
-    solved_for = None
-    progress = _Progress(n_steps, quiet)
-    start = time.perf_counter()
-    k = 0
-    try:
-        for k in range(n_steps):
-            t = k * dt
-            v_new = sim.switch_contacts(t, q, v, plan.stance(t))  # lift-off and touchdown
-            if v_new is not v:
-                series["impulse"][k] = float(np.abs(v_new - v).max())
-            v = v_new
-            welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
-            # a new QP at every control tick, and whenever a foot lands or lifts off
-            control_tick = k % control_every == 0 or set(welds) != solved_for
-            if control_tick:
-                ctl.update(t, q, v, welds)
-                solved_for = set(welds)
-            q_new, v_new = sim.step(t, q, v, dt)
-            if k % every == 0:
-                rec.add(sim, t, q, v)
-            _check(
-                sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref, control_tick
-            )
-            series["range"][k] = math.degrees(ranges.violation(q))
-            _guard(t + dt, q_new, v_new)
-            q, v = q_new, v_new
-            if q[2] < 0.8 * z_start or series["tilt"][k] > 30.0:
-                raise DivergenceError(
-                    f"fall at t = {t:.3f} s: pelvis {q[2]:.3f} m (start {z_start:.3f} m), "
-                    f"trunk tilt {series['tilt'][k]:.1f} deg"
-                )
-            progress.update(k + 1)
-    except KeyboardInterrupt:
-        status, message = "interrupted", f"interrupted by the user at t = {k * dt:.3f} s"
-    except (DivergenceError, HumanoidError) as exc:
-        status, message = "failed", str(exc)
-    finally:
-        progress.close()
-    wall = time.perf_counter() - start
-    n = k + 1 if status == "completed" else k
-    for key in series:
-        series[key] = series[key][:n]
-    meta = {
-        "status": status, "message": message, "model": h.source, "body": h.recipe,
-        "ball_joints": h.ball_joints,
-        "nq": model.nq, "nv": model.nv, "joint_names": list(model.names), "feet": list(h.feet),
-        "dt": dt, "record_rate": record_rate, "scene": scene.to_dict(), "events": sim.events,
-        "violations": sim.violations, "counters": sim.counters, "steps": n, "wall_time": wall,
-        "max_residual": float(np.nanmax(series["drift"], initial=0.0)),
-        "max_velocity_residual": rec.velocity_residual,
+    plan, sim, ctl, soles = setup.plan, setup.sim, setup.ctl, setup.soles
+    ctl.every = max(1, int(round((control_dt or dt) / dt)))
+    ctl.period = ctl.every * dt
+    monitor = WalkMonitor(h, sim.scene, ctl)
+    sim.monitors.append(monitor)
+    traj = sim.run(quiet=quiet)
+    meta = traj.metadata
+    status, message, n = meta["status"], meta["message"], meta["steps"]
+    series = monitor.series_until(n)
+    series["impulse"] = sim.schedule.impulse[:n]
+    weight = monitor.weight
+    meta.update({
         "gait": {f: getattr(gait, f) for f in gait.__dataclass_fields__},
         "footsteps": [[s.side, *s.target.tolist(), s.t_lift, s.t_land] for s in plan.steps],
         "initial_soles": {s: soles[s].tolist() for s in SIDES},
         "weight": weight,
         "sole_size": [float(x) for x in sim.contacts[0].cop_box[1] - sim.contacts[0].cop_box[0]],
-    }  # fmt: skip
-    if sim.adaptive is not None:
-        meta["adaptive"] = vars(sim.adaptive.stats)
-    traj = rec.trajectory(meta)
+    })  # fmt: skip
     checks = _acceptance(series, plan, status, message, weight, mu)
-    summary = _summary(series, plan, gait, weight, status, wall, n * dt)
-    series["zmp_ref"] = zmp_ref
-    series["t_ref"] = t_ref
-    series["com_ref"] = c_ref
+    summary = _summary(series, plan, gait, weight, status, meta["wall_time"], n * dt)
+    series["zmp_ref"] = setup.zmp
+    series["t_ref"] = setup.t_ref
+    series["com_ref"] = setup.c_ref
     return WalkResult(traj, checks, summary, series)
 
 
-def _check(sim, ctl, h, t, q, v, series, k, weight, pelvis_frame, c_ref, t_ref, control_tick=True):
+class FootstepSchedule:
+    """The walk's contact schedule: the feet on the ground are those the plan says; the
+    largest velocity change of each touchdown's impulse is kept by tick (``impulse``)."""
+
+    def __init__(self, plan: FootstepPlan, n_steps: int) -> None:
+        self.plan = plan
+        self.impulse = np.full(n_steps, np.nan)
+
+    def __call__(self, sim: Simulation, k: int, t: float, q, v, last) -> np.ndarray:
+        v_new = sim.switch_contacts(t, q, v, self.plan.stance(t))  # lift-off and touchdown
+        if v_new is not v and k < len(self.impulse):
+            self.impulse[k] = float(np.abs(v_new - v).max())
+        return v_new
+
+
+SERIES = (
+    "t", "pelvis_z", "tilt", "consistency", "drift", "fz_left", "fz_right", "friction",
+    "cop_margin", "com_x", "com_y", "com_z", "com_ref_x", "com_ref_y", "zmp_x", "zmp_y",
+    "tau_base", "range",
+)  # fmt: skip
+
+
+class WalkMonitor:
+    """The walk's checks at every tick, from the plant's own solve, kept as time series; a
+    fall (pelvis below 80 % of its start height, or the trunk tilted over 30 degrees) stops
+    the run."""
+
+    def __init__(self, h: Humanoid, scene: Scene, ctl: WalkingController) -> None:
+        n = max(1, int(round(scene.duration / scene.dt)))
+        self.series = {k: np.full(n, np.nan) for k in SERIES}
+        self.h, self.ctl = h, ctl
+        self.ranges = JointRanges(h)
+        self.weight = h.mass * 9.81
+        model = h.model
+        self.pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+        self.z_start = None
+
+    def series_until(self, n: int) -> dict:
+        return {k: a[:n] for k, a in self.series.items()}
+
+    def observe(self, sim: Simulation, k: int, t: float, q, v, step: StepResult) -> None:
+        s = self.series
+        if self.z_start is None:
+            self.z_start = q[2]
+        _check(sim, self.ctl, t, q, v, s, k, self.weight, step)
+        s["range"][k] = math.degrees(self.ranges.violation(q))
+        z = step.q[2]
+        if z < 0.8 * self.z_start or s["tilt"][k] > 30.0:
+            raise RunFailed(
+                f"fall at t = {t:.3f} s: pelvis {z:.3f} m (start {self.z_start:.3f} m), "
+                f"trunk tilt {s['tilt'][k]:.1f} deg"
+            )
+
+
+def _check(sim, ctl, t, q, v, series, k, weight, step):
     """The acceptance quantities at this tick (from the plant's own solve)."""
     model, data = sim.model, sim.data
     series["t"][k] = t
     series["pelvis_z"][k] = q[2]
     R = pin.Quaternion(q[3:7]).toRotationMatrix()
     series["tilt"][k] = math.degrees(math.acos(np.clip(R[2, 2], -1.0, 1.0)))
-    series["tau_base"][k] = np.abs(sim._first[0][:6]).max()
+    series["tau_base"][k] = np.abs(step.torque[:6]).max()
     c = pin.centerOfMass(model, data, q)
     series["com_x"][k], series["com_y"][k], series["com_z"][k] = c
     cr = ctl.com_reference(t)[0]
     series["com_ref_x"][k], series["com_ref_y"][k] = cr[0], cr[1]
-    sol = sim._first[1]
+    sol = step.solution
     if sol is None or not sim.active_constraints():
         return
-    if control_tick:  # the QP was solved at this very state
+    if ctl.fresh:  # the QP was solved at this very state
         dv = ctl.last[0]
         series["consistency"][k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
-    sim._kinematics(q, v)
+    sim.kinematics(q, v)
     split = sol.split(sim.active_constraints())
     fz_total, moment_x, moment_y = 0.0, 0.0, 0.0
     worst_friction, worst_margin, drift = 0.0, np.inf, 0.0

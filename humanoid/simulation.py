@@ -1,4 +1,10 @@
-"""The run loop: a :class:`Scene` in, a :class:`Trajectory` out.
+"""The run loop: a :class:`Scene` in, a :class:`Trajectory` out. Every simulation, the walk
+included, is stepped by :meth:`Simulation.run`.
+
+What a run does is plugged into the one loop: effects (pushes, damping, springs) and a
+controller (the posture hold, the walking controller) give torques; a contact schedule says when
+contacts attach and release (the scene's windows and touchdowns by default; a footstep plan for
+the walk); monitors observe every step (the walk's checks) and may stop the run.
 
 One step: effects -> tau; bias b(q, v) as far as the scene needs it (no gravity term without
 gravity, nothing velocity-dependent without Coriolis terms); plain ABA when no contact is
@@ -13,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -31,13 +38,13 @@ from .effects import (
     Push,
     joint_mask,
 )
-from .errors import DivergenceError, SceneError
+from .errors import DivergenceError, HumanoidError, SceneError
 from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
 from .model import Humanoid
 from .scene import Contact, Scene, load_body
-from .trajectory import Trajectory, _Progress, _Recorder
+from .trajectory import Progress, Recorder, Trajectory
 
-__all__ = ["ContactState", "Simulation", "Trajectory", "simulate"]
+__all__ = ["ContactState", "Simulation", "StepResult", "Trajectory", "simulate"]
 
 
 MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
@@ -45,8 +52,34 @@ GIMBAL_TOLERANCE = 1e-3  # |cos(middle angle)| below this: a hinge triplet is at
 GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
 
 
+@dataclass(frozen=True)
+class StepResult:
+    """One step of :meth:`Simulation.step`.
+
+    Attributes:
+        t: Time at the end of the step [s].
+        q, v: The state at the end of the step ((x, x') in the coordinate formulation).
+        torque: The joint torques at the start of the step (what the records call tau).
+        solution: The constrained solve at the start of the step (its accelerations and
+            contact forces), or None when no contact was attached.
+    """
+
+    t: float
+    q: np.ndarray
+    v: np.ndarray
+    torque: np.ndarray
+    solution: object | None
+
+
 class Simulation:
-    """A scene made ready to run: model, effects, contacts, integrator."""
+    """A scene made ready to run: model, effects, contacts, integrator.
+
+    Plug-ins (see the module docstring): ``controller`` (an Effect with an optional
+    ``before_step``), ``schedule`` (a callable ``(sim, k, t, q, v, last_step) -> v``, the
+    scene's contact windows and touchdowns by default) and ``monitors`` (objects with
+    ``observe(sim, k, t, q, v, step)``, called after every step; raising
+    :class:`~humanoid.errors.RunFailed` stops the run as failed).
+    """
 
     def __init__(self, scene: Scene, humanoid: Humanoid | None = None) -> None:
         self.scene = scene
@@ -80,6 +113,8 @@ class Simulation:
         if e.ground is not None:
             self.ground = self._ground_solver(e)
         self.controller = None
+        self.schedule = scene_schedule
+        self.monitors: list = []
         if scene.controller.kind == "posture":
             ctl = scene.controller
             J = self._initial_contact_jacobian(q0)
@@ -108,12 +143,16 @@ class Simulation:
         self._tick = 0.0
         self._zero = np.zeros(self.model.nv)
         self._zero.flags.writeable = False
-        self._forced = bool(self.effects) or self.controller is not None
         self.joint_torque = self._zero
         self._pin_backend = None
         self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
         self.gimbal = _gimbal_monitor(h)
         self._locked: set[str] = set()
+
+    @property
+    def _forced(self) -> bool:
+        """Whether anything applies a force (else the torques are the shared zero vector)."""
+        return bool(self.effects) or self.controller is not None
 
     def _ground_solver(self, e) -> ContactSolver:
         """The ground contact of the bodies the scene names, and the joint ranges as
@@ -165,7 +204,7 @@ class Simulation:
         """Jacobian at q0 of the contacts that attach at t = 0 (scheduled, on the ground).
         On the ground contact (no scheduled contacts), the feet standing on the floor count
         as welded."""
-        self._kinematics(q0)
+        self.kinematics(q0)
         contacts = self.contacts
         if not contacts and self.ground is not None:
             contacts = [ContactState(self.h, Contact(side)) for side in ("left", "right")]
@@ -304,7 +343,7 @@ class Simulation:
         return sol[: cm.nq]
 
     # -- one step ------------------------------------------------------------------------
-    def step(self, t: float, q, v, dt: float):
+    def step(self, t: float, q, v, dt: float) -> StepResult:
         """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
         self._first = None
         self._frozen = False
@@ -312,10 +351,23 @@ class Simulation:
         if self.ground is not None:
             q_new, v_new = self.ground_step_advance(t, q, v, dt)
             self._first = self.last
-            return q_new, v_new
-        if self.adaptive is not None:
-            return self.adaptive.advance(self.space, self._capture, t, q, v, t + dt)
-        return self.step_fn(self.space, self._capture, t, q, v, dt)
+        elif self.adaptive is not None:
+            q_new, v_new = self.adaptive.advance(self.space, self._capture, t, q, v, t + dt)
+        else:
+            q_new, v_new = self.step_fn(self.space, self._capture, t, q, v, dt)
+        return self._result(t + dt, q_new, v_new)
+
+    def evaluate(self, t: float, q, v) -> StepResult:
+        """The torques and the constrained solve at (t, q, v) without advancing: what a step
+        from here would start with (the last record of a run)."""
+        self._tick = t
+        self._dynamics(t, q, v)
+        self._first = self.last
+        return self._result(t, q, v)
+
+    def _result(self, t, q, v) -> StepResult:
+        torque, solution = self._first if self._first is not None else (self._zero, None)
+        return StepResult(t, q, v, torque, solution)
 
     def _capture(self, t, q, v):
         """The dynamics, keeping the first evaluation of a step (the state at its start)."""
@@ -330,7 +382,8 @@ class Simulation:
         return a
 
     # -- contacts ------------------------------------------------------------------------
-    def _kinematics(self, q, v=None):
+    def kinematics(self, q, v=None) -> None:
+        """Placements, velocities, Jacobians of ``self.data`` at (q, v) (v = 0 if not given)."""
         v = np.zeros(self.model.nv) if v is None else v
         update_kinematics(self.model, self.data, q, v)
 
@@ -340,7 +393,7 @@ class Simulation:
         The impulse dv = M^-1 J^T Lambda makes J v+ = 0 for every active constraint (an
         inelastic impact), so the velocity is consistent with the new constraint set.
         """
-        self._kinematics(q, v)
+        self.kinematics(q, v)
         for contact in contacts:
             speed = max(0.0, -min(
                 pin.getFrameVelocity(self.model, self.data, p, pin.LOCAL_WORLD_ALIGNED).linear[2]
@@ -377,14 +430,14 @@ class Simulation:
         if not constraints:
             return q, v
         for _ in range(3):
-            self._kinematics(q, v)
+            self.kinematics(q, v)
             e = np.concatenate([c.residual(self.model, self.data) for c in constraints])
             if np.abs(e).max() < 1e-12:
                 break
             Je = np.vstack([c.residual_jacobian(self.model, self.data) for c in constraints])
             Minv = pin.computeMinverse(self.model, self.data, q)
             q = pin.integrate(self.model, q, solve_kkt(Minv, np.zeros(self.model.nv), Je, -e).a)
-        self._kinematics(q, v)
+        self.kinematics(q, v)
         J, _ = stack(self.model, self.data, constraints, v, Baumgarte())
         Minv = pin.computeMinverse(self.model, self.data, q)
         return q, v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
@@ -404,11 +457,12 @@ class Simulation:
             elif not locked:
                 self._locked.discard(name)
 
-    def update_contacts(self, t: float, q, v):
-        """Store and check the last forces; release, attach on schedule or at touchdown."""
-        sol = self._first[1] if self._first is not None else None
+    def update_contacts(self, t: float, q, v, last: StepResult | None = None):
+        """The scene's contact schedule: store and check the forces of the ``last`` step;
+        release, attach on schedule or at touchdown. Returns v (after any impulse)."""
+        sol = last.solution if last is not None else None
         if sol is not None and self.active_constraints():
-            self._kinematics(q, v)
+            self.kinematics(q, v)
             split = sol.split(self.active_constraints())
             for c in self.contacts:
                 if c.attached:
@@ -429,7 +483,7 @@ class Simulation:
         landing = {"scheduled": [], "touchdown": []}
         for c in self.contacts:
             if not c.attached and c.spec.start <= t < c.spec.end:
-                self._kinematics(q, v)
+                self.kinematics(q, v)
                 height = c.lowest(self.data)
                 if not c.ever_attached and height <= GROUND_TOLERANCE:
                     landing[
@@ -444,30 +498,41 @@ class Simulation:
 
     # -- the loop ------------------------------------------------------------------------
     def run(self, quiet: bool = False) -> Trajectory:
-        """Simulate the scene; stops early (keeping what was computed) on Ctrl-C or divergence."""
+        """Simulate the scene: every tick, the contact schedule, the controller's update, one
+        step, the record, the monitors, the divergence guard, the optional projection.
+
+        Stops early, keeping what was computed, on Ctrl-C (status ``interrupted``), on
+        divergence (``diverged``: non-finite or exploding state, an adaptive step that will
+        not converge) and on any other :class:`~humanoid.errors.HumanoidError` raised inside
+        the loop (``failed``: a fall seen by a monitor, a controller without a solution).
+        """
         scene, model = self.scene, self.model
         dt = scene.dt
         n_steps = max(1, int(round(scene.duration / dt)))
         every = max(1, int(round(1.0 / (scene.record_rate * dt))))
-        rec = _Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None)
+        rec = Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None)
         t, q, v = 0.0, self.q0.copy(), self.v0.copy()
-        self._first = None
-        v = self.update_contacts(t, q, v)
         x, xd = self.cmap.from_tangent(q, v) if self.coordinates else (q, v)
         status, message = "completed", ""
         start = time.perf_counter()
-        progress = _Progress(n_steps, quiet)
-        worst_residual = 0.0
+        progress = Progress(n_steps, quiet)
         norm_drift = 0.0  # largest | |Q|^2 - 1 | of the coordinate formulation's raw state
+        before_step = getattr(self.controller, "before_step", None)
+        last = None
         k = 0
         try:
             for k in range(n_steps):
-                x_new, xd_new = self.step(t, x, xd, dt)
+                t = k * dt
+                x, xd, q, v = self._contacts(k, t, x, xd, q, v, last)
+                if before_step is not None:
+                    before_step(self, k, t, q, v)
+                last = self.step(t, x, xd, dt)
                 if k % every == 0:
-                    rec.add(self, t, q, v)
-                _guard(t + dt, x_new, xd_new)
-                t = (k + 1) * dt
-                x, xd = x_new, xd_new
+                    rec.add(self, t, q, v, last)
+                for monitor in self.monitors:
+                    monitor.observe(self, k, t, q, v, last)
+                check_divergence(last.t, last.q, last.v)
+                x, xd = last.q, last.v
                 if self.coordinates:
                     norm_drift = max(norm_drift, float(np.abs(self.norm.residual(x)).max()))
                     if scene.stabilisation.projection:
@@ -480,25 +545,20 @@ class Simulation:
                         x, xd = self.project(x, xd)
                     q, v = x, xd
                 if self.gimbal:
-                    self.watch_gimbal_lock(t, q)
-                v_new = self.update_contacts(t, q, v)
-                if v_new is not v:
-                    v = v_new
-                    x, xd = self.cmap.from_tangent(q, v) if self.coordinates else (q, v)
+                    self.watch_gimbal_lock(last.t, q)
                 progress.update(k + 1)
-            self._first = None
-            f = self.coordinate_acceleration if self.coordinates else self.acceleration
-            f(t, x, xd)
-            self._first = self.last
-            rec.add(self, t, q, v)
+            t = n_steps * dt
+            x, xd, q, v = self._contacts(n_steps, t, x, xd, q, v, last)
+            rec.add(self, t, q, v, self.evaluate(t, x, xd))
         except KeyboardInterrupt:
             status, message = "interrupted", f"interrupted by the user at t = {t:.4f} s"
         except DivergenceError as exc:
             status, message = "diverged", str(exc)
+        except HumanoidError as exc:
+            status, message = "failed", str(exc)
         finally:
             progress.close()
         wall = time.perf_counter() - start
-        worst_residual = float(np.nanmax(rec.residual[: rec.n], initial=0.0))
         meta = {
             "status": status,
             "message": message,
@@ -520,7 +580,7 @@ class Simulation:
             "counters": self.counters,
             "steps": k + 1 if status == "completed" else k,
             "wall_time": wall,
-            "max_residual": worst_residual,
+            "max_residual": float(np.nanmax(rec.residual[: rec.n], initial=0.0)),
             "max_velocity_residual": rec.velocity_residual,
             "quaternion_drift": norm_drift,
         }
@@ -530,6 +590,20 @@ class Simulation:
         if self.adaptive is not None:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
+
+    def _contacts(self, k, t, x, xd, q, v, last):
+        """The contact schedule at tick k; the formulation's state follows an impulse."""
+        v_new = self.schedule(self, k, t, q, v, last)
+        if v_new is v:
+            return x, xd, q, v
+        x, xd = self.cmap.from_tangent(q, v_new) if self.coordinates else (q, v_new)
+        return x, xd, q, v_new
+
+
+def scene_schedule(sim: Simulation, k: int, t: float, q, v, last: StepResult | None):
+    """The scene's contact schedule: windows, touchdowns and the force checks
+    (:meth:`Simulation.update_contacts`)."""
+    return sim.update_contacts(t, q, v, last)
 
 
 def rigid_constraints(model: pin.Model, constraints, baumgarte: Baumgarte | None = None):
@@ -598,16 +672,17 @@ def _gimbal_monitor(h: Humanoid) -> list[tuple[str, int]]:
     """(name, q index of the middle hinge) of every hinge triplet of an Euler-mode model."""
     if h.ball_joints != "euler":
         return []
-    from .fusion import _ball_name, _find_triplets
+    from .fusion import ball_name, find_triplets
 
     model = h.model
     return [
-        (_ball_name(model, t), model.joints[t[1]].idx_q)
-        for t in _find_triplets(model, (h.visual_model, h.collision_model))
+        (ball_name(model, t), model.joints[t[1]].idx_q)
+        for t in find_triplets(model, (h.visual_model, h.collision_model))
     ]
 
 
-def _guard(t, q, v):
+def check_divergence(t: float, q, v) -> None:
+    """Raise DivergenceError if the state is non-finite or exploding at time t."""
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v))):
         raise DivergenceError(f"the state became non-finite at t = {t:.6f} s")
     speed = float(np.abs(v).max())
