@@ -35,7 +35,8 @@ format: $(STAMP)
 	$(VENV)/bin/ruff check --fix humanoid tests scripts
 
 bench: $(STAMP)
-	$(PY) -m humanoid bench step
+	$(PY) -m humanoid bench step -o docs/bench
+	$(PY) scripts/readme_tables.py
 
 bench-accuracy: $(STAMP)
 	$(PY) -m humanoid bench accuracy -o docs/bench

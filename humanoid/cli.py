@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 from .errors import HumanoidError
+from .variants import BALL_JOINTS, INTEGRATORS, MASSLESS, REGISTRIES
 
 __all__ = ["main"]
 
@@ -31,7 +32,7 @@ def _segment_length(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f"length of {name!r} is not a number: {value!r}") from None
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     from . import __version__
     from .data import scene_names
 
@@ -60,8 +61,7 @@ def _parser() -> argparse.ArgumentParser:
 
     i = command("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
     i.add_argument("model", help=BODY_HELP)
-    i.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    _massless_option(i)
+    _model_options(i)
 
     s = command("simulate", help="run a scene (TOML) and save the trajectory (.npz)")
     s.add_argument(
@@ -81,7 +81,13 @@ def _parser() -> argparse.ArgumentParser:
     w.add_argument("--html", help="also write the viewer as one HTML file")
     w.add_argument("--figure", help="figure file (PNG); default: next to the trajectory")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
-    _massless_option(w)
+    w.add_argument("--integrator", choices=list(INTEGRATORS), default="semi_implicit_euler",
+                   help="the plant's integrator (humanoid variants)")  # fmt: skip
+    w.add_argument("--dt", type=float, default=1e-3, help="simulation and control step [s]")
+    w.add_argument(
+        "--drop", type=float, default=0.04, help="pelvis lowered before walking [m] (bent knees)"
+    )
+    _model_options(w, ball_joints=False)
 
     v = command("view", help="show a model or a run in the browser (live, or as HTML)")
     v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
@@ -91,14 +97,15 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("--force-scale", type=float, default=0.5, help="arrow length per body weight")
     for name in ("forces", "com", "footprints", "ground"):
         v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
-    v.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    _massless_option(v)
+    _model_options(v)
 
     x = command("export", help="export a model to another simulator's format")
     x.add_argument("model", help=BODY_HELP)
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
-    x.add_argument("--ball-joints", choices=("quaternion", "euler"), default="quaternion")
-    _massless_option(x)
+    _model_options(x)
+
+    command("variants", help="list the integrators, formulations, backends, contact kinds... "
+            "that scenes and options accept")  # fmt: skip
 
     bench = command("bench", help="benchmarks: step cost, work-precision (accuracy)")
     bench.add_argument("kind", choices=("step", "accuracy"))
@@ -107,11 +114,18 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _massless_option(parser) -> None:
-    """``--massless`` of the commands that load a model (see ``humanoid.load``)."""
-    parser.add_argument("--massless", choices=("error", "merge"), default="error",
+def _model_options(parser, ball_joints: bool = True) -> None:
+    """The loading options of the commands that load a model (see ``humanoid.load``)."""
+    if ball_joints:
+        described = "; ".join(f"{k}: {d}" for k, d in BALL_JOINTS.items())
+        parser.add_argument(
+            "--ball-joints", choices=list(BALL_JOINTS), default="quaternion", help=described
+        )
+    parser.add_argument("--massless", choices=list(MASSLESS), default="error",
                         help="joints that move no mass: refuse the model, or lock them into "
                         "their parents")  # fmt: skip
+    parser.add_argument("--feet", nargs=2, metavar=("LEFT", "RIGHT"),
+                        help="the frames of the soles (found by name if not given)")  # fmt: skip
 
 
 OUTPUTS = {  # the options of each command that name a file or folder to write
@@ -150,7 +164,7 @@ def check_output(path: str, option: str, folder: bool = False) -> Path:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 done, 2 bad input, 3 a run that did
     not complete or failed its checks). A closed output pipe (``| head``) ends it quietly."""
-    args = _parser().parse_args(argv)
+    args = build_parser().parse_args(argv)
     try:
         for name in OUTPUTS.get(args.command, ()):
             value = getattr(args, name, None)
@@ -182,9 +196,11 @@ def _dispatch(args) -> int:
     if args.command == "export":
         from .export import write_mjcf
 
-        path = write_mjcf(load_any(args.model, args.ball_joints, args.massless), args.mjcf)
+        path = write_mjcf(load_any(args), args.mjcf)
         print(f"wrote {path}")
         return 0
+    if args.command == "variants":
+        return _variants(args)
     if args.command == "bench":
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark
@@ -206,15 +222,29 @@ def _build(args) -> int:
     return 0
 
 
-def load_any(name: str, ball_joints: str = "quaternion", massless: str = "error"):
-    """A URDF path, a shipped body's name or an example-robot-data robot's name."""
+def load_any(args, ball_joints: str | None = None):
+    """The model an argument names (a URDF path, a shipped body's name or an
+    example-robot-data robot's name), with the command's loading options."""
     from .model import load
 
-    return load(name, ball_joints=ball_joints, massless=massless)
+    name = getattr(args, "model", None) or args.target
+    ball = ball_joints or getattr(args, "ball_joints", "quaternion")
+    feet = tuple(args.feet) if args.feet else None
+    return load(name, ball_joints=ball, feet=feet, massless=args.massless)
+
+
+def _variants(args) -> int:
+    for registry in REGISTRIES:
+        where = f" (scene key {registry.key})" if registry.key else ""
+        print(f"{registry.what}{where}")
+        width = max(map(len, registry))
+        for name, description in registry.items():
+            print(f"  {name:<{width}}  {description}")
+    return 0
 
 
 def _info(args) -> int:
-    print(summary(load_any(args.model, args.ball_joints, args.massless)))
+    print(summary(load_any(args)))
     return 0
 
 
@@ -243,6 +273,8 @@ def _walk(args) -> int:
         "--speed": (args.speed, False, 3.0),
         "--step-length": (args.step_length, False, 1.0),
         "--mu": (args.mu, True, 10.0),
+        "--dt": (args.dt, False, 0.01),
+        "--drop": (args.drop, False, 0.2),
     }
     for option, (value, zero, hi) in ranges.items():
         if value is None:
@@ -256,12 +288,13 @@ def _walk(args) -> int:
         raise HumanoidError("give --speed or --step-length, not both")
     if not 2 <= args.steps <= MAX_STEPS:
         raise HumanoidError(f"--steps must be in [2, {MAX_STEPS}], got {args.steps}")
-    h = load_any(args.model, "quaternion", args.massless)
+    h = load_any(args, ball_joints="quaternion")
     kw = {"steps": args.steps}
     if args.step_length is not None:
         kw["step_length"] = args.step_length
     gait = GaitParameters.for_speed(args.speed, **kw) if args.speed else GaitParameters(**kw)
-    result = walk(h, gait, mu=args.mu, quiet=args.quiet)
+    result = walk(h, gait, dt=args.dt, mu=args.mu, drop=args.drop, quiet=args.quiet,
+                  integrator=args.integrator)  # fmt: skip
     path = result.trajectory.save(args.output)
     figure = plot_walk(result, args.figure or Path(args.output).with_suffix(".png"))
     print(format_summary(result))
@@ -295,7 +328,7 @@ def _view(args) -> int:
         traj = Trajectory.load(args.target)
         h = humanoid_for(traj)
     else:
-        h = load_any(args.target, args.ball_joints, args.massless)
+        h = load_any(args)
     title = Path(args.target).stem
     if args.html:
         path = export_html(h, args.html, traj=traj, overlays=overlays, speed=args.speed,

@@ -12,7 +12,21 @@ import pinocchio as pin
 from .constraints import PointContact, Weld
 from .model import Humanoid
 
-__all__ = ["ContactState"]
+__all__ = ["ContactState", "cop_in_sole", "cop_on_plane"]
+
+
+def cop_on_plane(wrench, origin) -> np.ndarray:
+    """The centre of pressure of a wrench (force, moment about ``origin``; world axes): where
+    its line of action meets the horizontal plane through ``origin``, a world point."""
+    f, tau = wrench[:3], wrench[3:6]
+    return np.array([origin[0] - tau[1] / f[2], origin[1] + tau[0] / f[2], origin[2]])
+
+
+def cop_in_sole(wrench, rotation) -> np.ndarray:
+    """The centre of pressure of a wrench about a sole's origin (world axes) in the sole's
+    own axes, relative to its origin: (x, y) on the sole's plane."""
+    local_tau, local_f = rotation.T @ wrench[3:6], rotation.T @ wrench[:3]
+    return np.array([-local_tau[1], local_tau[0]]) / local_f[2]
 
 
 class ContactState:
@@ -72,10 +86,7 @@ class ContactState:
                 out.append(f"friction |f_t| {math.hypot(f[0], f[1]):.1f} N > mu f_n")
                 break
         if self.spec.kind == "weld" and fz > 1e-9:
-            R = data.oMf[self.sole].rotation
-            local = R.T @ self.wrench[3:]  # torque about the sole origin, sole axes
-            f_local = R.T @ self.wrench[:3]
-            cop = np.array([-local[1], local[0]]) / f_local[2]
+            cop = cop_in_sole(self.wrench, data.oMf[self.sole].rotation)
             lo, hi = self.cop_box
             if np.any(cop < lo - 1e-9) or np.any(cop > hi + 1e-9):
                 out.append(f"centre of pressure {cop.round(3)} outside the sole")

@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 __all__ = [
-    "INTEGRATORS",
+    "STEPPERS",
     "AdaptiveStats",
     "CoordinateSpace",
     "DormandPrince",
@@ -227,7 +227,9 @@ class DormandPrince:
         return q, v
 
 
-INTEGRATORS = {
+# The fixed-step schemes by name (``humanoid.variants.INTEGRATORS`` lists them with
+# "adaptive", the DormandPrince class).
+STEPPERS = {
     "euler": explicit_euler,
     "semi_implicit_euler": semi_implicit_euler,
     "rk4": rk4,

@@ -36,6 +36,7 @@ from lxml import etree
 
 from .errors import ConfigurationError, ModelError, finite_vector
 from .fusion import Fusion, fuse_ball_joints
+from .variants import BALL_JOINTS, MASSLESS
 
 __all__ = [
     "Humanoid",
@@ -49,8 +50,6 @@ __all__ = [
 SIDES = ("left", "right")
 CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
 FOOT_WORDS = ("sole", "foot", "ankle")
-BALL_MODES = ("quaternion", "euler")
-MASSLESS_MODES = ("error", "merge")
 # A joint whose diagonal block of M is below this (relative to the largest diagonal entry of M)
 # moves no inertia: nothing resists its acceleration, and M is singular.
 MASSLESS_TOLERANCE = 1e-12
@@ -312,10 +311,10 @@ def load(
 def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoid:
     """:func:`load` of a path or URDF text; ``example``: the example-robot-data robot it is
     (its recipe names it), or None."""
-    if ball_joints not in BALL_MODES:
-        raise ModelError(f"ball_joints must be one of {BALL_MODES}, got {ball_joints!r}")
-    if massless not in MASSLESS_MODES:
-        raise ModelError(f"massless must be one of {MASSLESS_MODES}, got {massless!r}")
+    for name, registry, value in (("ball_joints", BALL_JOINTS, ball_joints),
+                                  ("massless", MASSLESS, massless)):  # fmt: skip
+        if (why := registry.refusal(value)) is not None:
+            raise ModelError(f"{name}: {why}")
     text, path = _read(source)
     dirs = _package_dirs(path, package_dirs)
     label = str(path) if path else "<string>"

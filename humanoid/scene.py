@@ -7,7 +7,7 @@ Example (the shipped ``standing`` scene, :mod:`humanoid.data`)::
     name = "standing"
     duration = 2.0            # [s]
     dt = 0.001                # [s] step (the control and contact tick for "adaptive")
-    integrator = "rk4"        # euler | semi_implicit_euler | rk4 | adaptive
+    integrator = "rk4"        # euler | semi_implicit_euler | rk4 | adaptive (humanoid variants)
     record_rate = 100.0       # [Hz]
 
     [body]
@@ -53,6 +53,16 @@ from .anthropometry import BodyParameters
 from .body import build_urdf
 from .errors import BodyParameterError, ModelError, SceneError
 from .model import Humanoid, load, quaternion_rows
+from .variants import (
+    BACKENDS,
+    BALL_JOINTS,
+    CONTACT_KINDS,
+    CONTROLLERS,
+    FORMULATIONS,
+    INTEGRATORS,
+    JOINT_LIMITS,
+    MASSLESS,
+)
 
 __all__ = [
     "Contact",
@@ -65,10 +75,6 @@ __all__ = [
     "Scene",
     "Stabilisation",
 ]
-
-INTEGRATOR_NAMES = ("euler", "semi_implicit_euler", "rk4", "adaptive")
-FORMULATIONS = ("lie", "coordinates")
-BACKENDS = ("reference", "pinocchio")
 
 
 @dataclass(frozen=True)
@@ -434,14 +440,14 @@ def _validate(s: Scene) -> None:
             bad(key, f"must be a finite number > 0, got {value!r}")
     if s.dt > s.duration:
         bad("dt", f"the step {s.dt} s is longer than the duration {s.duration} s")
-    if s.integrator not in INTEGRATOR_NAMES:
-        bad("integrator", f"unknown {s.integrator!r}; valid: {', '.join(INTEGRATOR_NAMES)}")
+    for registry, value in ((INTEGRATORS, s.integrator), (BALL_JOINTS, s.ball_joints),
+                            (MASSLESS, s.massless), (CONTROLLERS, s.controller.kind),
+                            (FORMULATIONS, s.stabilisation.quaternions),
+                            (BACKENDS, s.stabilisation.backend)):  # fmt: skip
+        if (why := registry.refusal(value)) is not None:
+            bad(registry.key, why)
     if not (s.rtol > 0 and s.atol > 0):
         bad("rtol/atol", "tolerances must be > 0")
-    if s.ball_joints not in ("quaternion", "euler"):
-        bad("body.ball_joints", f"must be quaternion or euler, got {s.ball_joints!r}")
-    if s.massless not in ("error", "merge"):
-        bad("body.massless", f"must be error or merge, got {s.massless!r}")
     e = s.effects
     if len(e.gravity) != 3 or not all(math.isfinite(x) for x in e.gravity):
         bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")
@@ -453,8 +459,8 @@ def _validate(s: Scene) -> None:
             min(lim.stiffness, lim.damping) >= 0 and math.isfinite(lim.stiffness + lim.damping)
         ):
             bad("effects.joint_limits", "stiffness and damping must be finite and >= 0")
-        if lim.kind not in ("spring", "constraint"):
-            bad("effects.joint_limits.kind", f"must be spring or constraint, got {lim.kind!r}")
+        if (why := JOINT_LIMITS.refusal(lim.kind)) is not None:
+            bad(JOINT_LIMITS.key, why)
         if lim.kind == "constraint" and e.ground is None:
             bad("effects.joint_limits.kind", "constraint ranges are solved with the ground "
                 "contact: add [effects.ground] (bodies = [] for none)")  # fmt: skip
@@ -486,8 +492,8 @@ def _validate(s: Scene) -> None:
         if c.foot in feet:
             bad(f"{key}.foot", f"{c.foot} foot appears twice")
         feet.add(c.foot)
-        if c.kind not in ("weld", "points"):
-            bad(f"{key}.kind", f"must be 'weld' or 'points', got {c.kind!r}")
+        if (why := CONTACT_KINDS.refusal(c.kind)) is not None:
+            bad(f"{key}.kind", why)
         if not (math.isfinite(c.mu) and c.mu >= 0):
             bad(f"{key}.mu", f"friction coefficient must be >= 0, got {c.mu!r}")
         if not c.end > c.start >= 0:
@@ -502,8 +508,6 @@ def _validate(s: Scene) -> None:
             bad(key, f"start and duration must be finite, got {p.start}, {p.duration}")
         if p.duration <= 0 or p.start < 0:
             bad(key, "needs start >= 0 and duration > 0")
-    if s.controller.kind not in ("none", "posture"):
-        bad("controller.kind", f"must be none or posture, got {s.controller.kind!r}")
     ctl = s.controller
     if min(ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio) < 0:
         bad("controller", "gains, frequency and damping ratio must be >= 0")
@@ -515,10 +519,6 @@ def _validate(s: Scene) -> None:
             "stabilisation.baumgarte",
             f"time constant must be 0 (off) or >= 1 step, got {st.baumgarte}",
         )
-    if st.quaternions not in FORMULATIONS:
-        bad("stabilisation.quaternions", f"must be one of {FORMULATIONS}, got {st.quaternions!r}")
-    if st.backend not in BACKENDS:
-        bad("stabilisation.backend", f"must be one of {BACKENDS}, got {st.backend!r}")
     if st.quaternions == "coordinates" and st.backend == "pinocchio":
         bad("stabilisation.backend", "the coordinate quaternion formulation needs 'reference'")
     ini = s.initial

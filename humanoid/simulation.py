@@ -28,7 +28,7 @@ from .constraints import Baumgarte, Weld, solve_kkt, update_kinematics
 from .constraints.ground import ContactSolver, Ground, GroundSettings
 from .constraints.limits import JointRanges
 from .constraints.quaternion import CoordinateMap, QuaternionNorm
-from .constraints.solve import split_forces, stack
+from .constraints.solve import impact, split_forces, stack
 from .contacts import ContactState
 from .effects import (
     JointDamping,
@@ -39,7 +39,7 @@ from .effects import (
     joint_mask,
 )
 from .errors import DivergenceError, HumanoidError, SceneError
-from .integrators import INTEGRATORS, CoordinateSpace, DormandPrince, LieGroupSpace
+from .integrators import STEPPERS, CoordinateSpace, DormandPrince, LieGroupSpace
 from .model import Humanoid
 from .scene import Contact, Scene, load_body
 from .trajectory import Progress, Recorder, Trajectory
@@ -133,7 +133,7 @@ class Simulation:
         self.adaptive = DormandPrince(scene.rtol, scene.atol, max_step=scene.dt) if (
             scene.integrator == "adaptive"
         ) else None  # fmt: skip
-        self.step_fn = INTEGRATORS.get(scene.integrator)
+        self.step_fn = STEPPERS.get(scene.integrator)
         self.velocity_terms = e.coriolis
         self.counters = {"aba": 0, "kkt": 0, "bias": 0, "gravity": 0}
         self.events: list[dict] = []
@@ -407,7 +407,7 @@ class Simulation:
         self._active = None
         J, _ = stack(self.model, self.data, self.active_constraints(), v, Baumgarte())
         Minv = pin.computeMinverse(self.model, self.data, q)
-        return v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
+        return impact(Minv, J, v)
 
     def switch_contacts(self, t: float, q, v, stance):
         """Follow a contact schedule: release the attached contacts whose side is not in
@@ -440,7 +440,7 @@ class Simulation:
         self.kinematics(q, v)
         J, _ = stack(self.model, self.data, constraints, v, Baumgarte())
         Minv = pin.computeMinverse(self.model, self.data, q)
-        return q, v + solve_kkt(Minv, np.zeros(self.model.nv), J, -(J @ v)).a
+        return q, impact(Minv, J, v)
 
     def watch_gimbal_lock(self, t: float, q) -> None:
         """Report hinge triplets (Euler mode) whose middle angle is at +-90 deg (gimbal lock):

@@ -17,13 +17,16 @@ grid; each can be switched off. Nothing here is imported by ``import humanoid``.
 from __future__ import annotations
 
 import base64
+import json
 import math
 from dataclasses import dataclass
+from html import escape as html_escape
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from .contacts import cop_on_plane
 from .errors import HumanoidError
 
 __all__ = ["CommandRecorder", "LiveViewer", "Overlays", "SceneView", "export_html", "humanoid_for"]
@@ -66,6 +69,8 @@ class CommandRecorder:
 
 
 ROOT = "humanoid"
+PUSH_GAIN = 10.0  # push arrows are this much longer than contact-force arrows (pushes are small)
+LOOPS = 10**6  # "loop": a million repetitions (three.js reads 0 as none, not as forever)
 COLORS = {"com": 0xD62728, "force": 0xFF7F0E, "footprint": 0x2CA02C, "ground": 0xB0B0B0,
           "push": 0x1F77B4}  # fmt: skip
 
@@ -220,6 +225,13 @@ class SceneView:
             "position", [distance, 0.5 * distance, 1.5 * distance]
         )
 
+    def followed_path(self) -> list[str] | None:
+        """The scene-tree path the camera follows: the centre of mass, else the pelvis."""
+        if self.overlays.com:
+            return ["meshcat", ROOT, "com"]
+        root = [g.name for g in self.h.visual_model.geometryObjects if g.parentJoint == 1]
+        return ["meshcat", ROOT, "body", root[0]] if root else None
+
     @staticmethod
     def _along_z(offset: float = 0.0) -> np.ndarray:
         """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
@@ -259,30 +271,29 @@ class SceneView:
                 show = bool(attached and w[2] > 1e-6)
                 out.append((("forces", side), "visible", show))
                 if show:
-                    f, tau = np.asarray(w[:3]), np.asarray(w[3:6])
-                    o = sole.translation
-                    cop = np.array([o[0] - tau[1] / f[2], o[1] + tau[0] / f[2], o[2]])
-                    out += self._arrow_pose(("forces", side), f, tail=cop)
+                    cop = cop_on_plane(np.asarray(w), sole.translation)
+                    out += self._arrow_pose(("forces", side), np.asarray(w[:3]), tail=cop)
         if ov.forces:
             w = forces.get("ground")
             show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
             out.append((("forces", "ground"), "visible", bool(show)))
             if show:
-                cop = np.array([-w[4] / w[2], w[3] / w[2], 0.0])
+                cop = cop_on_plane(np.asarray(w), np.zeros(3))
                 out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
             for i, (fid, f, start, duration) in enumerate(self.pushes):
                 on = t is not None and start <= t < start + duration
                 out.append((("pushes", str(i)), "visible", bool(on)))
                 if on:  # the arrow's tip on the pushed point
                     out += self._arrow_pose(
-                        ("pushes", str(i)), f, tip=self.data.oMf[fid].translation
+                        ("pushes", str(i)), f, tip=self.data.oMf[fid].translation, gain=PUSH_GAIN
                     )
         return out
 
-    def _arrow_pose(self, path: tuple, f: np.ndarray, tail=None, tip=None) -> list[tuple]:
-        """Transform and scale of the arrow at ``path`` for a force f [N] (0.5 m per body
-        weight by default, at least 1 mm), starting at ``tail`` or ending at ``tip``."""
-        length = max(self.overlays.force_scale * np.linalg.norm(f) / self.weight, 1e-3)
+    def _arrow_pose(self, path: tuple, f: np.ndarray, tail=None, tip=None, gain=1.0) -> list:
+        """Transform and scale of the arrow at ``path`` for a force f [N] (``gain`` times
+        0.5 m per body weight by default, at least 1 mm), starting at ``tail`` or ending at
+        ``tip``."""
+        length = max(gain * self.overlays.force_scale * np.linalg.norm(f) / self.weight, 1e-3)
         if tip is not None:
             tail = tip - length * f / np.linalg.norm(f)
         return [(path, "transform", pin.SE3(_arrow_rotation(f), tail).homogeneous),
@@ -325,7 +336,7 @@ class SceneView:
                     target.set_property("scale", "vector3", value)
         self.show(*_sample(self.model, traj, t[0], self.feet), t[0])
         self._frame_path(np.asarray(traj.q)[:, :2])
-        self.vis.set_animation(anim, play=True, repetitions=0 if loop else 1)
+        self.vis.set_animation(anim, play=True, repetitions=LOOPS if loop else 1)
         return n
 
 
@@ -384,13 +395,26 @@ def humanoid_for(traj):
 HTML = """<!DOCTYPE html>
 <html>
 <head><meta charset="utf-8"><title>{title}</title>
-<style>body {{ margin: 0; }} #meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
-#caption {{ position: absolute; left: 8px; bottom: 8px; font: 12px sans-serif; color: #333;
-background: rgba(255,255,255,0.7); padding: 4px 8px; }}</style>
+<style>body {{ margin: 0; font: 13px sans-serif; }}
+#meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
+.panel {{ position: absolute; left: 8px; background: rgba(255,255,255,0.85); color: #222;
+padding: 6px 10px; border-radius: 4px; }}
+#legend {{ top: 8px; }} #legend div {{ margin: 2px 0; }}
+#legend span.swatch {{ display: inline-block; width: 12px; height: 12px; margin-right: 6px;
+vertical-align: middle; border-radius: 2px; }}
+#player {{ bottom: 8px; right: 8px; display: flex; align-items: center; gap: 8px; }}
+#player input[type=range] {{ flex: 1; }}
+#time {{ font-variant-numeric: tabular-nums; min-width: 7em; }}</style>
 </head>
 <body>
 <div id="meshcat-pane"></div>
-<div id="caption">{caption}</div>
+<div id="legend" class="panel"><b>{title}</b>{legend}</div>
+<div id="player" class="panel" style="display: {player}">
+<button id="play">pause</button>
+<input id="slider" type="range" min="0" max="{duration}" step="0.001" value="0">
+<span id="time"></span>
+<label><input id="follow" type="checkbox" checked> follow</label>
+</div>
 <script>{mainjs}</script>
 <script>
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
@@ -401,11 +425,74 @@ function humanoidDecode(b64) {{
   return out;
 }}
 humanoidCommands.forEach(function (c) {{ viewer.handle_command_bytearray(humanoidDecode(c)); }});
+// the player: play/pause, a time slider and the simulated time; the camera follows the body
+var humanoidPlayer = (function () {{
+  var t0 = {t0}, speed = {speed}, duration = {duration};
+  var animator = viewer.animator, slider = document.getElementById("slider");
+  var button = document.getElementById("play"), label = document.getElementById("time");
+  var follow = document.getElementById("follow"), dragging = false;
+  var followed = {follow_path};
+  var tracked = followed ? viewer.scene_tree.find(followed).object : null;
+  var THREE = MeshCat.THREE, p = new THREE.Vector3(), last = null;
+  function shift(dx, dy) {{  // move the camera and its orbit target by (dx, dy, 0), world axes
+    var parent = viewer.camera.parent;
+    var a = parent.worldToLocal(new THREE.Vector3(0, 0, 0));
+    var b = parent.worldToLocal(new THREE.Vector3(dx, dy, 0));
+    var d = b.sub(a);
+    viewer.camera.position.add(d); viewer.controls.target.add(d); viewer.set_dirty();
+  }}
+  function now() {{ return animator.actions.length ? animator.actions[0].time : 0; }}
+  button.onclick = function () {{
+    if (animator.playing) {{ animator.pause(); }} else {{ animator.play(); }}
+  }};
+  slider.oninput = function () {{ dragging = true; animator.seek(parseFloat(slider.value)); }};
+  slider.onchange = function () {{ dragging = false; }};
+  function tick() {{
+    var t = now();
+    if (!dragging) slider.value = t;
+    label.textContent = "t = " + (t0 + t * speed).toFixed(2) + " s";
+    button.textContent = animator.playing ? "pause" : "play";
+    if (tracked) {{
+      tracked.getWorldPosition(p);
+      if (!last) {{  // look at the followed point from where the camera stands
+        viewer.controls.target.copy(viewer.camera.parent.worldToLocal(p.clone()));
+        viewer.set_dirty();
+      }} else if (follow.checked && Math.abs(p.x - last.x) + Math.abs(p.y - last.y) > 1e-6) {{
+        shift(p.x - last.x, p.y - last.y);
+      }}
+      last = p.clone();
+    }}
+    requestAnimationFrame(tick);
+  }}
+  tick();
+  return {{ now: now, simulated: function () {{ return t0 + now() * speed; }} }};
+}})();
 window.humanoidReady = true;
 </script>
 </body>
 </html>
 """
+
+LEGEND = {  # overlay: (colour, what it shows)
+    "force": (COLORS["force"], "contact forces (at the centre of pressure)"),
+    "push": (COLORS["push"], f"pushes (tip on the pushed point; {PUSH_GAIN:g}x longer)"),
+    "com": (COLORS["com"], "centre of mass and its ground projection"),
+    "footprint": (COLORS["footprint"], "attached feet"),
+}
+
+
+def _legend(overlays: Overlays, pushes: bool) -> str:
+    """The legend's HTML: one line per overlay shown."""
+    shown = {"force": overlays.forces, "push": overlays.forces and pushes,
+             "com": overlays.com, "footprint": overlays.footprints}  # fmt: skip
+    rows = [
+        f'<div><span class="swatch" style="background: #{color:06x}"></span>{text}</div>'
+        for key, (color, text) in LEGEND.items()
+        if shown[key]
+    ]
+    if overlays.forces:
+        rows.append(f"<div>arrows: {overlays.force_scale:g} m per body weight</div>")
+    return "".join(rows)
 
 
 def export_html(
@@ -429,20 +516,22 @@ def export_html(
     view = SceneView(vis, h, overlays)
     if traj is not None:
         frames = view.animate(traj, speed=speed, fps=fps)
-        caption = (
-            f"{title}: {traj.t[-1] - traj.t[0]:.2f} s at {speed:g}x, {frames} frames; "
-            f"arrows: {overlays.force_scale:g} m per body weight"
-        )
+        t0, duration = float(traj.t[0]), (frames - 1) / fps  # animation time [s]
     else:
         view.show(h.standing_configuration() if q is None else q)
-        caption = title
+        t0, duration = 0.0, 0.0
     mainjs = (Path(mc.__file__).parent / "viewer" / "dist" / "main.min.js").read_text(
         encoding="utf-8"
     )
     commands = ",".join('"' + base64.b64encode(b).decode("ascii") + '"' for b in recorder.packed())
     html = HTML.format(
-        title=title,
-        caption=caption,
+        title=html_escape(title),
+        legend=_legend(overlays, bool(view.pushes)),
+        player="flex" if traj is not None else "none",
+        t0=repr(t0),
+        speed=repr(float(speed)),
+        duration=repr(duration),
+        follow_path=json.dumps(view.followed_path()),
         mainjs=mainjs.replace("</script>", "<\\/script>"),
         commands=commands,
     )

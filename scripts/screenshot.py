@@ -36,14 +36,15 @@ def main() -> None:
         with sync_playwright() as p:
             ctx = p.chromium.launch_persistent_context(
                 str(Path(tmp) / "profile"), executable_path="/usr/bin/chromium", headless=True,
-                args=FLAGS, viewport={"width": 560, "height": 420},
+                args=FLAGS, viewport={"width": 640, "height": 480},
             )  # fmt: skip
             page = ctx.new_page()
             page.goto(page_file.as_uri())
             page.wait_for_function("() => window.humanoidReady", timeout=60_000)
             time.sleep(2.0)
-            page.evaluate(
-                f"() => {{ viewer.animator.pause(); viewer.animator.seek({args.time}); }}"
+            page.evaluate(  # from the side: the push (along x) and the feet's forces
+                f"() => {{ viewer.animator.pause(); viewer.animator.seek({args.time});"
+                " viewer.camera.position.set(0.9, 0.5, 2.7); viewer.set_dirty(); }"
             )
             time.sleep(1.0)
             out = Path(args.out)

@@ -149,7 +149,9 @@ def test_html_export_in_the_browser(browser, landing, tmp_path):
         hidden = page.shot()
         assert _changed_pixels(shown, hidden) > 2000, "the body is not visibly drawn"
         page.command("/meshcat/humanoid/body", "visible", True)
-        # the animation moves: the left foot is lower on screen after the fall
+        # the animation moves: the left foot moves on screen during the fall (the camera
+        # fixed: it would follow the body otherwise)
+        page.page.uncheck("#follow")
         foot = ["meshcat", "humanoid", "body", "left_foot_0"]
         page.seek(0.0)
         before = page.screen_position(foot)
@@ -197,3 +199,51 @@ def test_no_viewer_process_is_left():
     out = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
     servers = [line for line in out.splitlines() if "humanoid._meshcat_server" in line]
     assert not servers, servers
+
+
+def test_html_player_follows_the_body(browser, tmp_path):
+    """The page's own player: pause, a time slider, the simulated time, and a camera that
+    follows the body (a body carried 2 m along x in 2 s stays in the middle of the view)."""
+    from humanoid.simulation import Trajectory
+    from humanoid.viewer import export_html
+
+    h = get_model("male", "quaternion")
+    t = np.linspace(0.0, 2.0, 21)
+    q = np.tile(h.standing_configuration(), (len(t), 1))
+    q[:, 0] += t  # 1 m/s forward
+    zeros = np.zeros((len(t), h.nv))
+    traj = Trajectory(t, q, zeros, zeros.copy(), {}, np.zeros(len(t)), np.zeros(len(t)), {})
+    path = export_html(h, tmp_path / "carried.html", traj=traj, title="carried")
+    page = Page(browser, path.as_uri())
+    com = ["meshcat", "humanoid", "com"]
+
+    def slide_to(value: float) -> str:
+        page.page.evaluate(
+            "(v) => { const s = document.getElementById('slider'); s.value = v;"
+            " s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change')); }",
+            value,
+        )
+        time.sleep(0.5)
+        return page.page.inner_text("#time")
+
+    try:
+        assert "contact forces" in page.page.inner_text("#legend")  # the legend names overlays
+        assert page.page.evaluate("viewer.animator.playing")  # it plays on load, in a loop
+        page.page.click("#play")  # the button pauses
+        time.sleep(0.3)
+        assert not page.page.evaluate("viewer.animator.playing")
+        assert page.page.inner_text("#play") == "play"
+        assert slide_to(0.5) == "t = 0.50 s"
+        at_half = page.screen_position(com)
+        assert slide_to(1.5) == "t = 1.50 s"
+        at_one_half = page.screen_position(com)
+        assert np.abs(at_one_half - at_half).max() < 0.02, (at_half, at_one_half)
+        page.page.uncheck("#follow")
+        slide_to(0.5)
+        still = page.screen_position(com)
+        slide_to(1.5)
+        moved = page.screen_position(com)
+        assert np.abs(moved - still).max() > 0.1, (still, moved)  # without follow it leaves
+        assert not page.errors, page.errors
+    finally:
+        page.close()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import re
@@ -179,7 +180,9 @@ def test_view_writes_html_for_a_model_and_a_run(tmp_path, capsys):
     assert main(["simulate", scene, "-o", str(run), "--duration", "0.1", "--quiet"]) == 0
     page = tmp_path / "run.html"
     assert main(["view", str(run), "--html", str(page), "--speed", "0.5", "--no-com"]) == 0
-    assert "0.10 s at 0.5x" in page.read_text()
+    html = page.read_text()
+    assert "var t0 = 0.0, speed = 0.5, duration = 0.2" in html  # 0.1 s played at half speed
+    assert "centre of mass" not in html.split('id="legend"')[1].split("</div>\n")[0]
 
 
 def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
@@ -316,3 +319,34 @@ def test_the_version_and_defaults_in_help(capsys):
     with pytest.raises(SystemExit):
         main(["walk", "--help"])
     assert "(default: adult_male)" in capsys.readouterr().out
+
+
+def test_feet_option_names_the_soles_and_bad_names_are_one_line(capsys):
+    """--feet picks the sole frames (a user's robot whose frames say neither sole nor foot);
+    a frame that is not there is one line on stderr that lists the frames."""
+    assert main(["info", "adult_male", "--feet", "left_foot", "right_foot"]) == 0
+    assert "left_foot" in capsys.readouterr().out
+    assert main(["info", "adult_male", "--feet", "nope", "right_sole"]) == 2
+    err = capsys.readouterr().err
+    assert "no frame 'nope'" in err and "left_sole" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--dt", "0.5"], "--dt must be in (0, 0.01], got 0.5"),
+    (["--drop", "0"], "--drop must be in (0, 0.2], got 0.0"),
+    (["--integrator", "leapfrog"], "invalid choice: 'leapfrog'"),
+])  # fmt: skip
+def test_walk_options_are_checked_in_their_own_words(tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) if "choice" in message else contextlib.nullcontext():
+        code = main(["walk", "--steps", "2", "-o", str(tmp_path / "w.npz"), *argv])
+        assert code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_variants_lists_every_registry(capsys):
+    from humanoid.variants import REGISTRIES
+
+    assert main(["variants"]) == 0
+    out = capsys.readouterr().out
+    for registry in REGISTRIES:
+        assert registry.what in out and all(name in out for name in registry)

@@ -107,3 +107,27 @@ def test_no_module_is_shadowed_by_a_function():
         if obj is not None and not isinstance(obj, type(importlib)):
             clashes.append(f"{parent}.{leaf} is a {type(obj).__name__}, not the module")
     assert not clashes, "\n".join(clashes)
+
+
+def test_every_variant_has_an_implementation_and_the_cli_offers_it():
+    """The registries are the one list: every integrator name runs, the CLI's choices are the
+    registries', and a scene naming an unknown variant is refused with the registry's list."""
+    import pytest
+
+    from humanoid.cli import build_parser
+    from humanoid.errors import SceneError
+    from humanoid.integrators import STEPPERS
+    from humanoid.scene import Scene
+    from humanoid.variants import BALL_JOINTS, INTEGRATORS, REGISTRIES
+
+    assert set(STEPPERS) | {"adaptive"} == set(INTEGRATORS)
+    walk = build_parser()._subparsers._group_actions[0].choices["walk"]
+    choices = {a.dest: a.choices for a in walk._actions if a.choices}
+    assert list(choices["integrator"]) == list(INTEGRATORS)
+    info = build_parser()._subparsers._group_actions[0].choices["info"]
+    assert [a.choices for a in info._actions if a.dest == "ball_joints"][0] == list(BALL_JOINTS)
+    for registry in REGISTRIES:
+        assert registry.refusal(next(iter(registry))) is None
+        assert registry.choices() in registry.refusal("nonsense")
+    with pytest.raises(SceneError, match="must be euler, semi_implicit_euler, rk4 or adaptive"):
+        Scene.from_dict({"integrator": "leapfrog"})

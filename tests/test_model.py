@@ -98,7 +98,10 @@ def test_no_identifiable_feet_names_candidates(male_urdf):
 
 
 def test_bad_ball_joint_mode(male_urdf):
-    with pytest.raises(hm.ModelError, match="ball_joints must be one of"):
+    with pytest.raises(
+        hm.ModelError,
+        match="ball_joints: unknown ball-joint mode 'matrix': must be quaternion or euler",
+    ):
         hm.load(male_urdf, ball_joints="matrix")
 
 

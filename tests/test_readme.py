@@ -46,3 +46,16 @@ def test_the_readme_names_no_file_outside_the_repo():
     assert "shared/" not in README
     for path in re.findall(r"`((?:docs|humanoid|scripts|tests)/[\w./-]+)`", README):
         assert (ROOT / path).exists(), path
+
+
+def test_the_speed_tables_are_the_benchmark_output():
+    """The README's speed tables are the text `humanoid bench step -o docs/bench` wrote
+    (`make bench` pastes it), with the machine and the date they were measured on."""
+    import re
+
+    block = README.split("<!-- speed: begin -->\n", 1)[1].split("<!-- speed: end -->", 1)[0]
+    written = (ROOT / "docs" / "bench" / "speed.md").read_text()
+    assert block == written, "README speed tables differ from docs/bench/speed.md: make bench"
+    assert written.startswith("Measured by `humanoid bench step` on ")
+    assert re.search(r"\d{4}-\d{2}-\d{2} \d{2}:\d{2} UTC", written), "no date"
+    assert "| tumble |" in written and "| collapse |" in written

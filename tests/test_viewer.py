@@ -194,8 +194,8 @@ def test_talos_is_drawn_from_its_meshes():
 
 def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
     """push.toml's 80 N at the thorax: the arrow's tip is on the thorax frame, it points along
-    the force, its length is the force scale, and it is hidden before and after the push; the
-    animation keys its visibility on and off at the push's window."""
+    the force, its length is the force scale times PUSH_GAIN, and it is hidden before and after
+    the push; the animation keys its visibility on and off at the push's window."""
     from humanoid.simulation import simulate
 
     scene = Scene.load(SCENES / "push.toml").replace(duration=1.0)
@@ -209,7 +209,7 @@ def test_a_push_is_an_arrow_on_the_pushed_point_while_it_acts():
     assert out[(("pushes", "0"), "visible")] is True
     T = out[(("pushes", "0"), "transform")]
     length = out[(("pushes", "0", "length"), "scale")][2]
-    assert length == pytest.approx(0.5 * 80.0 / (h.mass * 9.81))
+    assert length == pytest.approx(viewer.PUSH_GAIN * 0.5 * 80.0 / (h.mass * 9.81))
     assert np.allclose(T[:3, 2], [1.0, 0.0, 0.0])  # along the force
     data = h.model.createData()
     pin.framesForwardKinematics(h.model, data, traj.q[i])

@@ -123,11 +123,49 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
         for r in rows:
             w.writerow({k: r[k] for k in header})
     print(f"wrote {folder / 'step.csv'}")
-    _ground_steps(ground, 0.3 if quick else 2.0, folder)
+    ground_rows = _ground_steps(ground, 0.3 if quick else 2.0, folder)
+    report = folder / "speed.md"
+    report.write_text(_markdown(rows, ground_rows, n, rounds, 0.3 if quick else 2.0))
+    print(f"wrote {report}")
     return 0
 
 
-def _ground_steps(paths, duration: float, folder: Path) -> None:
+def _markdown(rows, ground_rows, n, rounds, duration) -> str:
+    """The two speed tables as Markdown, with where and when they were measured (the README
+    carries this file's text: ``make bench``)."""
+    from .common import machine
+
+    lines = [
+        f"Measured by `humanoid bench step` on {machine()}. Microseconds per step, best of "
+        f"{rounds} rounds of {n} steps; ratio = ours / Pinocchio in the same run.",
+        "",
+        "| scene | contacts | Pinocchio | ours (reference KKT) | ratio | pin backend | ratio "
+        "| as shipped | ratio |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        p = r["pinocchio"]
+        cells = [r["scene"], r["contacts"], f"{p * 1e6:.1f}"]
+        for key in ("dynamics", "pin backend", "as shipped"):
+            cells += [f"{r[key] * 1e6:.1f}", f"{r[key] / p:.2f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    if ground_rows:
+        lines += [
+            "",
+            f"Ground contact, the mean over the first {duration:g} s of each scene against "
+            "MuJoCo's `mj_step` on the same fall in the same run:",
+            "",
+            "| scene | ours [us per step] | `mj_step` | ratio |",
+            "|---|---|---|---|",
+        ]
+        for r in ground_rows:
+            theirs = f"{r['mujoco'] * 1e6:.0f}" if np.isfinite(r["mujoco"]) else "-"
+            ratio = f"{r['ratio']:.0f}" if np.isfinite(r["ratio"]) else "-"
+            lines.append(f"| {r['scene']} | {r['ours'] * 1e6:.0f} | {theirs} | {ratio} |")
+    return "\n".join(lines) + "\n"
+
+
+def _ground_steps(paths, duration: float, folder: Path) -> list[dict]:
     """Scenes with ground contact: the mean wall time of our step over the first ``duration``
     seconds of the scene (the number of contacts changes as the body falls, so a single state
     would not be representative), against ``mj_step`` on the same fall in MuJoCo (its soft
@@ -169,3 +207,4 @@ def _ground_steps(paths, duration: float, folder: Path) -> None:
         w.writeheader()
         w.writerows(rows)
     print(f"wrote {folder / 'step_ground.csv'}")
+    return rows

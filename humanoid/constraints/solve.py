@@ -23,7 +23,13 @@ import pinocchio as pin
 
 from .base import Constraint, update_kinematics
 
-__all__ = ["Baumgarte", "ConstrainedAcceleration", "constrained_dynamics", "solve_kkt"]
+__all__ = [
+    "Baumgarte",
+    "ConstrainedAcceleration",
+    "constrained_dynamics",
+    "impact",
+    "solve_kkt",
+]
 
 # Relative eigenvalue cut-off of the Delassus matrix below which rows count as redundant.
 RANK_TOL = 1e-9
@@ -122,6 +128,12 @@ def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray)
     a = a_free + MJt @ lam
     residual = float(np.abs(J @ a - gamma).max())
     return ConstrainedAcceleration(a, lam, residual, rank, method)
+
+
+def impact(Minv: np.ndarray, J: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The velocity after an inelastic impact on the constraints J: v+ = v + M^-1 J^T Lambda
+    with the impulse Lambda that makes J v+ = 0 (the KKT system at the velocity level)."""
+    return v + solve_kkt(Minv, np.zeros(len(v)), J, -(J @ v)).a
 
 
 def constrained_dynamics(

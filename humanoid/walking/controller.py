@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
+from ..constraints.solve import stack
 from ..effects import Effect
 from ..errors import HumanoidError
 
@@ -34,7 +35,6 @@ RANGE_MARGIN = 0.3  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the velocity damper's time constant (see update)
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-LOCAL = pin.ReferenceFrame.LOCAL
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ class WalkingController(Effect):
         self.t_ref, self.c_ref, self.dc_ref, self.ddc_ref = com
         self.z_c = z_c
         self.q_posture = np.array(q_posture, dtype=float)
-        self.alpha, self.beta = baumgarte.alpha, baumgarte.beta
+        self.baumgarte = baumgarte
         self.gains = gains or ControllerGains()
         self.sole = {s: h.frame_id(h.feet[i]) for i, s in enumerate(("left", "right"))}
         self.corners = {s: [h.frame_id(n) for n in h.require_contact_points(s)] for s in self.sole}
@@ -199,13 +199,10 @@ class WalkingController(Effect):
         weight = self.weight
         A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
         b_eq = [-hvec[:6]]
-        for s in stance:
-            weld = welds[s]
-            J = pin.getFrameJacobian(model, data, weld.frame_id, LOCAL)
-            gamma = -pin.getFrameAcceleration(model, data, weld.frame_id, LOCAL).vector
-            gamma -= 2 * self.alpha * (J @ v) + self.beta**2 * weld.residual(model, data)
-            A_eq.append(np.hstack([J, np.zeros((6, nf))]))
-            b_eq.append(gamma)
+        # the stance welds' rows exactly as the plant stacks them (same Baumgarte terms)
+        J, gamma = stack(model, data, [welds[s] for s in stance], v, self.baumgarte)
+        A_eq.append(np.hstack([J, np.zeros((len(J), nf))]))
+        b_eq.append(gamma)
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
         # inequalities: friction pyramids
         mu = g.mu / np.sqrt(2.0)

@@ -49,6 +49,19 @@ def format_summary(result) -> str:
     return "\n".join(lines)
 
 
+def _title(result) -> str:
+    """The figure's title: the gait of a completed walk; how far a failed one got."""
+    summary, meta = result.summary, result.trajectory.metadata
+    status = meta["status"]
+    if status == "completed" and np.isfinite(summary["speed"]):
+        return (f"walk: {summary['speed']:.2f} m/s, {summary['step_length']:.2f} m steps, "
+                f"{summary['cadence']:.0f} steps/min")  # fmt: skip
+    planned = meta["scene"]["duration"]
+    reason = meta.get("message", "").split(":")[0]
+    return (f"walk {status} after {summary['simulated']:.2f} s of {planned:.2f} s"
+            + (f" ({reason})" if reason else ""))  # fmt: skip
+
+
 def plot_walk(result, path) -> Path:
     """Write the walk figure (PNG) and return its path."""
     import matplotlib
@@ -60,9 +73,10 @@ def plot_walk(result, path) -> Path:
     traj, s = result.trajectory, result.series
     meta = traj.metadata
     weight = meta["weight"]
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), constrained_layout=True)
+    fig = plt.figure(figsize=(11, 9.5), constrained_layout=True)
+    grid = fig.add_gridspec(3, 2, height_ratios=(1.0, 0.8, 1.0))
     t = traj.t
-    ax = axes[0, 0]
+    ax = fig.add_subplot(grid[0, 0])
     for side, color in (("left", "tab:blue"), ("right", "tab:red")):
         if side in traj.forces:
             f = traj.forces[side]
@@ -70,7 +84,7 @@ def plot_walk(result, path) -> Path:
     ax.set(xlabel="time [s]", ylabel="GRF [body weights]", title="vertical ground reaction force")
     ax.legend(loc="upper right")
     ax.grid(alpha=0.3)
-    ax = axes[0, 1]
+    ax = fig.add_subplot(grid[0, 1])
     for side, color in (("left", "tab:blue"), ("right", "tab:red")):
         if side in traj.forces:
             f = traj.forces[side]
@@ -79,7 +93,7 @@ def plot_walk(result, path) -> Path:
     ax.set(xlabel="time [s]", ylabel="GRF [body weights]", title="horizontal ground reaction force")
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(alpha=0.3)
-    ax = axes[1, 0]
+    ax = fig.add_subplot(grid[1, :])  # the whole width: a walk is long and narrow
     length, width = meta["sole_size"]
     soles = meta.get("initial_soles", {})
     prints = [(side, soles[side][0], soles[side][1]) for side in soles]
@@ -92,22 +106,20 @@ def plot_walk(result, path) -> Path:
     ax.plot(s["zmp_x"], s["zmp_y"], color="tab:orange", lw=0.8, label="ZMP (simulated forces)")
     ax.plot(s["com_x"], s["com_y"], color="k", lw=1.5, label="CoM")
     ax.set(xlabel="x [m]", ylabel="y [m]", title="CoM and ZMP over the footprints")
-    ax.set_aspect("equal")
+    ax.set_aspect("equal", adjustable="datalim")  # true shape, the panel keeps its size
     ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
-    ax = axes[1, 1]
+    ax = fig.add_subplot(grid[2, 0])
     err = np.hypot(s["com_x"] - s["com_ref_x"], s["com_y"] - s["com_ref_y"])
-    ax.plot(s["t"], 1000 * err, color="k", label="CoM tracking error")
-    ax.set(xlabel="time [s]", ylabel="error [mm]", title="tracking error")
-    ax2 = ax.twinx()
-    ax2.semilogy(s["t"], np.maximum(s["consistency"], 1e-16), color="tab:green", lw=0.6)
-    ax2.set_ylabel("plant vs controller acceleration (relative)", color="tab:green")
+    ax.plot(s["t"], 1000 * err, color="k")
+    ax.set(xlabel="time [s]", ylabel="|CoM - reference| [mm]", title="CoM tracking error")
     ax.grid(alpha=0.3)
-    summary = result.summary
-    fig.suptitle(
-        f"walk: {summary['speed']:.2f} m/s, {summary['step_length']:.2f} m steps, "
-        f"{summary['cadence']:.0f} steps/min ({traj.metadata['status']})"
-    )
+    ax = fig.add_subplot(grid[2, 1])
+    ax.semilogy(s["t"], np.maximum(s["consistency"], 1e-16), color="tab:green", lw=0.6)
+    ax.set(xlabel="time [s]", ylabel="max |a_plant - a_QP| / max |a_QP|",
+           title="plant vs controller accelerations")  # fmt: skip
+    ax.grid(alpha=0.3)
+    fig.suptitle(_title(result))
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)

@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
+from ..contacts import cop_in_sole, cop_on_plane
 from ..errors import HumanoidError, RunFailed
 from ..model import Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
@@ -302,7 +303,7 @@ def _check(sim, ctl, t, q, v, series, k, weight, step):
         series["consistency"][k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
     sim.kinematics(q, v)
     split = sol.split(sim.active_constraints())
-    fz_total, moment_x, moment_y = 0.0, 0.0, 0.0
+    total = np.zeros(6)  # the feet's wrench about the world origin
     worst_friction, worst_margin, drift = 0.0, np.inf, 0.0
     for cst in sim.contacts:
         if not cst.attached:
@@ -312,15 +313,11 @@ def _check(sim, ctl, t, q, v, series, k, weight, step):
         f, tau = cst.wrench[:3], cst.wrench[3:]
         series[f"fz_{cst.side}"][k] = f[2] / weight
         o = data.oMf[cst.sole].translation
-        fz_total += f[2]
-        moment_x += o[1] * f[2] + tau[0]
-        moment_y += -o[0] * f[2] + tau[1]
+        total += np.concatenate([f, tau + np.cross(o, f)])
         if f[2] > 0.2 * weight:
             worst_friction = max(worst_friction, math.hypot(f[0], f[1]) / f[2])
         if f[2] > COP_MIN_LOAD * weight:  # the CoP of an (almost) unloaded foot is undefined
-            Rs = data.oMf[cst.sole].rotation
-            local_tau, local_f = Rs.T @ tau, Rs.T @ f
-            cop = np.array([-local_tau[1], local_tau[0]]) / local_f[2]
+            cop = cop_in_sole(cst.wrench, data.oMf[cst.sole].rotation)
             lo, hi = cst.cop_box
             worst_margin = min(worst_margin, np.min(cop - lo), np.min(hi - cop))
         r = w.residual(model, data)
@@ -328,9 +325,8 @@ def _check(sim, ctl, t, q, v, series, k, weight, step):
     series["friction"][k] = worst_friction
     series["cop_margin"][k] = worst_margin if np.isfinite(worst_margin) else np.nan
     series["drift"][k] = drift
-    if fz_total > 1e-6:
-        series["zmp_x"][k] = -moment_y / fz_total
-        series["zmp_y"][k] = moment_x / fz_total
+    if total[2] > 1e-6:  # the zero-moment point: the feet's centre of pressure on the floor
+        series["zmp_x"][k], series["zmp_y"][k] = cop_on_plane(total, np.zeros(3))[:2]
 
 
 def _acceptance(s, plan, status, message, weight, mu) -> dict:
