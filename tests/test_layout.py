@@ -131,3 +131,19 @@ def test_every_variant_has_an_implementation_and_the_cli_offers_it():
         assert registry.choices() in registry.refusal("nonsense")
     with pytest.raises(SceneError, match="must be euler, semi_implicit_euler, rk4 or adaptive"):
         Scene.from_dict({"integrator": "leapfrog"})
+
+
+def test_one_run_loop():
+    """Only humanoid.simulation steps a Simulation and records a run: the walk and every other
+    module run through Simulation.run (the benchmarks, which time single steps, aside)."""
+    found = []
+    for name, path in sorted(_modules().items()):
+        if name in ("humanoid.simulation", "humanoid.trajectory") or ".bench" in name:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+                if node.func.attr == "step" and getattr(node.func.value, "id", "") == "sim":
+                    found.append(f"{name}: sim.step(...)")
+            if isinstance(node, ast.Name) and node.id in ("Recorder", "Progress"):
+                found.append(f"{name}: {node.id}")
+    assert not found, "\n".join(found)

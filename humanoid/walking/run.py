@@ -262,8 +262,6 @@ class WalkMonitor:
         self.h, self.ctl = h, ctl
         self.ranges = JointRanges(h)
         self.weight = h.mass * 9.81
-        model = h.model
-        self.pelvis_frame = model.getFrameId(model.names[1], pin.FrameType.JOINT)
         self.z_start = None
 
     def series_until(self, n: int) -> dict:
