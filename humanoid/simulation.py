@@ -150,6 +150,11 @@ class Simulation:
         self._locked: set[str] = set()
 
     @property
+    def n_steps(self) -> int:
+        """How many steps of dt the scene's duration takes (at least one)."""
+        return max(1, int(round(self.scene.duration / self.scene.dt)))
+
+    @property
     def _forced(self) -> bool:
         """Whether anything applies a force (else the torques are the shared zero vector)."""
         return bool(self.effects) or self.controller is not None
@@ -409,6 +414,22 @@ class Simulation:
         Minv = pin.computeMinverse(self.model, self.data, q)
         return impact(Minv, J, v)
 
+    def store_forces(self, solution) -> None:
+        """Give each attached contact its forces from a constrained solve, as wrenches at the
+        kinematics in ``self.data`` (:meth:`kinematics` first)."""
+        split = solution.split(self.active_constraints())
+        for c in self.contacts:
+            if c.attached:
+                c.store(self.model, self.data,
+                        np.concatenate([split[k.name] for k in c.constraints]))  # fmt: skip
+
+    def release(self, contact, t: float, reason: str) -> None:
+        """Release a contact (lift-off, end of its window, a violated check) and log it."""
+        contact.release()
+        self._active = None
+        self.events.append({"t": t, "contact": contact.side, "event": "release",
+                            "reason": reason})  # fmt: skip
+
     def switch_contacts(self, t: float, q, v, stance):
         """Follow a contact schedule: release the attached contacts whose side is not in
         ``stance`` (lift-off), attach the others in it where they are, with the impulse that
@@ -416,10 +437,7 @@ class Simulation:
         landing = []
         for c in self.contacts:
             if c.attached and c.side not in stance:
-                c.release()
-                self._active = None
-                self.events.append({"t": t, "contact": c.side, "event": "release",
-                                    "reason": "lift-off"})  # fmt: skip
+                self.release(c, t, "lift-off")
             elif not c.attached and c.side in stance:
                 landing.append(c)
         return self.attach(landing, t, q, v, "touchdown") if landing else v
@@ -463,23 +481,15 @@ class Simulation:
         sol = last.solution if last is not None else None
         if sol is not None and self.active_constraints():
             self.kinematics(q, v)
-            split = sol.split(self.active_constraints())
-            for c in self.contacts:
-                if c.attached:
-                    names = [k.name for k in c.constraints]
-                    c.store(self.model, self.data, np.concatenate([split[n] for n in names]))
+            self.store_forces(sol)
         for c in self.contacts:
             if c.attached:
                 problems = c.check(self.data) if sol is not None else []
                 if problems:
                     self.violations[c.side] = self.violations.get(c.side, 0) + 1
                 if t >= c.spec.end or (problems and c.spec.unilateral):
-                    c.release()
-                    self._active = None
                     why = "end of window" if t >= c.spec.end else "; ".join(problems)
-                    self.events.append(
-                        {"t": t, "contact": c.side, "event": "release", "reason": why}
-                    )
+                    self.release(c, t, why)
         landing = {"scheduled": [], "touchdown": []}
         for c in self.contacts:
             if not c.attached and c.spec.start <= t < c.spec.end:
@@ -508,7 +518,7 @@ class Simulation:
         """
         scene, model = self.scene, self.model
         dt = scene.dt
-        n_steps = max(1, int(round(scene.duration / dt)))
+        n_steps = self.n_steps
         every = max(1, int(round(1.0 / (scene.record_rate * dt))))
         rec = Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None)
         t, q, v = 0.0, self.q0.copy(), self.v0.copy()
@@ -523,7 +533,7 @@ class Simulation:
         try:
             for k in range(n_steps):
                 t = k * dt
-                x, xd, q, v = self._contacts(k, t, x, xd, q, v, last)
+                x, xd, q, v = self._schedule_contacts(k, t, x, xd, q, v, last)
                 if before_step is not None:
                     before_step(self, k, t, q, v)
                 last = self.step(t, x, xd, dt)
@@ -548,7 +558,7 @@ class Simulation:
                     self.watch_gimbal_lock(last.t, q)
                 progress.update(k + 1)
             t = n_steps * dt
-            x, xd, q, v = self._contacts(n_steps, t, x, xd, q, v, last)
+            x, xd, q, v = self._schedule_contacts(n_steps, t, x, xd, q, v, last)
             rec.add(self, t, q, v, self.evaluate(t, x, xd))
         except KeyboardInterrupt:
             status, message = "interrupted", f"interrupted by the user at t = {t:.4f} s"
@@ -591,7 +601,7 @@ class Simulation:
             meta["adaptive"] = vars(self.adaptive.stats)
         return rec.trajectory(meta)
 
-    def _contacts(self, k, t, x, xd, q, v, last):
+    def _schedule_contacts(self, k, t, x, xd, q, v, last):
         """The contact schedule at tick k; the formulation's state follows an impulse."""
         v_new = self.schedule(self, k, t, q, v, last)
         if v_new is v:

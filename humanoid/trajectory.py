@@ -189,12 +189,8 @@ class Recorder:
         constraints = sim.active_constraints()
         if constraints:
             sim.kinematics(q, v)
-            sol = step.solution
-            if sol is not None:
-                split = sol.split(constraints)
-                for c in sim.contacts:
-                    if c.attached:
-                        c.store(model, data, np.concatenate([split[k.name] for k in c.constraints]))
+            if step.solution is not None:
+                sim.store_forces(step.solution)
             e = np.concatenate([c.residual(model, data) for c in constraints])
             self.residual[i] = np.abs(e).max()
             Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])

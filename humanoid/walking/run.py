@@ -164,7 +164,7 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
         gains or ControllerGains(mu=min(0.6, 0.75 * mu)), period=dt,
     )  # fmt: skip
     sim.controller = ctl
-    sim.schedule = FootstepSchedule(plan, int(round(plan.duration / dt)))
+    sim.schedule = FootstepSchedule(plan, sim.n_steps)
     v0 = sim.update_contacts(0.0, q0, np.zeros(model.nv))  # both feet welded where they stand
     return WalkSetup(plan, q0, v0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
 
@@ -206,7 +206,7 @@ def walk(
     plan, sim, ctl, soles = setup.plan, setup.sim, setup.ctl, setup.soles
     ctl.every = max(1, int(round((control_dt or dt) / dt)))
     ctl.period = ctl.every * dt
-    monitor = WalkMonitor(h, sim.scene, ctl)
+    monitor = WalkMonitor(h, sim, ctl)
     sim.monitors.append(monitor)
     traj = sim.run(quiet=quiet)
     meta = traj.metadata
@@ -256,9 +256,8 @@ class WalkMonitor:
     fall (pelvis below 80 % of its start height, or the trunk tilted over 30 degrees) stops
     the run."""
 
-    def __init__(self, h: Humanoid, scene: Scene, ctl: WalkingController) -> None:
-        n = max(1, int(round(scene.duration / scene.dt)))
-        self.series = {k: np.full(n, np.nan) for k in SERIES}
+    def __init__(self, h: Humanoid, sim: Simulation, ctl: WalkingController) -> None:
+        self.series = {k: np.full(sim.n_steps, np.nan) for k in SERIES}
         self.h, self.ctl = h, ctl
         self.ranges = JointRanges(h)
         self.weight = h.mass * 9.81
@@ -300,14 +299,13 @@ def _check(sim, ctl, t, q, v, series, k, weight, step):
         dv = ctl.last[0]
         series["consistency"][k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
     sim.kinematics(q, v)
-    split = sol.split(sim.active_constraints())
+    sim.store_forces(sol)
     total = np.zeros(6)  # the feet's wrench about the world origin
     worst_friction, worst_margin, drift = 0.0, np.inf, 0.0
     for cst in sim.contacts:
         if not cst.attached:
             continue
         w = cst.constraints[0]
-        cst.store(model, data, split[w.name])
         f, tau = cst.wrench[:3], cst.wrench[3:]
         series[f"fz_{cst.side}"][k] = f[2] / weight
         o = data.oMf[cst.sole].translation
