@@ -3,7 +3,8 @@
 meshcat 0.3.2's own server binds its web port on every interface and outlives a killed parent.
 This launcher binds both ports to 127.0.0.1 and exits when its standard input closes (which
 happens when the parent exits, however it exits). Run as ``python -m humanoid._meshcat_server``;
-it prints ``zmq_url=...`` and ``web_url=...`` lines.
+it prints ``zmq_url=...`` and ``web_url=...`` lines. With ``--pages DIR`` it also serves the
+files of DIR under ``/humanoid/`` (the live page, same origin as the websocket).
 """
 
 from __future__ import annotations
@@ -14,7 +15,13 @@ import threading
 
 
 def main() -> None:
-    from meshcat.servers.zmqserver import ZMQWebSocketBridge
+    import argparse
+
+    from meshcat.servers.zmqserver import StaticFileHandlerNoCache, ZMQWebSocketBridge
+
+    parser = argparse.ArgumentParser(prog="python -m humanoid._meshcat_server")
+    parser.add_argument("--pages", help="a directory served under /humanoid/")
+    pages = parser.parse_args().pages
 
     class LocalBridge(ZMQWebSocketBridge):
         def make_app(self):
@@ -26,6 +33,10 @@ def main() -> None:
                 return listen(port, **kwargs)
 
             app.listen = local_listen
+            if pages:
+                page = (r"/humanoid/(.*)", StaticFileHandlerNoCache,
+                        {"path": pages, "default_filename": "index.html"})  # fmt: skip
+                app.add_handlers(r".*", [page])
             return app
 
     bridge = LocalBridge(host="127.0.0.1")

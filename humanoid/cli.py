@@ -349,7 +349,9 @@ def _view(args) -> int:
                 view.animate(traj, speed=args.speed, fps=args.fps)
             else:
                 view.show(h.standing_configuration())
-            print(f"viewer at {live.url} (127.0.0.1 only); Ctrl-C to stop", flush=True)
+            page = live.publish(view, title)
+            print(f"viewer at {page} (127.0.0.1 only); Ctrl-C to stop", flush=True)
+            print(f"meshcat's own page: {live.url}", flush=True)
             while live.proc.poll() is None:
                 time.sleep(0.5)
     except KeyboardInterrupt:  # the server is stopped by LiveViewer's exit

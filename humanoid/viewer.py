@@ -3,7 +3,8 @@
 Two outputs, one scene description:
 
 - a live viewer (:class:`LiveViewer`): a meshcat server bound to 127.0.0.1 only, in a child
-  process that dies with its parent (:mod:`humanoid._meshcat_server`);
+  process that dies with its parent (:mod:`humanoid._meshcat_server`); it serves this
+  package's page (legend, player, follow camera) beside meshcat's own;
 - one self-contained HTML file (:func:`export_html`): meshcat's JavaScript inlined and the
   scene commands embedded, so it opens from disk with no server and no network.
 
@@ -29,7 +30,10 @@ import pinocchio as pin
 from .contacts import cop_on_plane
 from .errors import HumanoidError
 
-__all__ = ["CommandRecorder", "LiveViewer", "Overlays", "SceneView", "export_html", "humanoid_for"]
+__all__ = [
+    "CommandRecorder", "LiveViewer", "Overlays", "SceneView", "export_html", "humanoid_for",
+    "page_html",
+]  # fmt: skip
 
 
 def _meshcat():
@@ -128,6 +132,7 @@ class SceneView:
         self.gdata = pin.GeometryData(h.visual_model)
         self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
         self.pushes = []
+        self.timeline = (0.0, 0.0, 1.0)  # (first record [s], animation length [s], speed)
         self._build()
 
     # -- scene ---------------------------------------------------------------------------
@@ -337,6 +342,7 @@ class SceneView:
         self.show(*_sample(self.model, traj, t[0], self.feet), t[0])
         self._frame_path(np.asarray(traj.q)[:, :2])
         self.vis.set_animation(anim, play=True, repetitions=LOOPS if loop else 1)
+        self.timeline = (float(t[0]), (n - 1) / fps, float(speed))
         return n
 
 
@@ -415,16 +421,10 @@ vertical-align: middle; border-radius: 2px; }}
 <span id="time"></span>
 <label><input id="follow" type="checkbox" checked> follow</label>
 </div>
-<script>{mainjs}</script>
+{viewer_script}
 <script>
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
-var humanoidCommands = [{commands}];
-function humanoidDecode(b64) {{
-  var bin = atob(b64); var out = new Uint8Array(bin.length);
-  for (var i = 0; i < bin.length; i++) out[i] = bin.charCodeAt(i);
-  return out;
-}}
-humanoidCommands.forEach(function (c) {{ viewer.handle_command_bytearray(humanoidDecode(c)); }});
+{feed}
 // the player: play/pause, a time slider and the simulated time; the camera follows the body
 var humanoidPlayer = (function () {{
   var t0 = {t0}, speed = {speed}, duration = {duration};
@@ -432,7 +432,11 @@ var humanoidPlayer = (function () {{
   var button = document.getElementById("play"), label = document.getElementById("time");
   var follow = document.getElementById("follow"), dragging = false;
   var followed = {follow_path};
-  var tracked = followed ? viewer.scene_tree.find(followed).object : null;
+  function lookup(path) {{  // the node's object, or null before the scene has it (live)
+    var node = viewer.scene_tree;
+    for (var i = 0; node && i < path.length; i++) node = node.children[path[i]];
+    return node ? node.object : null;
+  }}
   var THREE = MeshCat.THREE, p = new THREE.Vector3(), last = null;
   function shift(dx, dy) {{  // move the camera and its orbit target by (dx, dy, 0), world axes
     var parent = viewer.camera.parent;
@@ -452,6 +456,7 @@ var humanoidPlayer = (function () {{
     if (!dragging) slider.value = t;
     label.textContent = "t = " + (t0 + t * speed).toFixed(2) + " s";
     button.textContent = animator.playing ? "pause" : "play";
+    var tracked = followed ? lookup(followed) : null;
     if (tracked) {{
       tracked.getWorldPosition(p);
       if (!last) {{  // look at the followed point from where the camera stands
@@ -495,6 +500,48 @@ def _legend(overlays: Overlays, pushes: bool) -> str:
     return "".join(rows)
 
 
+EMBEDDED = """var humanoidCommands = [{commands}];
+function humanoidDecode(b64) {{
+  var bin = atob(b64); var out = new Uint8Array(bin.length);
+  for (var i = 0; i < bin.length; i++) out[i] = bin.charCodeAt(i);
+  return out;
+}}
+humanoidCommands.forEach(function (c) {{ viewer.handle_command_bytearray(humanoidDecode(c)); }});"""
+
+
+def page_html(view: SceneView, title: str = "humanoid", commands: list[bytes] | None = None) -> str:
+    """The viewer page of a scene: meshcat's viewer with the legend, and the player when the
+    scene animates.
+
+    With ``commands`` (a :class:`CommandRecorder`'s packed commands) the page is self-contained:
+    meshcat's JavaScript and the scene are inlined. Without, it is the live page: it loads
+    meshcat from the server that serves it and takes the scene from that server's websocket.
+    """
+    t0, duration, speed = view.timeline
+    if commands is None:
+        viewer_script = '<script src="/static/main.min.js"></script>'
+        feed = "viewer.connect();"
+    else:
+        mc = _meshcat()
+        mainjs = (Path(mc.__file__).parent / "viewer" / "dist" / "main.min.js").read_text(
+            encoding="utf-8"
+        )
+        viewer_script = "<script>" + mainjs.replace("</script>", "<\\/script>") + "</script>"
+        packed = ",".join('"' + base64.b64encode(b).decode("ascii") + '"' for b in commands)
+        feed = EMBEDDED.format(commands=packed)
+    return HTML.format(
+        title=html_escape(title),
+        legend=_legend(view.overlays, bool(view.pushes)),
+        player="flex" if duration > 0 else "none",
+        t0=repr(t0),
+        speed=repr(speed),
+        duration=repr(duration),
+        follow_path=json.dumps(view.followed_path()),
+        viewer_script=viewer_script,
+        feed=feed,
+    )
+
+
 def export_html(
     h,
     path,
@@ -512,29 +559,12 @@ def export_html(
     """
     mc = _meshcat()
     recorder = CommandRecorder()
-    vis = mc.Visualizer(window=recorder)
-    view = SceneView(vis, h, overlays)
+    view = SceneView(mc.Visualizer(window=recorder), h, overlays)
     if traj is not None:
-        frames = view.animate(traj, speed=speed, fps=fps)
-        t0, duration = float(traj.t[0]), (frames - 1) / fps  # animation time [s]
+        view.animate(traj, speed=speed, fps=fps)
     else:
         view.show(h.standing_configuration() if q is None else q)
-        t0, duration = 0.0, 0.0
-    mainjs = (Path(mc.__file__).parent / "viewer" / "dist" / "main.min.js").read_text(
-        encoding="utf-8"
-    )
-    commands = ",".join('"' + base64.b64encode(b).decode("ascii") + '"' for b in recorder.packed())
-    html = HTML.format(
-        title=html_escape(title),
-        legend=_legend(overlays, bool(view.pushes)),
-        player="flex" if traj is not None else "none",
-        t0=repr(t0),
-        speed=repr(float(speed)),
-        duration=repr(duration),
-        follow_path=json.dumps(view.followed_path()),
-        mainjs=mainjs.replace("</script>", "<\\/script>"),
-        commands=commands,
-    )
+    html = page_html(view, title, commands=recorder.packed())
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(html, encoding="utf-8")
@@ -544,23 +574,26 @@ def export_html(
 class LiveViewer:
     """A meshcat server on 127.0.0.1 only, in a child process that dies with this process.
 
-    Use as a context manager; ``url`` is the page to open, ``vis`` the meshcat Visualizer.
+    Use as a context manager; ``vis`` is the meshcat Visualizer. The server serves two pages:
+    ``page_url``, this package's page (legend, player and follow camera, once :meth:`publish`
+    has written it), and ``url``, meshcat's own page.
     """
 
     def __init__(self, timeout: float = 20.0) -> None:
         import subprocess
         import sys
+        import tempfile
+        import threading
 
         mc = _meshcat()
+        self._pages = tempfile.TemporaryDirectory(prefix="humanoid-view-")
         self.proc = subprocess.Popen(
-            [sys.executable, "-u", "-m", "humanoid._meshcat_server"],
+            [sys.executable, "-u", "-m", "humanoid._meshcat_server", "--pages", self._pages.name],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL,
             text=True,
         )
-        import threading
-
         # the server prints two lines; a watchdog stops the wait if it never does
         watchdog = threading.Timer(timeout, self.proc.kill)
         watchdog.start()
@@ -579,11 +612,18 @@ class LiveViewer:
             self.close()
             raise HumanoidError("the meshcat server did not start")
         self.url = web_url
+        self.page_url = web_url.split("/static/")[0] + "/humanoid/"
         import contextlib
         import io
 
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself
             self.vis = mc.Visualizer(zmq_url=zmq_url)
+
+    def publish(self, view: SceneView, title: str = "humanoid") -> str:
+        """Write this package's page for ``view`` (legend, player, follow camera) on the server;
+        returns its URL."""
+        (Path(self._pages.name) / "index.html").write_text(page_html(view, title), "utf-8")
+        return self.page_url
 
     def close(self) -> None:
         """Stop the server (closing its stdin makes it exit; then make sure)."""
@@ -596,6 +636,7 @@ class LiveViewer:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+        self._pages.cleanup()
 
     def __enter__(self) -> LiveViewer:
         return self

@@ -201,11 +201,15 @@ def test_no_viewer_process_is_left():
     assert not servers, servers
 
 
-def test_html_player_follows_the_body(browser, tmp_path):
-    """The page's own player: pause, a time slider, the simulated time, and a camera that
-    follows the body (a body carried 2 m along x in 2 s stays in the middle of the view)."""
+@pytest.mark.parametrize("where", ["html", "live"])
+def test_player_follows_the_body(browser, tmp_path, where):
+    """The page's own player, in the HTML file and on the live server: pause, a time slider,
+    the simulated time, a legend, and a camera that follows the body (a body carried 2 m along x
+    in 2 s stays in the middle of the view)."""
+    import contextlib
+
     from humanoid.simulation import Trajectory
-    from humanoid.viewer import export_html
+    from humanoid.viewer import LiveViewer, SceneView, export_html
 
     h = get_model("male", "quaternion")
     t = np.linspace(0.0, 2.0, 21)
@@ -213,8 +217,19 @@ def test_html_player_follows_the_body(browser, tmp_path):
     q[:, 0] += t  # 1 m/s forward
     zeros = np.zeros((len(t), h.nv))
     traj = Trajectory(t, q, zeros, zeros.copy(), {}, np.zeros(len(t)), np.zeros(len(t)), {})
-    path = export_html(h, tmp_path / "carried.html", traj=traj, title="carried")
-    page = Page(browser, path.as_uri())
+    with contextlib.ExitStack() as stack:
+        if where == "html":
+            url = export_html(h, tmp_path / "carried.html", traj=traj, title="carried").as_uri()
+        else:
+            live = stack.enter_context(LiveViewer())
+            view = SceneView(live.vis, h)
+            view.animate(traj)
+            url = live.publish(view, "carried")
+            assert url.startswith("http://127.0.0.1:") and url.endswith("/humanoid/")
+        _check_player(Page(browser, url), "file" if where == "html" else "http")
+
+
+def _check_player(page: Page, scheme: str) -> None:
     com = ["meshcat", "humanoid", "com"]
 
     def slide_to(value: float) -> str:
@@ -245,5 +260,6 @@ def test_html_player_follows_the_body(browser, tmp_path):
         moved = page.screen_position(com)
         assert np.abs(moved - still).max() > 0.1, (still, moved)  # without follow it leaves
         assert not page.errors, page.errors
+        assert not _local_only(page.requests, scheme), page.requests
     finally:
         page.close()

@@ -196,6 +196,15 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
     try:
         line = proc.stdout.readline()
         assert line.startswith("viewer at http://127.0.0.1:"), line
+        # the package's page (legend, follow camera) is served beside meshcat's own
+        from urllib.request import urlopen
+
+        url = line.split()[2]
+        assert url.endswith("/humanoid/"), line
+        with urlopen(url, timeout=10) as response:
+            html = response.read().decode()
+        assert 'id="legend"' in html and "viewer.connect()" in html
+        assert proc.stdout.readline().startswith("meshcat's own page: http://127.0.0.1:")
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=15) == 0
     finally:
