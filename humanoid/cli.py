@@ -379,22 +379,14 @@ def run_summary(traj) -> str:
 
 
 def _energy_word(scene: dict) -> str:
-    """ "drift" where the scene conserves energy (an error of the integrator), else "change"
-    with what takes or gives energy."""
-    e, why = scene.get("effects", {}), []
-    if e.get("damping", 0.0) > 0:
-        why.append("damping")
-    if e.get("pushes"):
-        why.append("pushes")
-    if scene.get("controller", {}).get("kind", "none") != "none":
-        why.append("controller")
-    if e.get("ground") is not None:
-        why.append("ground impacts and friction")
-    limits = e.get("joint_limits")
-    if limits and limits.get("kind") == "constraint":
-        why.append("joint-range impacts")
-    elif limits and limits.get("damping", 0.0) > 0:
-        why.append("joint-range damping")
+    """ "drift" where the run's scene conserves energy (an error of the integrator), else
+    "change" with what takes or gives energy (:meth:`Scene.energy_exchanges`)."""
+    from .scene import Scene
+
+    try:
+        why = Scene.from_dict(scene).energy_exchanges()
+    except HumanoidError:  # a run whose scene no longer reads: say nothing about the cause
+        return "change:"
     return f"change ({', '.join(why)}):" if why else "drift"
 
 

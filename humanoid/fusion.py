@@ -42,6 +42,20 @@ def joint_axis(jmodel) -> np.ndarray:
     return np.array(jdata.S).reshape(6, -1)[3:, 0].copy()
 
 
+def euler_solutions(Wp: np.ndarray, s) -> tuple[np.ndarray, np.ndarray]:
+    """The two Euler-angle solutions (middle angle b, and pi - b) of rotations
+    ``Wp = Rx(s t1) Ry(s t2) Rz(s t3)``, shape (..., 3, 3), ``s`` = +-1 the handedness of the
+    axes (broadcast over the leading dimensions). Returns two (..., 3) arrays of angles [rad];
+    the second is wrapped to [-pi, pi), the first is as atan2/asin give it."""
+    s = np.asarray(s, dtype=float)[..., None]
+    beta = np.arcsin(np.clip(Wp[..., 0, 2], -1.0, 1.0))
+    alpha = np.arctan2(-Wp[..., 1, 2], Wp[..., 2, 2])
+    gamma = np.arctan2(-Wp[..., 0, 1], Wp[..., 0, 0])
+    first = s * np.stack([alpha, beta, gamma], axis=-1)
+    second = s * np.stack([alpha + np.pi, np.pi - beta, gamma + np.pi], axis=-1)
+    return first, (second + np.pi) % (2 * np.pi) - np.pi
+
+
 def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
     return pin.exp3(np.asarray(axis) * angle)
 
@@ -81,13 +95,7 @@ class BallJoint:
         C = self.axes
         s = np.sign(np.linalg.det(C))
         Wp = C.T @ (self.G @ Rs @ self.G.T) @ C  # = Rx(s t1) Ry(s t2) Rz(s t3)
-        beta = np.arcsin(np.clip(Wp[0, 2], -1.0, 1.0))
-        alpha = np.arctan2(-Wp[1, 2], Wp[2, 2])
-        gamma = np.arctan2(-Wp[0, 1], Wp[0, 0])
-        first = s * np.array([alpha, beta, gamma])
-        second = s * np.array([alpha + np.pi, np.pi - beta, gamma + np.pi])
-        second = (second + np.pi) % (2 * np.pi) - np.pi
-        candidates = [first, second]
+        candidates = list(euler_solutions(Wp, s))
         if lower is not None and upper is not None:
             inside = [
                 c for c in candidates if np.all(c >= lower - 1e-12) and np.all(c <= upper + 1e-12)

@@ -51,8 +51,8 @@ import numpy as np
 
 from .anthropometry import BodyParameters
 from .body import build_urdf
-from .errors import BodyParameterError, ModelError, SceneError
-from .model import Humanoid, load, quaternion_rows
+from .errors import BodyParameterError, ConfigurationError, ModelError, SceneError
+from .model import Humanoid, check_configuration, load
 from .variants import (
     BACKENDS,
     BALL_JOINTS,
@@ -339,6 +339,24 @@ class Scene:
         """A copy with some fields changed (validated again)."""
         return replace(self, **changes)
 
+    def energy_exchanges(self) -> list[str]:
+        """What takes energy from the body or gives it some in this scene (empty: the energy is
+        conserved, and its change is the integrator's drift)."""
+        e, why = self.effects, []
+        if e.damping > 0:
+            why.append("damping")
+        if e.pushes:
+            why.append("pushes")
+        if self.controller.kind != "none":
+            why.append("controller")
+        if e.ground is not None:
+            why.append("ground impacts and friction")
+        if e.joint_limits is not None and e.joint_limits.kind == "constraint":
+            why.append("joint-range impacts")
+        elif e.joint_limits is not None and e.joint_limits.damping > 0:
+            why.append("joint-range damping")
+        return why
+
 
 class _Reader:
     """Checks keys and types of the TOML structure, with the file and key in every message."""
@@ -609,11 +627,7 @@ def initial_state(scene: Scene, h: Humanoid):
             f"{scene.source}: initial.joint_velocity: needs 1 or {model.nv - 6} numbers, "
             f"got {jv.size}"
         )
-    for iq in quaternion_rows(model):  # free flyer, ball joints: unit quaternions
-        norm = np.linalg.norm(q[iq : iq + 4])
-        if abs(norm - 1.0) > 1e-6:
-            raise SceneError(
-                f"{scene.source}: initial.configuration: q[{iq}:{iq + 4}] is a quaternion of "
-                f"norm {norm:.6f}, not 1"
-            )
-    return q, v
+    try:  # the same check as every state: finite, bounded, unit quaternions (normalised)
+        return check_configuration(h, q, v)
+    except ConfigurationError as exc:
+        raise SceneError(f"{scene.source}: initial: {exc}") from None

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..fusion import euler_solutions
+
 __all__ = ["JointRanges"]
 
 MARGIN = 0.1  # [rad] rows closer than this to a limit are returned (speculative)
@@ -103,18 +105,12 @@ class JointRanges:
 
     def _angles(self, q, remember: bool = True):
         R = _rotations(q[self._bq + np.arange(4)])
-        s = self._s[:, None]
         Wp = self._GCt @ R @ self._GC  # = Rx(s t1) Ry(s t2) Rz(s t3)
-        beta = np.arcsin(np.clip(Wp[:, 0, 2], -1.0, 1.0))
-        alpha = np.arctan2(-Wp[:, 1, 2], Wp[:, 2, 2])
-        gamma = np.arctan2(-Wp[:, 0, 1], Wp[:, 0, 0])
+        first, second = euler_solutions(Wp, self._s)
         # each angle within +-pi of its range's centre, so that a range reaching +-180 deg
         # (the shoulder's flexion) is continuous across it
         mid = self._mid
-        first = mid + _wrap(s * np.column_stack([alpha, beta, gamma]) - mid)
-        second = mid + _wrap(
-            s * np.column_stack([alpha + np.pi, np.pi - beta, gamma + np.pi]) - mid
-        )
+        first, second = mid + _wrap(first - mid), mid + _wrap(second - mid)
         lo, hi = self._blo - 1e-12, self._bhi + 1e-12
         in1 = np.all((first >= lo) & (first <= hi), axis=1)
         in2 = np.all((second >= lo) & (second <= hi), axis=1)
