@@ -1,0 +1,118 @@
+"""Joint angles as a gait lab reports them, for any humanoid.
+
+A gait lab reports the pelvis against the room, and the hip, knee and ankle as rotations of one
+segment against the next (pelvis, thigh, shank, foot): flexion first, about the proximal
+segment's lateral axis, then ab/adduction, then rotation about the distal segment's long axis
+(a Cardan sequence). Here the segments are found from the model's tree, whatever its joints
+(one spherical hip, or three hinges in any order): for each foot, the chain from the root to its
+sole; the knee is the one-DoF joint of that chain nearest the middle of the leg; the thigh is the
+body the knee hangs from, the shank the knee's body, the foot the sole frame. Angles are zero in
+the model's standing posture and signed as the clinic signs them:
+
+- pelvis: anterior tilt, obliquity (the side's own hip up), rotation (the side's hip forward),
+  against the direction of progression (x);
+- hip: flexion, adduction, internal rotation; knee: flexion; ankle: dorsiflexion
+  (all in degrees).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import ModelError
+
+__all__ = ["ANGLES", "LegChain", "clinical_angles", "leg_chains"]
+
+SIDES = ("left", "right")
+# the angles of one side, in order
+ANGLES = (
+    "pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion", "hip_adduction",
+    "hip_rotation", "knee_flexion", "ankle_dorsiflexion",
+)  # fmt: skip
+
+
+class LegChain:
+    """The joints and segments of one leg (see the module docstring)."""
+
+    def __init__(self, h, side: str) -> None:
+        model = h.model
+        self.side = side
+        self.sole = h.frame_id(h.feet[SIDES.index(side)])
+        chain, j = [], model.frames[self.sole].parentJoint
+        while j > 0:
+            chain.append(j)
+            j = model.parents[j]
+        chain = chain[::-1]  # root first
+        if len(chain) < 3 or model.joints[chain[0]].shortname() != "JointModelFreeFlyer":
+            raise ModelError(f"{h.source}: the {side} foot does not hang from a free-flyer root")
+        self.joints = chain[1:]
+        data = model.createData()
+        q0 = h.standing_configuration()
+        pin.framesForwardKinematics(model, data, q0)
+        hip = data.oMi[self.joints[0]].translation
+        ankle = data.oMf[self.sole].translation
+        middle = (hip + ankle) / 2
+        hinges = [j for j in self.joints[1:-1] if model.joints[j].nv == 1]
+        if not hinges:
+            raise ModelError(f"{h.source}: the {side} leg has no knee (a one-DoF joint)")
+        self.knee = min(hinges, key=lambda j: np.linalg.norm(data.oMi[j].translation - middle))
+        self.thigh = model.parents[self.knee]
+        self.knee_placement = model.jointPlacements[self.knee].rotation.copy()
+        # the standing posture's relative rotations: the zero of every angle
+        self.zero = [r.copy() for r in self._segments(data)]
+
+    def _segments(self, data) -> tuple[np.ndarray, ...]:
+        """Rotations (pelvis, thigh, shank, foot) in the world."""
+        pelvis = data.oMi[1].rotation
+        thigh = data.oMi[self.thigh].rotation @ self.knee_placement
+        return pelvis, thigh, data.oMi[self.knee].rotation, data.oMf[self.sole].rotation
+
+    def angles(self, data) -> np.ndarray:
+        """The side's :data:`ANGLES` [deg] from kinematics already computed in ``data``."""
+        pelvis, thigh, shank, foot = self._segments(data)
+        p0, t0, s0, f0 = self.zero
+        sign = 1.0 if self.side == "right" else -1.0
+        # each segment against the one above it, in the standing posture's world axes:
+        # distal = proximal proximal0^T D distal0, so D = proximal0 proximal^T distal distal0^T
+        tilt, obl, rot = _yxz(pelvis @ p0.T)  # the pelvis against the room
+        hip = _yxz(p0 @ pelvis.T @ thigh @ t0.T)
+        knee = _yxz(t0 @ thigh.T @ shank @ s0.T)
+        ankle = _yxz(s0 @ shank.T @ foot @ f0.T)
+        return np.degrees([
+            tilt, -sign * obl, sign * rot,
+            -hip[0], sign * hip[1], sign * hip[2],
+            knee[0], -ankle[0],
+        ])  # fmt: skip
+
+
+def _yxz(R: np.ndarray) -> tuple[float, float, float]:
+    """Angles (a, b, c) [rad] with R = Ry(a) Rx(b) Rz(c)."""
+    b = math.asin(float(np.clip(-R[1, 2], -1.0, 1.0)))
+    a = math.atan2(R[0, 2], R[2, 2])
+    c = math.atan2(R[1, 0], R[1, 1])
+    return a, b, c
+
+
+def leg_chains(h) -> dict[str, LegChain]:
+    """Both legs' chains of a humanoid."""
+    return {s: LegChain(h, s) for s in SIDES}
+
+
+def clinical_angles(h, q, chains: dict[str, LegChain] | None = None) -> dict[str, np.ndarray]:
+    """Gait-lab angles [deg] of a state or a sequence of states ((N, nq)): for each side, an
+    array (..., 8) in the order of :data:`ANGLES`."""
+    chains = chains or leg_chains(h)
+    model = h.model
+    data = model.createData()
+    qs = np.atleast_2d(np.asarray(q, dtype=float))
+    out = {s: np.zeros((len(qs), len(ANGLES))) for s in SIDES}
+    for k, qk in enumerate(qs):
+        pin.framesForwardKinematics(model, data, qk)
+        for s in SIDES:
+            out[s][k] = chains[s].angles(data)
+    if np.ndim(q) == 1:
+        return {s: a[0] for s, a in out.items()}
+    return out

@@ -1,0 +1,377 @@
+"""A person's gait cycle, fitted to a body: the reference the walking controller tracks.
+
+The gait lab's normative angles (:mod:`humanoid.walking.norms`, at the walk's dimensionless
+speed) are fitted, one instant of the cycle at a time, to the body's own segments, under the
+constraints a walking foot obeys:
+
+- **Stance** (heel strike to foot off, each foot at its footstep): the foot rolls over its heel,
+  lies flat, then rolls over its toes. Its pitch is prescribed: from the pitch at heel strike
+  (what the normative angles give) smoothly to flat at the end of the loading response, flat
+  until heel off, then smoothly to the pitch at foot off; the heel edge's or toe edge's middle
+  stays where it touched the ground. The pose of a stance foot is a constraint.
+- **Swing**: a first fit leaves the swing foot where the normative angles carry it; that path
+  is then bent, smoothly, to leave from the foot-off pose and land on the next heel-strike pose,
+  raised where a corner of the sole would be lower than ``CLEARANCE sin(pi u)`` (u from 0 at
+  foot off to 1 at heel strike), and a second fit makes it a constraint.
+- **Everything else** is a least-squares fit (Gauss-Newton on the configuration's Lie group,
+  numerical Jacobians): the pelvis angles, the hip, knee and ankle angles of both sides against
+  the norms (:mod:`humanoid.walking.clinical`); the pelvis's sideways sway, that of a linear
+  inverted pendulum whose zero-moment point is on the stance foot (:func:`lateral_sway`), and
+  its rise and fall (2.5 cm amplitude, lowest as the loading response ends); the trunk upright
+  and facing forward; every other joint near the standing posture. (Arm swing: not yet.)
+
+Foot placement: steps of the length a person chooses at the speed
+(:func:`~humanoid.walking.norms.choose_gait`), the feet a walking base apart, pointing forward.
+The cycle starts at the right heel strike; one cycle is a stride (two steps).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError
+from .clinical import SIDES, leg_chains
+from .norms import choose_gait, free_speed, norms
+
+__all__ = ["GaitCycle", "fit_cycle", "lateral_sway", "leg_length"]
+
+FRAMES = 50  # instants per cycle (the norms' 2 % steps)
+W_FOOT = 1e3  # weight of a constrained foot pose (per m and per rad)
+W_ANGLE = 1.0  # per rad of a normative angle
+W_TRUNK = 1.0  # per rad of the thorax's tilt and turn
+W_POSTURE = 0.1  # per rad from the standing posture, every joint
+W_PELVIS = 20.0  # per m of the pelvis from its lateral and vertical path
+PELVIS_BOB = 0.025  # [m] amplitude of the pelvis's rise and fall (people's CoM: 3-5 cm p-p)
+CLEARANCE = 0.01  # [m] the swing foot's lowest corner this far above the floor in mid-swing
+
+
+def leg_length(h) -> float:
+    """The standing height of the hips [m] (the leg length that makes gaits comparable)."""
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, h.standing_configuration())
+    chains = leg_chains(h)
+    return float(np.mean([data.oMi[chains[s].joints[0]].translation[2] for s in SIDES]))
+
+
+@dataclass
+class GaitCycle:
+    """One stride of a body's walk: configurations over the cycle and where the feet are.
+
+    Attributes:
+        phase: (N,) fractions of the cycle (from the right heel strike).
+        q: (N, nq) configurations; the cycle repeats shifted by ``stride`` along x.
+        gait: the chosen speed, step length, cadence and events (see ``choose_gait``).
+        feet: for each side, the (N, 6) pose targets of its sole (x, y, z, roll, pitch, yaw)
+            and (N,) its contact phase (0 swing, 1 heel, 2 flat, 3 toe).
+        residual: largest residual of a stance foot's pose in the fit [m or rad].
+    """
+
+    phase: np.ndarray
+    q: np.ndarray
+    gait: dict
+    feet: dict
+    contact: dict
+    residual: float
+
+    @property
+    def period(self) -> float:
+        return self.gait["cycle"]
+
+    @property
+    def stride(self) -> float:
+        return 2.0 * self.gait["step_length"]
+
+
+class _Fitter:
+    """The per-instant fit (see the module docstring)."""
+
+    def __init__(self, h, gait: dict, width: float) -> None:
+        self.h, self.model = h, h.model
+        self.data = h.model.createData()
+        self.gait = gait
+        self.chains = leg_chains(h)
+        self.q0 = h.standing_configuration()
+        v_hat = gait["dimensionless_speed"]
+        n = norms()
+        self.pct = n.percent / 100.0
+        self.curves = {
+            name: n.curve(name, v_hat)[0]
+            for name in ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
+                         "hip_adduction", "hip_rotation", "knee_flexion", "ankle_dorsiflexion")
+        }  # fmt: skip
+        # the lab's pelvis is tilted forward by its marker set: keep its motion, not its mean
+        self.curves["pelvis_tilt"] = self.curves["pelvis_tilt"] - self.curves["pelvis_tilt"].mean()
+        self.curves["hip_flexion"] = self.curves["hip_flexion"] - self.tilt_offset(n, v_hat)
+        self.width = width
+        data = self.data
+        pin.framesForwardKinematics(self.model, data, self.q0)
+        self.sole = {s: self.chains[s].sole for s in SIDES}
+        corners = {s: [h.frame_id(c) for c in h.require_contact_points(s)] for s in SIDES}
+        # heel and toe edges' middles in the sole frame (corners: heel, heel, toe, toe)
+        self.edge, self.corners = {}, {}
+        for s in SIDES:
+            M = data.oMf[self.sole[s]]
+            pts = np.array([M.actInv(data.oMf[c].translation) for c in corners[s]])
+            order = np.argsort(pts[:, 0])
+            self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
+            self.corners[s] = pts
+        self.thorax = _thorax_frame(self.model)
+        self.pelvis_target = None
+
+    @staticmethod
+    def tilt_offset(n, v_hat) -> float:
+        return float(n.curve("pelvis_tilt", v_hat)[0].mean())
+
+    def norm(self, name: str, psi: float) -> float:
+        """A normative angle [deg] at a side's phase psi (periodic)."""
+        return float(np.interp(psi % 1.0, self.pct, self.curves[name]))
+
+    def angles(self, psi: float) -> np.ndarray:
+        """The normative side angles in clinical.ANGLES order at the side's phase."""
+        return np.array([self.norm(k, psi) for k in (
+            "pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
+            "hip_adduction", "hip_rotation", "knee_flexion", "ankle_dorsiflexion")])  # fmt: skip
+
+    # -- the residual ----------------------------------------------------------------------
+    def residual(self, q, phi: float, targets: dict) -> np.ndarray:
+        model, data = self.model, self.data
+        pin.framesForwardKinematics(model, data, q)
+        r = []
+        for s, target in targets.items():
+            err = target.actInv(data.oMf[self.sole[s]])
+            r.append(W_FOOT * pin.log6(err).vector)
+        for s in SIDES:
+            psi = phi + (0.5 if s == "left" else 0.0)
+            a = self.chains[s].angles(data)
+            want = self.angles(psi)
+            # the pelvis is shared: each side fits its own view of it at half weight
+            r.append(W_ANGLE * math.sqrt(0.5) * np.radians(a[:3] - want[:3]))
+            r.append(W_ANGLE * np.radians(a[3:] - want[3:]))
+        if self.pelvis_target is not None:  # lateral sway and rise and fall, of the pelvis
+            c = data.oMi[1].translation
+            want = self.pelvis_target(phi)
+            r.append(
+                W_PELVIS * np.array([c[1] - want[0], 0.0 if want[1] is None else c[2] - want[1]])
+            )
+        if self.thorax is not None:
+            R = data.oMf[self.thorax].rotation
+            r.append(W_TRUNK * pin.log3(R))
+        d = pin.difference(model, self.q0, q)
+        r.append(W_POSTURE * d[6:])
+
+        return np.concatenate([np.ravel(x) for x in r])
+
+    def solve(self, q, phi: float, targets: dict, iterations: int = 30) -> np.ndarray:
+        """Gauss-Newton with a small damping, numerical Jacobian on the tangent space."""
+        model = self.model
+        eps = 1e-7
+        for _ in range(iterations):
+            r = self.residual(q, phi, targets)
+            J = np.empty((len(r), model.nv))
+            for i in range(model.nv):
+                dq = np.zeros(model.nv)
+                dq[i] = eps
+                J[:, i] = (self.residual(pin.integrate(model, q, dq), phi, targets) - r) / eps
+            step = np.linalg.solve(J.T @ J + 1e-8 * np.eye(model.nv), -J.T @ r)
+            q = pin.integrate(model, q, step)
+            if np.abs(step).max() < 1e-7:
+                break
+        return q
+
+
+def _thorax_frame(model) -> int | None:
+    for name in ("thorax", "torso", "torso_2_link", "middle_thorax", "torso_link"):
+        if model.existFrame(name):
+            return model.getFrameId(name)
+    return None
+
+
+def _quintic(s):
+    s = np.clip(s, 0.0, 1.0)
+    return 10 * s**3 - 15 * s**4 + 6 * s**5
+
+
+def lateral_sway(
+    phase: np.ndarray, period: float, width: float, height: float, double_support: float
+) -> np.ndarray:
+    """The periodic lateral path of a linear inverted pendulum of ``height`` [m] whose zero-moment
+    point sits on the stance foot's centre line (-width/2 on the right foot from the right heel
+    strike, +width/2 on the left from half a cycle on; it moves across during each double
+    support, which lasts ``double_support / 2`` from each heel strike):
+    y'' = (y - p) g / height, periodic, on the phase grid."""
+    n = len(phase)
+    dt = period / n
+    psi = phase % 1.0
+
+    def zmp(x):  # from the left foot to the right during the double support from 0, and back
+        half = double_support / 2
+        if x < half:
+            return width / 2 - width * float(_quintic(x / half))
+        if x < 0.5:
+            return -width / 2
+        if x < 0.5 + half:
+            return -width / 2 + width * float(_quintic((x - 0.5) / half))
+        return width / 2
+
+    p = np.array([zmp(x) for x in psi])
+    k = 9.81 / height
+    D2 = (np.roll(np.eye(n), 1, axis=1) - 2 * np.eye(n) + np.roll(np.eye(n), -1, axis=1)) / dt**2
+    return np.linalg.solve(D2 - k * np.eye(n), -k * p)
+
+
+def fit_cycle(h, speed: float | None = None, width: float | None = None,
+              frames: int = FRAMES) -> GaitCycle:  # fmt: skip
+    """Fit one stride of a person's gait to ``h`` (see the module docstring).
+
+    Args:
+        h: The humanoid (a free-flyer root, two legs with feet that have contact points).
+        speed: Walking speed [m/s]; default the body's free speed (``norms.free_speed``).
+        width: Distance between the feet's centre lines [m]; default the foot's width plus 3 %
+            of the leg length (a person's walking base), at most the standing stance.
+        frames: Instants per cycle.
+    """
+    ell = leg_length(h)
+    speed = free_speed(ell) if speed is None else float(speed)
+    if not 0.3 <= speed <= 2.5:
+        raise HumanoidError(f"speed must be in [0.3, 2.5] m/s, got {speed}")
+    gait = choose_gait(speed, ell)
+    fitter = _Fitter(h, gait, width or 0.0)
+    data, model = fitter.data, h.model
+    pin.framesForwardKinematics(model, data, fitter.q0)
+    soles0 = {s: data.oMf[fitter.sole[s]].copy() for s in SIDES}
+    if width is None:
+        corners = [h.frame_id(c) for c in h.require_contact_points("left")]
+        local = [soles0["left"].actInv(data.oMf[c].translation) for c in corners]
+        foot_width = float(np.ptp([p[1] for p in local]))
+        width = min(abs(soles0["left"].translation[1] - soles0["right"].translation[1]),
+                    0.03 * ell + foot_width)  # fmt: skip
+    L, off, flat = gait["step_length"], gait["foot_off"], gait["opposite_foot_off"]
+    heel_off = 0.65 * off
+    phase = np.arange(frames) / frames
+
+    def step_pose(side: str, k: int) -> pin.SE3:
+        """The flat pose of a side's k-th footstep (right k = 0 at x = 0, left k = 0 at -L)."""
+        x = 2 * L * k - (L if side == "left" else 0.0)
+        y = width / 2 if side == "left" else -width / 2
+        return pin.SE3(
+            np.eye(3), np.array([x, y, 0.0]) + np.array([soles0[side].translation[0], 0, 0])
+        )
+
+    # foot pitch at heel strike and at foot off, from the normative angles: the foot against the
+    # floor = ankle + hip - pelvis tilt - knee (sagittal chain, degrees; toes up positive)
+    def foot_pitch(psi):
+        a = fitter.angles(psi)
+        return math.radians(a[7] + a[3] - a[0] - a[6])
+
+    pitch_strike, pitch_off = foot_pitch(0.0), foot_pitch(off)
+    z_com0 = pin.centerOfMass(model, data, fitter.q0)[2]
+    sway = lateral_sway(phase, gait["cycle"], width, z_com0, gait["double_support"])
+    fitter.pelvis_target = lambda phi: (float(np.interp(phi % 1.0, phase, sway, period=1.0)), None)
+
+    def stance_target(side, psi, k) -> tuple[pin.SE3, int]:
+        """Pose of a stance foot at its phase psi (< off), on footstep k."""
+        base = step_pose(side, k)
+        heel, toe = fitter.edge[side]
+        if psi < flat:
+            theta, pivot, kind = pitch_strike * (1 - _quintic(psi / flat)), heel, 1
+        elif psi < heel_off:
+            return base, 2
+        else:
+            theta = pitch_off * _quintic((psi - heel_off) / (off - heel_off))
+            pivot, kind = toe, 3
+        # rotate about the pivot edge (toes up positive: a rotation about -y)
+        R = pin.utils.rotate("y", -theta)
+        p = base.translation + base.rotation @ pivot
+        return pin.SE3(R, p - R @ pivot), kind
+
+    def targets_at(phi, swing_paths=None):
+        targets, kinds = {}, {}
+        for side in SIDES:
+            psi_raw = phi + (0.5 if side == "left" else 0.0)
+            k = int(math.floor(psi_raw))  # footstep index of the current stance
+            psi = psi_raw - k
+            if psi < off:
+                targets[side], kinds[side] = stance_target(side, psi, k)
+            else:
+                kinds[side] = 0
+                if swing_paths is not None:
+                    targets[side] = swing_paths[side](phi)
+        return targets, kinds
+
+    # pass 1: stance feet only; the swing foot goes where the normative angles carry it
+    q = fitter.q0.copy()
+    qs1, free = [], {s: [] for s in SIDES}
+    back = pin.SE3(np.eye(3), np.array([-2 * L, 0.0, 0.0]))  # one stride back
+    for phi in phase + 1.0:  # the second lap (footsteps k = 1, 2), from the standing posture
+        targets, _ = targets_at(phi)
+        q = fitter.solve(q, phi, targets, iterations=100 if phi == 1.0 else 30)
+        qs1.append(q.copy())
+        pin.framesForwardKinematics(model, data, q)
+        for s in SIDES:
+            free[s].append(back * data.oMf[fitter.sole[s]])
+    # bend each swing path to leave from the foot-off pose and land on the heel-strike pose
+    paths = {}
+    for s in SIDES:
+        shift = 0.5 if s == "left" else 0.0
+        i_off = int(round(((off - shift) % 1.0) * frames)) % frames
+        i_on = int(round(((1.0 - shift) % 1.0) * frames)) % frames
+        start, _ = stance_target(s, off - 1e-9, 0)
+        end, _ = stance_target(s, 0.0, 1)
+        a0, a1 = free[s][i_off], free[s][i_on]
+        if i_on < i_off:  # the free path's landing instant is in the next lap
+            a1 = pin.SE3(np.eye(3), np.array([2 * L, 0.0, 0.0])) * a1
+        dp0, dp1 = start.translation - a0.translation, end.translation - a1.translation
+        dr0 = pin.log3(a0.rotation.T @ start.rotation)
+        dr1 = pin.log3(a1.rotation.T @ end.rotation)
+
+        def path(phi, s=s, shift=shift, dp0=dp0, dp1=dp1, dr0=dr0, dr1=dr1):
+            psi_raw = phi + shift
+            k = int(math.floor(psi_raw))  # the footstep the foot left
+            u = (psi_raw - k - off) / (1.0 - off)  # 0 at foot off, 1 at heel strike
+            i = int(round((phi % 1.0) * frames)) % frames
+            M = free[s][i]
+            w = float(_quintic(u))
+            p = M.translation + (1 - w) * dp0 + w * dp1
+            p[0] += 2 * L * k
+            R = M.rotation @ pin.exp3((1 - w) * dr0 + w * dr1)
+            # above the floor: the lowest corner at least CLEARANCE up in mid-swing
+            lowest = min((R @ c + p)[2] for c in fitter.corners[s])
+            p[2] += max(0.0, CLEARANCE * math.sin(math.pi * min(max(u, 0.0), 1.0)) - lowest)
+            return pin.SE3(R, p)
+
+        paths[s] = path
+    # pass 2: both feet constrained; the pelvis rises and falls about its mean height in the
+    # first pass, lowest at the end of each loading response (the opposite foot's lift-off)
+    pelvis1 = np.array([qk[:3] for qk in qs1])
+    z_mean, mid_ds = float(pelvis1[:, 2].mean()), gait["opposite_foot_off"]
+
+    def pelvis_target(phi):
+        y = float(np.interp(phi % 1.0, phase, sway, period=1.0))
+        return y, z_mean - PELVIS_BOB * math.cos(4 * math.pi * (phi - mid_ds))
+
+    fitter.pelvis_target = pelvis_target
+    qs, feet, contact, worst = [], {s: [] for s in SIDES}, {s: [] for s in SIDES}, 0.0
+    q = qs1[0].copy()
+    for phi in phase:
+        targets, kinds = targets_at(phi, paths)
+        q = fitter.solve(q, phi, targets)
+        pin.framesForwardKinematics(model, data, q)
+        for s in SIDES:
+            M = data.oMf[fitter.sole[s]]
+            if kinds[s]:  # a stance foot's pose is a constraint
+                worst = max(worst, float(np.abs(pin.log6(targets[s].actInv(M)).vector).max()))
+            feet[s].append(np.concatenate([M.translation, pin.rpy.matrixToRpy(M.rotation)]))
+            contact[s].append(kinds[s])
+        qs.append(q.copy())
+    return GaitCycle(
+        phase=phase,
+        q=np.array(qs),
+        gait=gait | {"width": width, "heel_off": heel_off},
+        feet={s: np.array(v) for s, v in feet.items()},
+        contact={s: np.array(v) for s, v in contact.items()},
+        residual=worst,
+    )

@@ -1,0 +1,111 @@
+"""Gait-lab angles of any humanoid, and the normative data the walk and its report use."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import humanoid as hm
+from humanoid.walking.clinical import ANGLES, LegChain, clinical_angles
+from humanoid.walking.norms import ADULT, choose_gait, free_speed, norms
+
+
+@pytest.fixture(scope="module")
+def euler_body():
+    return hm.load("adult_male", ball_joints="euler")
+
+
+@pytest.mark.parametrize(
+    "joint, angle",
+    [("hip_flexion", "hip_flexion"), ("hip_adduction", "hip_adduction"),
+     ("hip_rotation", "hip_rotation"), ("knee", "knee_flexion"),
+     ("ankle_flexion", "ankle_dorsiflexion")],
+)  # fmt: skip
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_one_hinge_reads_as_its_clinical_angle(euler_body, side, joint, angle):
+    """A hinge of our URDF moved alone reads as its clinical angle, with the clinic's sign
+    (our URDF's hinges are flexion, adduction, internal rotation, knee flexion, dorsiflexion),
+    and every other angle stays zero."""
+    m = euler_body.model
+    q = euler_body.standing_configuration()
+    q[m.joints[m.getJointId(f"{side}_{joint}")].idx_q] = 0.3
+    a = clinical_angles(euler_body, q)
+    expected = np.zeros(len(ANGLES))
+    expected[ANGLES.index(angle)] = math.degrees(0.3)
+    np.testing.assert_allclose(a[side], expected, atol=1e-9)
+    other = "left" if side == "right" else "right"
+    np.testing.assert_allclose(a[other], 0.0, atol=1e-9)
+
+
+def test_pelvis_angles_against_the_room(euler_body):
+    """Tilting, rolling and turning the whole standing body: only the pelvis angles move, with
+    the side's own sign (its hip up, its hip forward)."""
+    q0 = euler_body.standing_configuration()
+    for axis, k, signs in (("y", 0, (1, 1)), ("x", 1, (1, -1)), ("z", 2, (-1, 1))):
+        q = q0.copy()
+        q[3:7] = pin.Quaternion(pin.utils.rotate(axis, 0.1)).coeffs()
+        a = clinical_angles(euler_body, q)
+        for side, sign in zip(("left", "right"), signs, strict=True):
+            expected = np.zeros(len(ANGLES))
+            expected[k] = sign * math.degrees(0.1)
+            np.testing.assert_allclose(a[side], expected, atol=1e-9)
+
+
+def test_ball_joints_read_like_their_hinges(euler_body):
+    """The quaternion body's angles equal its Euler twin's on random postures: the angles come
+    from the segments, not from the joint coordinates."""
+    h = hm.load("adult_male")
+    rng = np.random.default_rng(3)
+    m = euler_body.model
+    qe = np.tile(euler_body.standing_configuration(), (20, 1))
+    lo, hi = m.lowerPositionLimit[7:], m.upperPositionLimit[7:]
+    qe[:, 7:] = rng.uniform(lo, hi, (20, m.nq - 7)) * 0.5
+    qe[:, 3:7] = [pin.Quaternion(pin.exp3(rng.normal(0, 0.2, 3))).coeffs() for _ in range(20)]
+    q, _ = h.from_euler(qe)
+    a, b = clinical_angles(euler_body, qe), clinical_angles(h, q)
+    for side in ("left", "right"):
+        np.testing.assert_allclose(a[side], b[side], atol=1e-9)
+
+
+def test_a_robots_knee_is_found():
+    talos = hm.load("talos")
+    assert talos.model.names[LegChain(talos, "left").knee] == "leg_left_4_joint"
+    assert talos.model.names[LegChain(talos, "right").knee] == "leg_right_4_joint"
+
+
+def test_the_normative_curves():
+    """Schwartz 2008 as published: at free speed the knee flexes to 59 deg in swing, the
+    vertical force peaks at 1.10 BW, the plantarflexor moment at 1.23 N m/kg; a class's own
+    speed gives its own curve; the events sum up (double support = 2 x opposite foot off)."""
+    n = norms()
+    free = n.class_speeds[2]
+    knee, sd = n.curve("knee_flexion", free)
+    assert len(knee) == len(n.percent) == 51 and np.all(sd > 0)
+    assert abs(knee.max() - 59.13) < 0.05
+    assert abs(n.curve("grf_vertical", free)[0].max() - 1.10) < 0.01
+    assert abs(n.curve("ankle_plantarflexion_moment", free)[0].max() - 1.23) < 0.01
+    assert n.units["ankle_power"] == "W/kg" and n.units["grf_vertical"] == "BW"
+    fast = n.curve("knee_flexion", n.class_speeds[3])[0]
+    halfway = n.curve("knee_flexion", (n.class_speeds[2] + n.class_speeds[3]) / 2)[0]
+    np.testing.assert_allclose(halfway, (knee + fast) / 2, atol=1e-9)
+    assert abs(n.scalar("double_support", free) - 2 * n.scalar("opposite_foot_off", free)) < 0.02
+    with pytest.raises(KeyError, match="no normative curve"):
+        n.curve("elbow", free)
+
+
+@pytest.mark.parametrize("leg", [0.78, 0.84, 0.91, 1.01])
+def test_a_person_chooses_step_length_and_cadence_together(leg):
+    """At the free speed of any adult leg, speed, cadence and step length land in the adult
+    norms, and step length x cadence is the speed; faster walking lengthens and quickens."""
+    v = free_speed(leg)
+    g = choose_gait(v, leg)
+    assert ADULT["speed"][0][0] - 0.05 <= v <= ADULT["speed"][0][1]
+    assert 100 <= g["cadence"] <= 120 and 0.62 <= g["step_length"] <= 0.80
+    assert abs(g["step_length"] * g["cadence"] / 60 - v) < 1e-12
+    assert 0.18 <= g["double_support"] <= 0.26
+    slow, fast = choose_gait(0.8, leg), choose_gait(1.6, leg)
+    assert slow["step_length"] < g["step_length"] < fast["step_length"]
+    assert slow["cadence"] < g["cadence"] < fast["cadence"]
