@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError
-from .clinical import SIDES, leg_chains
+from .clinical import ANGLES, SIDES, leg_chains
 from .norms import choose_gait, free_speed, norms
 
 __all__ = ["GaitCycle", "fit_cycle", "lateral_sway", "leg_length"]
@@ -89,7 +89,7 @@ class GaitCycle:
 class _Fitter:
     """The per-instant fit (see the module docstring)."""
 
-    def __init__(self, h, gait: dict, width: float) -> None:
+    def __init__(self, h, gait: dict) -> None:
         self.h, self.model = h, h.model
         self.data = h.model.createData()
         self.gait = gait
@@ -98,15 +98,12 @@ class _Fitter:
         v_hat = gait["dimensionless_speed"]
         n = norms()
         self.pct = n.percent / 100.0
-        self.curves = {
-            name: n.curve(name, v_hat)[0]
-            for name in ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
-                         "hip_adduction", "hip_rotation", "knee_flexion", "ankle_dorsiflexion")
-        }  # fmt: skip
-        # the lab's pelvis is tilted forward by its marker set: keep its motion, not its mean
-        self.curves["pelvis_tilt"] = self.curves["pelvis_tilt"] - self.curves["pelvis_tilt"].mean()
-        self.curves["hip_flexion"] = self.curves["hip_flexion"] - self.tilt_offset(n, v_hat)
-        self.width = width
+        self.curves = {name: n.curve(name, v_hat)[0] for name in ANGLES}
+        # the lab's pelvis is tilted forward by its marker set (about 11 deg; the body's pelvis
+        # is level when it stands): keep the tilt's motion, and the thigh's angle to the room
+        offset = float(self.curves["pelvis_tilt"].mean())
+        self.curves["pelvis_tilt"] = self.curves["pelvis_tilt"] - offset
+        self.curves["hip_flexion"] = self.curves["hip_flexion"] - offset
         data = self.data
         pin.framesForwardKinematics(self.model, data, self.q0)
         self.sole = {s: self.chains[s].sole for s in SIDES}
@@ -122,19 +119,13 @@ class _Fitter:
         self.thorax = _thorax_frame(self.model)
         self.pelvis_target = None
 
-    @staticmethod
-    def tilt_offset(n, v_hat) -> float:
-        return float(n.curve("pelvis_tilt", v_hat)[0].mean())
-
     def norm(self, name: str, psi: float) -> float:
         """A normative angle [deg] at a side's phase psi (periodic)."""
         return float(np.interp(psi % 1.0, self.pct, self.curves[name]))
 
     def angles(self, psi: float) -> np.ndarray:
         """The normative side angles in clinical.ANGLES order at the side's phase."""
-        return np.array([self.norm(k, psi) for k in (
-            "pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
-            "hip_adduction", "hip_rotation", "knee_flexion", "ankle_dorsiflexion")])  # fmt: skip
+        return np.array([self.norm(k, psi) for k in ANGLES])
 
     # -- the residual ----------------------------------------------------------------------
     def residual(self, q, phi: float, targets: dict) -> np.ndarray:
@@ -239,7 +230,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
     if not 0.3 <= speed <= 2.5:
         raise HumanoidError(f"speed must be in [0.3, 2.5] m/s, got {speed}")
     gait = choose_gait(speed, ell)
-    fitter = _Fitter(h, gait, width or 0.0)
+    fitter = _Fitter(h, gait)
     data, model = fitter.data, h.model
     pin.framesForwardKinematics(model, data, fitter.q0)
     soles0 = {s: data.oMf[fitter.sole[s]].copy() for s in SIDES}
