@@ -35,7 +35,7 @@ class ContactState:
     def __init__(self, h: Humanoid, spec) -> None:
         self.spec = spec
         self.side = spec.foot
-        self.sole = h.frame_id(h.feet[0 if spec.foot == "left" else 1])
+        self.sole = h.sole_id(spec.foot)
         self.points = [h.frame_id(n) for n in h.require_contact_points(self.side)]
         self.attached = False
         self.ever_attached = False

@@ -107,6 +107,10 @@ class Humanoid:
             raise ModelError(f"no frame {name!r} in {self.source}; {_frame_hint(self.model)}")
         return self.model.getFrameId(name)
 
+    def sole_id(self, side: str) -> int:
+        """Index of a side's sole frame (``"left"`` or ``"right"``)."""
+        return self.frame_id(self.feet[SIDES.index(side)])
+
     def standing_configuration(self) -> np.ndarray:
         """Upright configuration [q]: joints at zero (clipped into their limits), soles on z = 0.
 
@@ -140,16 +144,21 @@ class Humanoid:
             )
         return names
 
-    def sole_box(self, side: str) -> tuple[np.ndarray, np.ndarray]:
-        """Corners (min, max) of the sole's contact points in the sole frame [m] (x, y, z).
+    def sole_points(self, side: str) -> np.ndarray:
+        """The sole's contact points in the sole frame [m], (n, 3), in the order of
+        :meth:`require_contact_points`.
 
         The points and the sole frame ride on the same foot, so this holds in any pose.
         """
         data = self.model.createData()
         pin.framesForwardKinematics(self.model, data, self.standing_configuration())
-        sole = data.oMf[self.frame_id(self.feet[SIDES.index(side)])]
+        sole = data.oMf[self.sole_id(side)]
         names = self.require_contact_points(side)
-        pts = np.array([sole.actInv(data.oMf[self.frame_id(n)].translation) for n in names])
+        return np.array([sole.actInv(data.oMf[self.frame_id(n)].translation) for n in names])
+
+    def sole_box(self, side: str) -> tuple[np.ndarray, np.ndarray]:
+        """Corners (min, max) of the sole's contact points in the sole frame [m] (x, y, z)."""
+        pts = self.sole_points(side)
         return pts.min(axis=0), pts.max(axis=0)
 
     def standing_height(self) -> float:

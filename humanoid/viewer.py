@@ -267,7 +267,7 @@ class SceneView:
         for side in self.feet:
             w = forces.get(side)
             attached = w is not None and np.all(np.isfinite(w))
-            sole = self.data.oMf[self.h.frame_id(self.h.feet[SIDES.index(side)])]
+            sole = self.data.oMf[self.h.sole_id(side)]
             if ov.footprints:
                 out.append((("footprints", side), "visible", bool(attached)))
                 if attached:
@@ -344,9 +344,6 @@ class SceneView:
         self.vis.set_animation(anim, play=True, repetitions=LOOPS if loop else 1)
         self.timeline = (float(t[0]), (n - 1) / fps, float(speed))
         return n
-
-
-SIDES = ("left", "right")
 
 
 def _sample(model, traj, time_sim: float, feet):

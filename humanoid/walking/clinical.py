@@ -23,15 +23,26 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+from ..model import SIDES
 
-__all__ = ["ANGLES", "LegChain", "clinical_angles", "leg_chains"]
+__all__ = ["ANGLES", "LegChain", "clinical_angles", "leg_chains", "torso_frame"]
 
-SIDES = ("left", "right")
 # the angles of one side, in order
 ANGLES = (
     "pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion", "hip_adduction",
     "hip_rotation", "knee_flexion", "ankle_dorsiflexion",
 )  # fmt: skip
+
+# Torso link names of the supported models (ours, example-robot-data's human and Talos).
+TORSO_NAMES = ("thorax", "middle_thorax", "torso_2_link", "torso")
+
+
+def torso_frame(model) -> int | None:
+    """The torso's frame (the first of :data:`TORSO_NAMES` the model has), or None."""
+    for name in TORSO_NAMES:
+        if model.existFrame(name):
+            return model.getFrameId(name)
+    return None
 
 
 class LegChain:
@@ -40,7 +51,7 @@ class LegChain:
     def __init__(self, h, side: str) -> None:
         model = h.model
         self.side = side
-        self.sole = h.frame_id(h.feet[SIDES.index(side)])
+        self.sole = h.sole_id(side)
         chain, j = [], model.frames[self.sole].parentJoint
         while j > 0:
             chain.append(j)

@@ -28,6 +28,8 @@ from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..effects import Effect
 from ..errors import HumanoidError
+from ..model import SIDES
+from .clinical import torso_frame
 
 __all__ = ["ControllerGains", "WalkingController"]
 
@@ -80,7 +82,7 @@ class WalkingController(Effect):
         self.q_posture = np.array(q_posture, dtype=float)
         self.baumgarte = baumgarte
         self.gains = gains or ControllerGains()
-        self.sole = {s: h.frame_id(h.feet[i]) for i, s in enumerate(("left", "right"))}
+        self.sole = {s: h.sole_id(s) for s in SIDES}
         self.corners = {s: [h.frame_id(n) for n in h.require_contact_points(s)] for s in self.sole}
         self.tau = np.zeros(model.nv)
         self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
@@ -282,12 +284,8 @@ class WalkingController(Effect):
         if not hasattr(self, "_trunk"):
             model = self.model
             frames = [model.getFrameId(model.names[1], pin.FrameType.JOINT)]
-            torso = [n for n in TORSO_NAMES if model.existFrame(n)]
-            if torso:
-                frames.append(model.getFrameId(torso[0]))
+            torso = torso_frame(model)
+            if torso is not None:
+                frames.append(torso)
             self._trunk = frames
         return self._trunk
-
-
-# Torso link names of the supported models (ours, example-robot-data's human and Talos).
-TORSO_NAMES = ("thorax", "middle_thorax", "torso_2_link", "torso")

@@ -144,7 +144,7 @@ class FootstepPlan:
         if t < first.t_lift:
             stance0 = self.initial["left" if first.side == "right" else "right"]
             s = np.clip((t - 0.2 * g.t_start) / (0.6 * g.t_start), 0.0, 1.0)
-            return mid0 + _smooth(s) * (stance0 - mid0)
+            return mid0 + smooth_step(s) * (stance0 - mid0)
         for i, step in enumerate(self.steps):
             stance_side = "left" if step.side == "right" else "right"
             stance = self._position_before(stance_side, i)
@@ -156,12 +156,12 @@ class FootstepPlan:
                     break
                 # the load is on the new foot before the old one lifts off
                 s = (t - step.t_land) / (TRANSFER * g.t_double)
-                return stance + _smooth(s) * (step.target - stance)
+                return stance + smooth_step(s) * (step.target - stance)
         last = self.steps[-1]
         stance = self._position_before("left" if last.side == "right" else "right", len(self.steps))
         mid = (self.final["left"] + self.final["right"]) / 2
         s = np.clip((t - last.t_land) / (0.6 * g.t_end), 0.0, 1.0)
-        return stance + _smooth(s) * (mid - stance)
+        return stance + smooth_step(s) * (mid - stance)
 
     def _position_before(self, side: str, i: int) -> np.ndarray:
         pos = self.initial[side].copy()
@@ -190,7 +190,7 @@ class FootstepPlan:
         return p, v, a
 
 
-def _smooth(s):
+def smooth_step(s):
     """A smooth 0 -> 1 ramp with zero slope at both ends (the quintic)."""
     return _quintic(np.clip(s, 0.0, 1.0))[0]
 

@@ -34,8 +34,10 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError
-from .clinical import ANGLES, SIDES, leg_chains
+from ..model import SIDES
+from .clinical import ANGLES, leg_chains, torso_frame
 from .norms import choose_gait, free_speed, norms
+from .plan import smooth_step
 
 __all__ = ["GaitCycle", "fit_cycle", "lateral_sway", "leg_length"]
 
@@ -65,8 +67,8 @@ class GaitCycle:
         phase: (N,) fractions of the cycle (from the right heel strike).
         q: (N, nq) configurations; the cycle repeats shifted by ``stride`` along x.
         gait: the chosen speed, step length, cadence and events (see ``choose_gait``).
-        feet: for each side, the (N, 6) pose targets of its sole (x, y, z, roll, pitch, yaw)
-            and (N,) its contact phase (0 swing, 1 heel, 2 flat, 3 toe).
+        feet: for each side, the (N, 6) poses of its sole (x, y, z, roll, pitch, yaw).
+        contact: for each side, (N,) its contact phase (0 swing, 1 heel, 2 flat, 3 toe).
         residual: largest residual of a stance foot's pose in the fit [m or rad].
     """
 
@@ -90,9 +92,8 @@ class _Fitter:
     """The per-instant fit (see the module docstring)."""
 
     def __init__(self, h, gait: dict) -> None:
-        self.h, self.model = h, h.model
+        self.model = h.model
         self.data = h.model.createData()
-        self.gait = gait
         self.chains = leg_chains(h)
         self.q0 = h.standing_configuration()
         v_hat = gait["dimensionless_speed"]
@@ -104,19 +105,14 @@ class _Fitter:
         offset = float(self.curves["pelvis_tilt"].mean())
         self.curves["pelvis_tilt"] = self.curves["pelvis_tilt"] - offset
         self.curves["hip_flexion"] = self.curves["hip_flexion"] - offset
-        data = self.data
-        pin.framesForwardKinematics(self.model, data, self.q0)
         self.sole = {s: self.chains[s].sole for s in SIDES}
-        corners = {s: [h.frame_id(c) for c in h.require_contact_points(s)] for s in SIDES}
-        # heel and toe edges' middles in the sole frame (corners: heel, heel, toe, toe)
-        self.edge, self.corners = {}, {}
-        for s in SIDES:
-            M = data.oMf[self.sole[s]]
-            pts = np.array([M.actInv(data.oMf[c].translation) for c in corners[s]])
+        # the sole's contact points, and its heel and toe edges' middles, in the sole frame
+        self.corners = {s: h.sole_points(s) for s in SIDES}
+        self.edge = {}
+        for s, pts in self.corners.items():
             order = np.argsort(pts[:, 0])
             self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
-            self.corners[s] = pts
-        self.thorax = _thorax_frame(self.model)
+        self.thorax = torso_frame(self.model)
         self.pelvis_target = None
 
     def norm(self, name: str, psi: float) -> float:
@@ -128,25 +124,30 @@ class _Fitter:
         return np.array([self.norm(k, psi) for k in ANGLES])
 
     # -- the residual ----------------------------------------------------------------------
-    def residual(self, q, phi: float, targets: dict) -> np.ndarray:
+    def wants(self, phi: float) -> tuple[dict, tuple | None]:
+        """What the fit aims at, at the cycle's phase phi: each side's normative angles [deg],
+        and the pelvis's (y, z or None) [m] if it has a path."""
+        angles = {s: self.angles(phi + (0.5 if s == "left" else 0.0)) for s in SIDES}
+        return angles, None if self.pelvis_target is None else self.pelvis_target(phi)
+
+    def residual(self, q, targets: dict, wants: tuple) -> np.ndarray:
         model, data = self.model, self.data
         pin.framesForwardKinematics(model, data, q)
         r = []
         for s, target in targets.items():
             err = target.actInv(data.oMf[self.sole[s]])
             r.append(W_FOOT * pin.log6(err).vector)
+        angles, pelvis = wants
         for s in SIDES:
-            psi = phi + (0.5 if s == "left" else 0.0)
-            a = self.chains[s].angles(data)
-            want = self.angles(psi)
+            a, want = self.chains[s].angles(data), angles[s]
             # the pelvis is shared: each side fits its own view of it at half weight
             r.append(W_ANGLE * math.sqrt(0.5) * np.radians(a[:3] - want[:3]))
             r.append(W_ANGLE * np.radians(a[3:] - want[3:]))
-        if self.pelvis_target is not None:  # lateral sway and rise and fall, of the pelvis
+        if pelvis is not None:  # lateral sway and rise and fall, of the pelvis
             c = data.oMi[1].translation
-            want = self.pelvis_target(phi)
             r.append(
-                W_PELVIS * np.array([c[1] - want[0], 0.0 if want[1] is None else c[2] - want[1]])
+                W_PELVIS
+                * np.array([c[1] - pelvis[0], 0.0 if pelvis[1] is None else c[2] - pelvis[1]])
             )
         if self.thorax is not None:
             R = data.oMf[self.thorax].rotation
@@ -160,30 +161,19 @@ class _Fitter:
         """Gauss-Newton with a small damping, numerical Jacobian on the tangent space."""
         model = self.model
         eps = 1e-7
+        wants = self.wants(phi)
         for _ in range(iterations):
-            r = self.residual(q, phi, targets)
+            r = self.residual(q, targets, wants)
             J = np.empty((len(r), model.nv))
             for i in range(model.nv):
                 dq = np.zeros(model.nv)
                 dq[i] = eps
-                J[:, i] = (self.residual(pin.integrate(model, q, dq), phi, targets) - r) / eps
+                J[:, i] = (self.residual(pin.integrate(model, q, dq), targets, wants) - r) / eps
             step = np.linalg.solve(J.T @ J + 1e-8 * np.eye(model.nv), -J.T @ r)
             q = pin.integrate(model, q, step)
             if np.abs(step).max() < 1e-7:
                 break
         return q
-
-
-def _thorax_frame(model) -> int | None:
-    for name in ("thorax", "torso", "torso_2_link", "middle_thorax", "torso_link"):
-        if model.existFrame(name):
-            return model.getFrameId(name)
-    return None
-
-
-def _quintic(s):
-    s = np.clip(s, 0.0, 1.0)
-    return 10 * s**3 - 15 * s**4 + 6 * s**5
 
 
 def lateral_sway(
@@ -201,11 +191,11 @@ def lateral_sway(
     def zmp(x):  # from the left foot to the right during the double support from 0, and back
         half = double_support / 2
         if x < half:
-            return width / 2 - width * float(_quintic(x / half))
+            return width / 2 - width * float(smooth_step(x / half))
         if x < 0.5:
             return -width / 2
         if x < 0.5 + half:
-            return -width / 2 + width * float(_quintic((x - 0.5) / half))
+            return -width / 2 + width * float(smooth_step((x - 0.5) / half))
         return width / 2
 
     p = np.array([zmp(x) for x in psi])
@@ -235,9 +225,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
     pin.framesForwardKinematics(model, data, fitter.q0)
     soles0 = {s: data.oMf[fitter.sole[s]].copy() for s in SIDES}
     if width is None:
-        corners = [h.frame_id(c) for c in h.require_contact_points("left")]
-        local = [soles0["left"].actInv(data.oMf[c].translation) for c in corners]
-        foot_width = float(np.ptp([p[1] for p in local]))
+        foot_width = float(np.ptp(fitter.corners["left"][:, 1]))
         width = min(abs(soles0["left"].translation[1] - soles0["right"].translation[1]),
                     0.03 * ell + foot_width)  # fmt: skip
     L, off, flat = gait["step_length"], gait["foot_off"], gait["opposite_foot_off"]
@@ -248,9 +236,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         """The flat pose of a side's k-th footstep (right k = 0 at x = 0, left k = 0 at -L)."""
         x = 2 * L * k - (L if side == "left" else 0.0)
         y = width / 2 if side == "left" else -width / 2
-        return pin.SE3(
-            np.eye(3), np.array([x, y, 0.0]) + np.array([soles0[side].translation[0], 0, 0])
-        )
+        return pin.SE3(np.eye(3), np.array([x + soles0[side].translation[0], y, 0.0]))
 
     # foot pitch at heel strike and at foot off, from the normative angles: the foot against the
     # floor = ankle + hip - pelvis tilt - knee (sagittal chain, degrees; toes up positive)
@@ -268,11 +254,11 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         base = step_pose(side, k)
         heel, toe = fitter.edge[side]
         if psi < flat:
-            theta, pivot, kind = pitch_strike * (1 - _quintic(psi / flat)), heel, 1
+            theta, pivot, kind = pitch_strike * (1 - smooth_step(psi / flat)), heel, 1
         elif psi < heel_off:
             return base, 2
         else:
-            theta = pitch_off * _quintic((psi - heel_off) / (off - heel_off))
+            theta = pitch_off * smooth_step((psi - heel_off) / (off - heel_off))
             pivot, kind = toe, 3
         # rotate about the pivot edge (toes up positive: a rotation about -y)
         R = pin.utils.rotate("y", -theta)
@@ -325,7 +311,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
             u = (psi_raw - k - off) / (1.0 - off)  # 0 at foot off, 1 at heel strike
             i = int(round((phi % 1.0) * frames)) % frames
             M = free[s][i]
-            w = float(_quintic(u))
+            w = float(smooth_step(u))
             p = M.translation + (1 - w) * dp0 + w * dp1
             p[0] += 2 * L * k
             R = M.rotation @ pin.exp3((1 - w) * dr0 + w * dr1)

@@ -23,7 +23,7 @@ import pinocchio as pin
 from ..constraints.limits import JointRanges
 from ..contacts import cop_in_sole, cop_on_plane
 from ..errors import HumanoidError, RunFailed
-from ..model import Humanoid
+from ..model import SIDES, Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
 from ..simulation import Simulation, StepResult, Trajectory
 from .controller import ControllerGains, WalkingController
@@ -40,7 +40,6 @@ __all__ = [
     "walk",
 ]
 
-SIDES = ("left", "right")
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
 
 # Typical adult gait (Bohannon 1997, Murray 1964/1970, Perry & Burnfield, Winter, Powers 2002,
@@ -78,7 +77,7 @@ def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
     data = model.createData()
     q = h.standing_configuration()
     pin.framesForwardKinematics(model, data, q)
-    targets = {s: data.oMf[h.frame_id(h.feet[i])].copy() for i, s in enumerate(SIDES)}
+    targets = {s: data.oMf[h.sole_id(s)].copy() for s in SIDES}
     q[2] -= drop
     q[0] += forward
     inside = math.radians(5.0)  # hinges standing on a limit (straight elbows) move inside it
@@ -96,8 +95,8 @@ def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         errs, rows = [], []
-        for i, s in enumerate(SIDES):
-            fid = h.frame_id(h.feet[i])
+        for s in SIDES:
+            fid = h.sole_id(s)
             err = targets[s].actInv(data.oMf[fid])
             errs.append(pin.log6(err).vector)
             rows.append(
@@ -147,7 +146,7 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
     q0 = crouch(h, drop)
     data = model.createData()
     pin.framesForwardKinematics(model, data, q0)
-    soles = {s: data.oMf[h.frame_id(h.feet[i])].translation.copy() for i, s in enumerate(SIDES)}
+    soles = {s: data.oMf[h.sole_id(s)].translation.copy() for s in SIDES}
     plan = FootstepPlan(gait, soles["left"][:2], soles["right"][:2])
     c0 = pin.centerOfMass(model, data, q0)
     feet = tuple(Contact(s, "weld", mu=mu) for s in SIDES)
