@@ -30,6 +30,9 @@ for scene in $("$BIN/python" -c 'import humanoid.data as d; print(*d.scene_names
 done
 "$BIN/humanoid" view push.npz --html push.html
 "$BIN/humanoid" view talos --html talos.html
+"$BIN/python" -c 'from humanoid.walking.norms import norms
+n = norms()
+print(f"norms: {len(n.units)} normative curves from the installed package data")'
 "$BIN/humanoid" bench step --quick -o bench > bench.txt
 rows=$(($(wc -l < bench/step.csv) - 1))
 if [ "$rows" -lt 1 ]; then echo "bench step wrote no rows" >&2; exit 1; fi
