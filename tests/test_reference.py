@@ -8,9 +8,12 @@ import pytest
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
+from humanoid.scene import Effects, GroundSpec, JointLimitSpec, Scene
+from humanoid.simulation import Simulation
 from humanoid.walking.clinical import ANGLES, clinical_angles
 from humanoid.walking.norms import norms
 from humanoid.walking.reference import CLEARANCE, fit_cycle, lateral_sway
+from humanoid.walking.tracking import CyclePlayer, GaitController
 
 
 @pytest.fixture(scope="module")
@@ -84,3 +87,65 @@ def test_lateral_sway_of_an_inverted_pendulum():
     tau = np.sqrt(0.95 / 9.81)
     assert 0.005 < y.max() < 0.06 * (1 - 1 / np.cosh(0.5 / (2 * tau)))
     assert abs(y[20]) < 1e-3  # phase 0.05: the middle of the double support
+
+
+def test_the_cycle_player_passes_through_the_cycle(male):
+    """The reference as a function of time: through every fitted instant exactly, one stride
+    further each lap, and a flat foot nearly still between the instants (< 1 cm/s)."""
+    h, c = male
+    m, d = h.model, h.model.createData()
+    player = CyclePlayer(m, c)
+    T = c.period
+    for phi, q in zip(c.phase, c.q, strict=True):
+        assert np.abs(pin.difference(m, player.configuration(phi * T), q)).max() < 1e-9
+    later = player.configuration(1.3 * T)
+    now = player.configuration(0.3 * T)
+    now[0] += c.stride
+    assert np.abs(pin.difference(m, now, later)).max() < 1e-9
+    for i in np.flatnonzero(c.contact["right"] == 2):
+        q, v, _ = player.state(c.phase[i] * T)
+        pin.forwardKinematics(m, d, q, v)
+        pin.updateFramePlacements(m, d)
+        foot = pin.getFrameVelocity(m, d, h.sole_id("right"), pin.LOCAL_WORLD_ALIGNED)
+        assert np.linalg.norm(foot.linear) < 0.01
+
+
+def test_the_tracking_controller_and_the_ground_agree(male):
+    """A few steps of the tracking controller on the rigid ground contact, from the cycle's
+    own state at 20 % (right foot flat, left swinging): the plant's accelerations are the
+    controller's (relative 1e-5: the contact solver's tolerance), the free flyer gets no
+    torque, and the ground's total impulse is the controller's planned forces times dt."""
+    h, c = male
+    scene = Scene(
+        name="track", body=h.source, ball_joints=h.ball_joints, duration=0.03, dt=1e-3,
+        integrator="semi_implicit_euler",
+        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+                        ground=GroundSpec(bodies="feet")),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    ctl = GaitController(h, sim.model, c, sim.ground, scene.dt, phase0=0.2)
+    sim.q0, sim.v0, _ = ctl.player.state(0.0)
+    sim.controller = ctl
+    seen = []
+
+    class Agreement:
+        def observe(self, sim, k, t, q, v, step):
+            dv, f, loaded = ctl.last
+            a = (step.v - v) / scene.dt
+            total = sim.ground_step.impulses.sum(axis=0)
+            planned = scene.dt * f.sum(axis=0)
+            seen.append((
+                np.abs(a - dv).max() / np.abs(dv).max(),
+                np.abs(step.torque[:6]).max(),
+                np.abs(total - planned).max() / np.abs(planned).max(),
+                len(loaded),
+            ))  # fmt: skip
+
+    sim.monitors.append(Agreement())
+    traj = sim.run(quiet=True)
+    assert traj.metadata["status"] == "completed"
+    seen = np.array(seen)
+    assert len(seen) == 30 and seen[:, 3].min() == 4  # the flat right foot's four corners
+    assert seen[:, 0].max() < 1e-5
+    assert seen[:, 1].max() == 0.0
+    assert seen[:, 2].max() < 1e-5

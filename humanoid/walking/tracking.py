@@ -1,0 +1,408 @@
+"""A person's walk on the rigid ground: the fitted gait cycle tracked by a whole-body controller.
+
+The reference is a body's own gait cycle (:func:`~humanoid.walking.reference.fit_cycle`): the
+normative angles of a gait lab fitted to its segments, heel strike to toe off. The plant is the
+ground contact of :mod:`humanoid.constraints.ground` (every sole point a unilateral contact with
+Coulomb friction, solved at the velocity level each step) and the joint ranges as constraints of
+the same solve. Between them, at every step, a task-space inverse-dynamics QP (ProxQP) finds the
+generalised acceleration dv and the forces f of the sole points that carry load, and only the
+joint torques tau = (M dv + h - J^T f)[6:] leave it:
+
+- **Equalities.** The free flyer's six rows of the dynamics (it is never actuated). Each sole
+  point that touches the floor and that the cycle's contact phase says is loaded (the heel's
+  points from heel strike, all of them from foot flat, the toe's from heel off) sticks, exactly
+  as the plant's velocity-level solve makes it stick: J (v + dt dv) + gap = 0.
+- **Inequalities.** Those points' forces inside the friction cone (a pyramid, at a smaller
+  friction coefficient than the floor's); every other sole point near the floor does not go
+  through it (J_n (v + dt dv) + gap >= 0, no force); joint ranges as velocity dampers.
+- **Costs.** Both feet's poses (the swing foot's path is the cycle's, bent to land where the
+  balance feedback says), the centre of mass, the pelvis's and the trunk's orientation, the
+  joints' angles (the cycle's, so the knee, ankle and arm motion are a person's), and small
+  forces.
+
+**Balance** is kept the way people keep it, by where the feet land: the divergent component of
+motion xi = c + c'/omega (the capture point) is compared with the cycle's, and the landing foot
+is moved by that error (Hof 2008's "constant offset" control). Each footstep then re-anchors
+the reference: the cycle is followed relative to the footholds the body actually has, not to a
+fixed place in the world, so its errors never accumulate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+from scipy.interpolate import CubicSpline
+
+from ..constraints.limits import JointRanges
+from ..effects import Effect
+from ..errors import HumanoidError
+from ..model import SIDES
+from .clinical import torso_frame
+from .plan import smooth_step
+
+__all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
+
+# Work in progress (issue 13): the controller holds a few steps of the fitted cycle, not yet a
+# walk; :func:`humanoid.walking.run.walk` is still the welded-feet walk.
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
+RANGE_TIME = 0.05  # [s] the range dampers' time constant
+TOUCH = 2e-4  # [m] a sole point this close to the floor may carry load
+
+
+class CyclePlayer:
+    """The fitted cycle as a smooth function of time: the configuration, velocity and
+    acceleration of the reference at any t (the cycle repeats, one stride further each lap).
+
+    A periodic cubic spline runs through the cycle's configurations in one chart (tangent
+    vectors from the first configuration, the stride's forward motion taken out); velocities
+    and accelerations are its central differences on the configuration group.
+    """
+
+    def __init__(self, model: pin.Model, cycle, phase0: float = 0.0) -> None:
+        self.model, self.cycle = model, cycle
+        self.period, self.stride = cycle.period, cycle.stride
+        self.phase0 = phase0
+        qs = cycle.q.copy()
+        qs[:, 0] -= self.stride * cycle.phase
+        self.qc = qs[0].copy()
+        d = np.array([pin.difference(model, self.qc, q) for q in qs])
+        self.spline = CubicSpline(
+            np.append(cycle.phase, 1.0), np.vstack([d, d[:1]]), bc_type="periodic"
+        )
+
+    def phase(self, t: float) -> float:
+        return self.phase0 + t / self.period
+
+    def configuration(self, t: float) -> np.ndarray:
+        phi = self.phase(t)
+        q = pin.integrate(self.model, self.qc, self.spline(phi % 1.0))
+        q[0] += self.stride * phi
+        return q
+
+    def state(self, t: float, h: float = 2e-3):
+        """(q, v, a) of the reference at t (central differences on the group, O(h^2))."""
+        model = self.model
+        q0, q, q1 = (self.configuration(t + k * h) for k in (-1, 0, 1))
+        back, ahead = pin.difference(model, q0, q), pin.difference(model, q, q1)
+        return q, (back + ahead) / (2 * h), (ahead - back) / (h * h)
+
+
+@dataclass(frozen=True)
+class TrackingGains:
+    """Gains [1/s^2 for kp, 1/s for kd] and weights of the tracking QP."""
+
+    foot_kp: float = 400.0
+    foot_kd: float = 40.0
+    com_kp: float = 50.0
+    com_kd: float = 14.0
+    com_z_kp: float = 100.0
+    com_z_kd: float = 20.0
+    trunk_kp: float = 100.0
+    trunk_kd: float = 20.0
+    posture_kp: float = 100.0
+    posture_kd: float = 20.0
+    w_foot: float = 1.0
+    w_com: float = 1.0
+    w_trunk: float = 0.3
+    w_posture: float = 3e-2
+    w_force: float = 1e-3
+    mu: float = 0.6
+    placement: float = 1.0  # the capture-point error's share moved into the next footstep
+    max_shift: float = 0.15  # [m] largest footstep correction
+
+
+def _apply(anchor: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """A point moved by an anchor (x, y, yaw: a rotation about z then a shift)."""
+    c, s = math.cos(anchor[2]), math.sin(anchor[2])
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return R @ p + np.array([anchor[0], anchor[1], 0.0])
+
+
+def _rot(anchor: np.ndarray) -> np.ndarray:
+    return pin.utils.rotate("z", float(anchor[2]))
+
+
+class GaitController(Effect):
+    """Joint torques that walk a body along its fitted gait cycle (see the module docstring).
+
+    Args:
+        h: The humanoid. model: the plant's model (with its gravity). cycle: the fitted
+        :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
+        :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
+        phase0: the cycle's phase at t = 0.
+    """
+
+    name = "gait"
+    velocity_dependent = True
+
+    def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None) -> None:
+        self.h, self.model, self.cycle = h, model, cycle
+        self.data = model.createData()
+        self.rdata = model.createData()
+        self.player = CyclePlayer(model, cycle, phase0)
+        self.ground = ground
+        self.dt = dt
+        self.gains = gains or TrackingGains()
+        self.sole = {s: h.sole_id(s) for s in SIDES}
+        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        pts = {s: h.sole_points(s) for s in SIDES}
+        self.sole_middle = {s: float(np.mean(pts[s][:, 0])) for s in SIDES}
+        self.tau = np.zeros(model.nv)
+        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+        self.ranges = JointRanges(h)
+        self.pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+        self.torso = torso_frame(model)
+        g = self.cycle.gait
+        self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
+        # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
+        self.anchors = {s: {} for s in SIDES}
+        self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
+        self.last = None
+        self.failures = 0
+        z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
+        self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
+        self._qp = None
+        self.why = ""
+
+    def force(self, model, data, t, q, v):
+        return self.tau
+
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        self.update(t, q, v)
+
+    # -- the cycle's timing ----------------------------------------------------------------
+    def side_phase(self, side: str, t: float) -> tuple[int, float]:
+        """(footstep index, phase within it) of a side at t (0 at its heel strike)."""
+        psi = self.player.phase(t) + (0.5 if side == "left" else 0.0)
+        k = math.floor(psi)
+        return k, psi - k
+
+    def contact_kind(self, psi: float) -> int:
+        if psi >= self.off:
+            return 0
+        if psi < self.flat:
+            return 1
+        return 2 if psi < self.heel_off else 3
+
+    def anchor(self, side: str, k: int) -> np.ndarray:
+        return self.anchors[side].get(k, np.zeros(3))
+
+    def body_anchor(self, t: float) -> np.ndarray:
+        """The anchor of the pelvis and CoM: the stance foot's; across a double support,
+        from the trailing foot's to the leading foot's."""
+        steps = {s: self.side_phase(s, t) for s in SIDES}
+        lead = min(SIDES, key=lambda s: steps[s][1])  # the foot that landed last
+        trail = "left" if lead == "right" else "right"
+        k_lead, psi = steps[lead]
+        a_lead = self.anchor(lead, k_lead)
+        if psi >= self.flat:
+            return a_lead
+        k_trail = steps[trail][0]
+        w = float(smooth_step(psi / self.flat))
+        return (1 - w) * self.anchor(trail, k_trail) + w * a_lead
+
+    # -- the QP ----------------------------------------------------------------------------
+    def update(self, t: float, q, v) -> np.ndarray:
+        model, data, g, dt = self.model, self.data, self.gains, self.dt
+        nv = model.nv
+        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        hvec = pin.nle(model, data, q, v)
+        # the reference, its feet and centre of mass
+        q_r, v_r, a_r = self.player.state(t)
+        rd = self.rdata
+        pin.forwardKinematics(model, rd, q_r, v_r, a_r)
+        pin.updateFramePlacements(model, rd)
+        c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
+        dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
+        dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
+        A = self.body_anchor(t)
+        R_A = _rot(A)
+        c_r, dc_r, ddc_r = _apply(A, c_r), R_A @ dc_r, R_A @ ddc_r
+        # balance: the capture point's error moves the swing foot's landing
+        xi = c[:2] + dc[:2] / self.omega
+        xi_r = c_r[:2] + dc_r[:2] / self.omega
+        err = xi - xi_r
+        steps = {s: self.side_phase(s, t) for s in SIDES}
+        kinds = {s: self.contact_kind(steps[s][1]) for s in SIDES}
+        for s in SIDES:
+            k, psi = steps[s]
+            if kinds[s] == 0:  # swing: land the next footstep k + 1 corrected
+                other = "left" if s == "right" else "right"
+                base = self.anchor(other, steps[other][0])
+                if psi < 0.85 + 0.15 * self.off:  # frozen in the last part of the swing
+                    shift = g.placement * err
+                    norm = np.linalg.norm(shift)
+                    if norm > g.max_shift:
+                        shift *= g.max_shift / norm
+                    self.shift[s] = shift
+                self.anchors[s][k + 1] = base + np.array([*self.shift[s], 0.0])
+        rows, rhs, weights = [], [], []
+
+        def task(J, a, w):
+            rows.append(J)
+            rhs.append(a)
+            weights.append(np.full(J.shape[0], w))
+
+        # feet: the cycle's pose, on the foot's own anchor (a swing foot moves from the
+        # anchor of the step it left to that of the step it lands)
+        for s in SIDES:
+            k, psi = steps[s]
+            if kinds[s] == 0:
+                u = (psi - self.off) / (1.0 - self.off)
+                w = float(smooth_step(u))
+                a = (1 - w) * self.anchor(s, k) + w * self.anchor(s, k + 1)
+            else:
+                a = self.anchor(s, k)
+            fid = self.sole[s]
+            Rz = _rot(a)
+            M_r = rd.oMf[fid]
+            p_ref = _apply(a, M_r.translation)
+            R_ref = Rz @ M_r.rotation
+            vel_r = pin.getFrameVelocity(model, rd, fid, LWA)
+            acc_r = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
+            J = pin.getFrameJacobian(model, data, fid, LWA)
+            vel = pin.getFrameVelocity(model, data, fid, LWA)
+            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
+            M_f = data.oMf[fid]
+            a_lin = (
+                Rz @ acc_r.linear
+                + g.foot_kp * (p_ref - M_f.translation)
+                + g.foot_kd * (Rz @ vel_r.linear - vel.linear)
+            )
+            a_ang = (
+                Rz @ acc_r.angular
+                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ R_ref))
+                + g.foot_kd * (Rz @ vel_r.angular - vel.angular)
+            )
+            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+        # centre of mass
+        Jcom = pin.jacobianCenterOfMass(model, data, q)
+        kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
+        kd = np.array([g.com_kd, g.com_kd, g.com_z_kd])
+        task(Jcom, ddc_r + kp * (c_r - c) + kd * (dc_r - dc) - com_drift, g.w_com)
+        # pelvis and trunk orientation
+        for frame in [self.pelvis] + ([self.torso] if self.torso is not None else []):
+            J = pin.getFrameJacobian(model, data, frame, LWA)[3:]
+            vel = pin.getFrameVelocity(model, data, frame, LWA).angular
+            acc = pin.getFrameAcceleration(model, data, frame, LWA).angular
+            R = data.oMf[frame].rotation
+            R_ref = R_A @ rd.oMf[frame].rotation
+            w_r = R_A @ pin.getFrameVelocity(model, rd, frame, LWA).angular
+            dw_r = R_A @ pin.getFrameAcceleration(model, rd, frame, LWA).angular
+            a_des = dw_r + g.trunk_kp * (R @ pin.log3(R.T @ R_ref)) + g.trunk_kd * (w_r - vel)
+            task(J, a_des - acc, g.w_trunk)
+        # joints: the cycle's angles
+        e = pin.difference(model, q, q_r)[6:]
+        task(np.eye(nv)[6:], a_r[6:] + g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]),
+             g.w_posture)  # fmt: skip
+
+        # contacts: the plant's own detection, split into loaded (sticking) and free points
+        cms, cds, phi, points = self.ground.ground.detect(model, data)
+        loaded, free = [], []
+        for i, cm in enumerate(cms):
+            joint = cm.extract().joint2_id
+            side = next((s for s in SIDES if self.foot_joint[s] == joint), None)
+            ok = False
+            if side is not None and phi[i] < TOUCH:
+                kind = kinds[side]
+                x = self.data.oMf[self.sole[side]].actInv(points[i])[0] - self.sole_middle[side]
+                ok = kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
+            (loaded if ok else free).append(i)
+        for cm, cd in zip(cms, cds, strict=True):
+            cm.calc(model, data, cd)
+        Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
+        gap = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi) / dt
+        nf = 3 * len(loaded)
+        n = nv + nf
+        Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
+
+        A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
+        b_cost = np.concatenate(rhs)
+        W = np.concatenate(weights)
+        P = A_cost.T @ (W[:, None] * A_cost)
+        qv = -A_cost.T @ (W * b_cost)
+        P[nv:, nv:] += g.w_force * np.eye(nf)
+        P[np.diag_indices(n)] += 1e-9
+        weight = self.weight  # forces are solved in body weights
+        A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
+        b_eq = [-hvec[:6]]
+        if loaded:
+            target = -Jc @ v
+            for j, i in enumerate(loaded):
+                target[3 * j + 2] -= gap[i]
+            # the rows of one sole's points are dependent (a foot has six degrees of freedom,
+            # four points twelve rows): keep an independent set, else the QP's equalities are
+            # rank deficient and its solver crawls
+            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+            U = U[:, S > 1e-9 * S[0]]
+            A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
+            b_eq.append(U.T @ target / dt)
+        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
+        mu = g.mu / math.sqrt(2.0)
+        pyramid = np.array([[0, 0, -1.0], [1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu]])
+        G = [np.zeros((5 * len(loaded), n))]
+        for j in range(len(loaded)):
+            G[0][5 * j : 5 * j + 5, nv + 3 * j : nv + 3 * j + 3] = pyramid
+        h_ineq = [np.zeros(5 * len(loaded))]
+        if free:  # no point goes through the floor: -(J_n (v + dt dv) + gap) <= 0
+            Jn = np.vstack([Jall[3 * i + 2] for i in free])
+            G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
+            h_ineq.append((Jn @ v + gap[free]) / dt)
+        r, Jr = self.ranges.rows(q, margin=RANGE_MARGIN)
+        if len(r):
+            G.append(np.hstack([-Jr, np.zeros((len(r), nf))]))
+            h_ineq.append((Jr @ v + r / RANGE_TIME) / dt)
+        G, h_ineq = np.vstack(G), np.concatenate(h_ineq)
+        x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+        if x is None and loaded:
+            # two sticking points of a tilted sole at different depths cannot both close
+            # their gaps exactly (the plant's solve resolves that in its own least squares):
+            # stick without the gap terms
+            b_eq[6:] = -(U.T @ (Jc @ v)) / dt
+            x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+        if x is None or not np.all(np.isfinite(x)):
+            self.failures += 1
+            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.why})")
+        dv, f = x[:nv], weight * x[nv:]
+        tau = M @ dv + hvec - Jc.T @ f
+        self.tau = np.concatenate([np.zeros(6), tau[6:]])
+        self.last = (dv, f.reshape(-1, 3), [int(i) for i in loaded])
+        return self.tau
+
+    def _solve(self, P, qv, A, b, G, h):
+        import proxsuite
+
+        dims = (P.shape[0], A.shape[0], G.shape[0])
+        if self._qp is None or self._qp[1] != dims:
+            qp = proxsuite.proxqp.dense.QP(*dims)
+            qp.settings.eps_abs = 1e-9
+            qp.settings.eps_rel = 0.0
+            qp.settings.max_iter = 1000
+            qp.settings.eps_primal_inf = 1e-30
+            qp.settings.eps_dual_inf = 1e-30
+            qp.settings.initial_guess = (
+                proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+            )
+            qp.init(P, qv, A, b, G, np.full(len(h), -1e20), h)
+            self._qp = (qp, dims)
+        else:
+            qp = self._qp[0]
+            qp.update(P, qv, A, b, G, np.full(len(h), -1e20), h)
+        qp.solve()
+        info = qp.results.info
+        ok = info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED or (
+            info.pri_res < 1e-7 and info.dua_res < 1e-4
+        )
+        if not ok:
+            self.why = f"{info.status}: primal {info.pri_res:.1e}, dual {info.dua_res:.1e}"
+        return qp.results.x.copy() if ok else None
