@@ -165,7 +165,8 @@ def test_bench_step_quick(tmp_path, capsys):
     rows = (tmp_path / "step.csv").read_text().splitlines()
     assert rows[0].startswith("scene,contacts,pinocchio")
     assert len(rows) == 4  # push, standing, tumble
-    ground = {r["scene"]: r for r in csv.DictReader(open(tmp_path / "step_ground.csv"))}
+    lines = (tmp_path / "step_ground.csv").read_text().splitlines()
+    ground = {r["scene"]: r for r in csv.DictReader(lines)}
     assert set(ground) == {"balance", "collapse", "drop", "slide"}
     assert float(ground["drop"]["ours"]) > 0 and float(ground["drop"]["mujoco"]) > 0
     assert ground["balance"]["mujoco"] == "nan"  # its controller is ours: no MuJoCo column

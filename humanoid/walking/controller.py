@@ -30,6 +30,7 @@ from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import torso_frame
+from .qp import WarmQP, pyramid_rows, range_damper
 
 __all__ = ["ControllerGains", "WalkingController"]
 
@@ -93,6 +94,7 @@ class WalkingController(Effect):
         self.every = 1  # the QP is solved every this many simulation steps
         self.fresh = False  # whether the QP was solved at this tick's state
         self._solved_for = None  # the stance set of the last solve
+        self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -206,21 +208,14 @@ class WalkingController(Effect):
         A_eq.append(np.hstack([J, np.zeros((len(J), nf))]))
         b_eq.append(gamma)
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
-        # inequalities: friction pyramids
-        mu = g.mu / np.sqrt(2.0)
-        pyramid = np.array([[0, 0, -1.0], [1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu]])
-        G = np.zeros((5 * 4 * len(stance), n))
-        for i in range(4 * len(stance)):
-            G[5 * i : 5 * i + 5, nv + 3 * i : nv + 3 * i + 3] = pyramid
+        # inequalities: friction pyramids, and the joint ranges' velocity damper
+        G = pyramid_rows(g.mu, 4 * len(stance), n, nv)
         h_ineq = np.zeros(G.shape[0])
-        # joint ranges, a velocity damper: every row r(q) >= 0 near its limit may close its
-        # gap no faster than r' >= -r / T after this control period dt, r' + dt r'' >= -r / T,
-        # so the gap shrinks geometrically and is never crossed
-        r, Jr = self.ranges.rows(q, margin=RANGE_MARGIN)
-        if len(r):
-            G = np.vstack([G, np.hstack([-Jr, np.zeros((len(r), nf))])])
-            h_ineq = np.concatenate([h_ineq, (Jr @ v + r / RANGE_TIME) / self.period])
-        x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+        Jr, bound = range_damper(self.ranges, q, v, self.period, RANGE_MARGIN, RANGE_TIME)
+        if len(Jr):
+            G = np.vstack([G, np.hstack([-Jr, np.zeros((len(Jr), nf))])])
+            h_ineq = np.concatenate([h_ineq, bound])
+        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
             raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s")
@@ -238,46 +233,6 @@ class WalkingController(Effect):
         d = b - a
         x = float(np.clip((self.plan.zmp(t) - a) @ d / max(d @ d, 1e-12), 0.0, 1.0))
         return [1.0 - x, x]
-
-    def _solve(self, P, qv, A, b, G, h):
-        """ProxQP (dense), kept between ticks of the same contact set and warm-started.
-
-        Its infeasibility detection is switched off: the walking QP is always feasible (zero
-        forces and a falling base satisfy every constraint), and ProxQP's default test
-        declared false infeasibility on near-degenerate single-support problems.
-        """
-        import proxsuite
-
-        dims = (P.shape[0], A.shape[0], G.shape[0])
-        qp = self._qp if getattr(self, "_qp_dims", None) == dims else None
-        lower = np.full(len(h), -1e20)
-        if qp is None:
-            qp = proxsuite.proxqp.dense.QP(*dims)
-            qp.settings.eps_abs = 1e-8
-            qp.settings.eps_rel = 0.0
-            qp.settings.max_iter = 10_000
-            qp.settings.eps_primal_inf = 1e-30
-            qp.settings.eps_dual_inf = 1e-30
-            qp.settings.initial_guess = (
-                proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
-            )
-            qp.init(P, qv, A, b, G, lower, h)
-            self._qp, self._qp_dims = qp, dims
-        else:
-            qp.update(P, qv, A, b, G, lower, h)
-        qp.solve()
-        status = qp.results.info.status
-        info = qp.results.info
-        solved = status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
-        # at the iteration limit, accept a primal-feasible point (the constraints are what
-        # the physics needs; the dual residual only measures optimality of the weights)
-        usable = status == proxsuite.proxqp.QPSolverOutput.PROXQP_MAX_ITER_REACHED and (
-            info.pri_res < 1e-8 and info.dua_res < 1e-5
-        )
-        self.iterations = info.iter
-        if not (solved or usable):
-            return None
-        return qp.results.x.copy()
 
     def trunk_frames(self) -> list[int]:
         """Frames kept upright: the pelvis (root joint) and, if the model has one, the torso."""

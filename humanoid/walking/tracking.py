@@ -42,6 +42,7 @@ from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import torso_frame
 from .plan import smooth_step
+from .qp import WarmQP, pyramid_rows, range_damper
 
 __all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
 
@@ -166,8 +167,7 @@ class GaitController(Effect):
         self.failures = 0
         z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
-        self._qp = None
-        self.why = ""
+        self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -348,61 +348,29 @@ class GaitController(Effect):
             A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
             b_eq.append(U.T @ target / dt)
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
-        mu = g.mu / math.sqrt(2.0)
-        pyramid = np.array([[0, 0, -1.0], [1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu]])
-        G = [np.zeros((5 * len(loaded), n))]
-        for j in range(len(loaded)):
-            G[0][5 * j : 5 * j + 5, nv + 3 * j : nv + 3 * j + 3] = pyramid
+        G = [pyramid_rows(g.mu, len(loaded), n, nv)]
         h_ineq = [np.zeros(5 * len(loaded))]
         if free:  # no point goes through the floor: -(J_n (v + dt dv) + gap) <= 0
             Jn = np.vstack([Jall[3 * i + 2] for i in free])
             G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
             h_ineq.append((Jn @ v + gap[free]) / dt)
-        r, Jr = self.ranges.rows(q, margin=RANGE_MARGIN)
-        if len(r):
-            G.append(np.hstack([-Jr, np.zeros((len(r), nf))]))
-            h_ineq.append((Jr @ v + r / RANGE_TIME) / dt)
+        Jr, bound = range_damper(self.ranges, q, v, dt, RANGE_MARGIN, RANGE_TIME)
+        if len(Jr):
+            G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
+            h_ineq.append(bound)
         G, h_ineq = np.vstack(G), np.concatenate(h_ineq)
-        x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
         if x is None and loaded:
             # two sticking points of a tilted sole at different depths cannot both close
             # their gaps exactly (the plant's solve resolves that in its own least squares):
             # stick without the gap terms
             b_eq[6:] = -(U.T @ (Jc @ v)) / dt
-            x = self._solve(P, qv, A_eq, b_eq, G, h_ineq)
+            x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
-            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.why})")
+            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.qp.why})")
         dv, f = x[:nv], weight * x[nv:]
         tau = M @ dv + hvec - Jc.T @ f
         self.tau = np.concatenate([np.zeros(6), tau[6:]])
         self.last = (dv, f.reshape(-1, 3), [int(i) for i in loaded])
         return self.tau
-
-    def _solve(self, P, qv, A, b, G, h):
-        import proxsuite
-
-        dims = (P.shape[0], A.shape[0], G.shape[0])
-        if self._qp is None or self._qp[1] != dims:
-            qp = proxsuite.proxqp.dense.QP(*dims)
-            qp.settings.eps_abs = 1e-9
-            qp.settings.eps_rel = 0.0
-            qp.settings.max_iter = 1000
-            qp.settings.eps_primal_inf = 1e-30
-            qp.settings.eps_dual_inf = 1e-30
-            qp.settings.initial_guess = (
-                proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
-            )
-            qp.init(P, qv, A, b, G, np.full(len(h), -1e20), h)
-            self._qp = (qp, dims)
-        else:
-            qp = self._qp[0]
-            qp.update(P, qv, A, b, G, np.full(len(h), -1e20), h)
-        qp.solve()
-        info = qp.results.info
-        ok = info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED or (
-            info.pri_res < 1e-7 and info.dua_res < 1e-4
-        )
-        if not ok:
-            self.why = f"{info.status}: primal {info.pri_res:.1e}, dual {info.dua_res:.1e}"
-        return qp.results.x.copy() if ok else None

@@ -1,0 +1,85 @@
+"""What the walking controllers' QPs share: the warm-started ProxQP solve, the friction pyramid
+of a set of contact points, and the joint ranges' velocity dampers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["WarmQP", "pyramid_rows", "range_damper"]
+
+
+class WarmQP:
+    """ProxQP (dense), kept between ticks while the problem's dimensions stay the same and
+    warm-started from the last solution; minimises 1/2 x'Px + q'x subject to A x = b and
+    G x <= h.
+
+    Its infeasibility detection is switched off: a walking QP is always feasible (zero forces
+    and a falling base satisfy every constraint), and ProxQP's default test declared false
+    infeasibility on near-degenerate single-support problems.
+
+    Args:
+        eps_abs: ProxQP's absolute tolerance. max_iter: its iteration cap.
+        primal, dual: at the iteration cap, a point with residuals below these is accepted (the
+            constraints are what the physics needs; the dual residual only measures the
+            optimality of the weights).
+    """
+
+    def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float) -> None:
+        self.eps_abs, self.max_iter, self.primal, self.dual = eps_abs, max_iter, primal, dual
+        self._qp = None
+        self._dims = None
+        self.iterations = 0
+        self.why = ""  # why the last solve was refused
+
+    def solve(self, P, q, A, b, G, h) -> np.ndarray | None:
+        """The solution, or None when ProxQP neither solved nor reached an acceptable point."""
+        import proxsuite
+
+        dims = (P.shape[0], A.shape[0], G.shape[0])
+        lower = np.full(len(h), -1e20)
+        if self._dims != dims:
+            qp = proxsuite.proxqp.dense.QP(*dims)
+            qp.settings.eps_abs = self.eps_abs
+            qp.settings.eps_rel = 0.0
+            qp.settings.max_iter = self.max_iter
+            qp.settings.eps_primal_inf = 1e-30
+            qp.settings.eps_dual_inf = 1e-30
+            guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+            qp.settings.initial_guess = guess
+            qp.init(P, q, A, b, G, lower, h)
+            self._qp, self._dims = qp, dims
+        else:
+            self._qp.update(P, q, A, b, G, lower, h)
+        qp = self._qp
+        qp.solve()
+        info = qp.results.info
+        self.iterations = info.iter
+        status = proxsuite.proxqp.QPSolverOutput
+        usable = info.status == status.PROXQP_MAX_ITER_REACHED and (
+            info.pri_res < self.primal and info.dua_res < self.dual
+        )
+        if info.status == status.PROXQP_SOLVED or usable:
+            return qp.results.x.copy()
+        self.why = f"{info.status}: primal {info.pri_res:.1e}, dual {info.dua_res:.1e}"
+        return None
+
+
+def pyramid_rows(mu: float, points: int, columns: int, offset: int) -> np.ndarray:
+    """G rows (G x <= 0) keeping each point's force (x[offset + 3 i : offset + 3 i + 3], world
+    axes, z up) in a friction pyramid inscribed in the cone of coefficient ``mu``:
+    f_z >= 0 and |f_x|, |f_y| <= (mu / sqrt 2) f_z."""
+    m = mu / np.sqrt(2.0)
+    pyramid = np.array([[0, 0, -1.0], [1, 0, -m], [-1, 0, -m], [0, 1, -m], [0, -1, -m]])
+    G = np.zeros((5 * points, columns))
+    for i in range(points):
+        G[5 * i : 5 * i + 5, offset + 3 * i : offset + 3 * i + 3] = pyramid
+    return G
+
+
+def range_damper(ranges, q, v, period: float, margin: float, time: float):
+    """The joint ranges as a velocity damper on the acceleration dv: every range row
+    r(q) >= 0 within ``margin`` of its limit may close its gap no faster than r' >= -r / time
+    after the control ``period`` dt, r' + dt r'' >= -r / time, so the gap shrinks
+    geometrically and is never crossed. Returns (J, bound) with -J dv <= bound."""
+    r, J = ranges.rows(q, margin=margin)
+    return J, (J @ v + r / time) / period
