@@ -149,3 +149,69 @@ def test_the_tracking_controller_and_the_ground_agree(male):
     assert seen[:, 0].max() < 1e-5
     assert seen[:, 1].max() == 0.0
     assert seen[:, 2].max() < 1e-5
+    # the swing foot's path: from its lift-off pose at rest, to the next heel-strike pose (a
+    # little into the floor) at rest, raised in between
+    from humanoid.walking.tracking import REACH, SWING_HEIGHT
+
+    k, _ = ctl.side_phase("left", 0.0)
+    ctl.lift.clear()  # a new swing: it starts where the foot is
+    M0 = pin.SE3(pin.utils.rotate("y", -0.6), np.array([0.1, 0.06, 0.08]))
+    off = ctl.off
+    start = ctl.swing_path("left", k, off, M0)
+    end = ctl.swing_path("left", k, 1.0, M0)
+    middle = ctl.swing_path("left", k, (1 + off) / 2, M0)
+    land = ctl.landing("left", k + 1)
+    assert np.abs(pin.log6(start[0].actInv(M0)).vector).max() < 1e-12
+    goal = pin.SE3(land.rotation, land.translation - [0.0, 0.0, REACH])
+    assert np.abs(pin.log6(end[0].actInv(goal)).vector).max() < 1e-12
+    for _, vel, acc in (start, end):
+        assert np.abs(vel).max() < 1e-12 and np.abs(acc).max() < 1e-12
+    straight = (M0.translation[2] + goal.translation[2]) / 2
+    assert abs(middle[0].translation[2] - straight - SWING_HEIGHT) < 1e-12
+
+
+def test_the_centre_of_mass_plan_is_a_pendulum_over_the_feet(male):
+    """The planned centre of mass: its derivatives are those of its path (central differences
+    on the closed loop, to O(dt^2)); one stride a cycle on average; the floor pushes
+    1 +- COM_BOB (4 pi / T)^2 / g body weights at its lowest and highest (3.5 cm p-p); the
+    zero-moment point stays on the loaded feet (heel to toe edge, within the walking base); the
+    forward speed peaks in the double support, as people's does."""
+    from humanoid.walking.reference import COM_BOB
+
+    h, c = male
+    p = c.com
+    n = len(p.phase)
+    dt = p.period / n
+    x = p.c.copy()
+    x[:, 0] -= p.stride * p.phase  # periodic part
+    fd = (np.roll(x, -1, axis=0) - np.roll(x, 1, axis=0)) / (2 * dt)
+    fd[:, 0] += p.stride / p.period
+    assert np.abs(fd[:, :2] - p.dc[:, :2]).max() < 1e-9
+    assert np.abs(fd[:, 2] - p.dc[:, 2]).max() < 1e-3 * np.abs(p.dc[:, 2]).max()
+    fdd = (np.roll(x, -1, axis=0) - 2 * x + np.roll(x, 1, axis=0)) / dt**2
+    assert np.abs(fdd[:, :2] - p.ddc[:, :2]).max() < 1e-9  # the discrete pendulum exactly
+    assert np.abs(fdd[:, 2] - p.ddc[:, 2]).max() < 1e-3 * np.abs(p.ddc[:, 2]).max()
+    assert abs(p.dc[:, 0].mean() - p.stride / p.period) < 1e-9
+    peak = COM_BOB * (4 * np.pi / p.period) ** 2 / 9.81
+    assert (
+        abs(p.ddc[:, 2].max() / 9.81 - peak) < 1e-3 and abs(p.ddc[:, 2].min() / 9.81 + peak) < 1e-3
+    )
+    assert 0.03 <= np.ptp(p.c[:, 2]) <= 0.05 and np.ptp(p.c[:, 1]) < 0.05
+    # the zero-moment point between the rearmost heel and the foremost toe of the loaded feet
+    L, width = c.gait["step_length"], c.gait["width"]
+    assert np.abs(p.zmp[:, 1]).max() <= width / 2 + 1e-12
+    heel = h.sole_points("right")[:, 0].min()
+    toe = h.sole_points("right")[:, 0].max()
+    x0 = float(c.feet["right"][0, 0])  # the right sole's origin on footstep 0
+    for phi, z in zip(p.phase, p.zmp[:, 0], strict=True):
+        feet = [x0 + 2 * L * np.floor(phi)]
+        if phi < c.gait["opposite_foot_off"]:
+            feet.append(x0 - L)
+        elif phi >= 0.5:
+            feet.append(x0 + L)
+        lo = min(feet) + heel - 1e-9
+        hi = max(feet) + toe + 1e-9
+        assert lo <= z <= hi, (phi, z, lo, hi)
+    ds = c.gait["opposite_foot_off"]
+    fastest = p.phase[np.argmax(p.dc[:, 0])] % 0.5
+    assert fastest <= ds + 0.02, fastest

@@ -39,7 +39,15 @@ from .clinical import ANGLES, leg_chains, torso_frame
 from .norms import choose_gait, free_speed, norms
 from .plan import smooth_step
 
-__all__ = ["GaitCycle", "fit_cycle", "lateral_sway", "leg_length"]
+__all__ = [
+    "CenterOfMassPlan",
+    "GaitCycle",
+    "fit_cycle",
+    "lateral_sway",
+    "leg_length",
+    "periodic_pendulum",
+    "plan_com",
+]
 
 FRAMES = 50  # instants per cycle (the norms' 2 % steps)
 W_FOOT = 1e3  # weight of a constrained foot pose (per m and per rad)
@@ -48,6 +56,8 @@ W_TRUNK = 1.0  # per rad of the thorax's tilt and turn
 W_POSTURE = 0.1  # per rad from the standing posture, every joint
 W_PELVIS = 20.0  # per m of the pelvis from its lateral and vertical path
 PELVIS_BOB = 0.025  # [m] amplitude of the pelvis's rise and fall (people's CoM: 3-5 cm p-p)
+COM_BOB = 0.0175  # [m] amplitude of the planned centre of mass's rise and fall (3.5 cm p-p)
+COP_START, COP_END = 0.1, 0.9  # the centre of pressure's run, heel to toe edge, over a stance
 CLEARANCE = 0.01  # [m] the swing foot's lowest corner this far above the floor in mid-swing
 
 
@@ -70,6 +80,8 @@ class GaitCycle:
         feet: for each side, the (N, 6) poses of its sole (x, y, z, roll, pitch, yaw).
         contact: for each side, (N,) its contact phase (0 swing, 1 heel, 2 flat, 3 toe).
         residual: largest residual of a stance foot's pose in the fit [m or rad].
+        com: a dynamically consistent plan of the centre of mass for the walk's footsteps
+            (:func:`plan_com`), at the cycle's mean height, for a controller to track.
     """
 
     phase: np.ndarray
@@ -78,6 +90,7 @@ class GaitCycle:
     feet: dict
     contact: dict
     residual: float
+    com: CenterOfMassPlan
 
     @property
     def period(self) -> float:
@@ -176,16 +189,117 @@ class _Fitter:
         return q
 
 
+def periodic_pendulum(p: np.ndarray, omega2, dt: float) -> np.ndarray:
+    """The periodic path of an inverted pendulum's mass over a periodic zero-moment point:
+    c'' = omega2 (c - p) on a closed loop of ``len(p)`` samples ``dt`` apart (central
+    differences). ``omega2`` [1/s^2], a number or one per sample, is (g + z'') / z for a mass at
+    height z above the floor: the cart-table relation p = c - z c'' / (g + z'')."""
+    n = len(p)
+    w2 = np.broadcast_to(np.asarray(omega2, dtype=float), (n,))
+    D2 = (np.roll(np.eye(n), 1, axis=1) - 2 * np.eye(n) + np.roll(np.eye(n), -1, axis=1)) / dt**2
+    return np.linalg.solve(D2 - np.diag(w2), -w2 * np.asarray(p, dtype=float))
+
+
+def periodic_derivative(x: np.ndarray, dt: float) -> np.ndarray:
+    """Central difference of a periodic sampled signal along axis 0."""
+    return (np.roll(x, -1, axis=0) - np.roll(x, 1, axis=0)) / (2 * dt)
+
+
+@dataclass
+class CenterOfMassPlan:
+    """The centre of mass over one stride, planned to be a person's (dynamically consistent).
+
+    Vertically, it rises and falls ``COM_BOB`` about its mean, twice a stride, lowest in the
+    middle of each double support: the floor then pushes 1 + COM_BOB (4 pi / T)^2 / g body
+    weights at its lowest and 1 - that at its highest (T the stride's period). Across and
+    along, it is the periodic path of an inverted pendulum on that height (``periodic_pendulum``)
+    whose zero-moment point is each stance foot's centre of pressure, rolling from near the heel
+    at heel strike to the forefoot at foot off, and passed from the trailing foot to the leading
+    one over each double support.
+
+    Attributes:
+        phase: (n,) fractions of the stride. c, dc, ddc: (n, 3) the centre of mass [m], its
+        velocity [m/s] and acceleration [m/s^2] on the first lap (x grows one stride a lap).
+        zmp: (n, 2) the planned zero-moment point. stride: [m]. period: [s].
+    """
+
+    phase: np.ndarray
+    c: np.ndarray
+    dc: np.ndarray
+    ddc: np.ndarray
+    zmp: np.ndarray
+    stride: float
+    period: float
+
+    def at(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(c, dc, ddc) at the cycle's phase phi (any real number: laps add strides)."""
+        lap = math.floor(phi)
+        out = [
+            np.array([np.interp(phi - lap, self.phase, x[:, i], period=1.0) for i in range(3)])
+            for x in (self.c, self.dc, self.ddc)
+        ]
+        out[0][0] += self.stride * lap
+        return out[0], out[1], out[2]
+
+
+def plan_com(gait: dict, feet: dict, z_mean: float, g: float = 9.81,
+             samples: int = 400) -> CenterOfMassPlan:  # fmt: skip
+    """Plan the centre of mass over a stride (see :class:`CenterOfMassPlan`).
+
+    Args:
+        gait: the walk's events (``choose_gait``, with ``width`` set). feet: for each side,
+            ``(x0, y, heel, toe)``: the x of its sole frame's origin on footstep 0 and the y of
+            its centre line [m], and its heel and toe edges' x in the sole frame [m].
+        z_mean: the centre of mass's mean height [m].
+    """
+    T, L = gait["cycle"], gait["step_length"]
+    off, ds = gait["foot_off"], gait["opposite_foot_off"]
+    phase = np.arange(samples) / samples
+    dt = T / samples
+
+    def cop(side: str, phi: float) -> tuple[np.ndarray | None, float]:
+        """The side's centre of pressure at the cycle's phase, and its phase in its stance."""
+        psi_raw = phi + (0.5 if side == "left" else 0.0)
+        k = math.floor(psi_raw)
+        psi = psi_raw - k
+        if psi >= off:
+            return None, psi
+        x0, y, heel, toe = feet[side]
+        u = COP_START + (COP_END - COP_START) * psi / off
+        return np.array([x0 + 2 * L * k + heel + u * (toe - heel), y]), psi
+
+    zmp = np.zeros((samples, 2))
+    for i, phi in enumerate(phase):
+        (pr, psi_r), (pl, psi_l) = cop("right", phi), cop("left", phi)
+        if pr is not None and pl is not None:  # double support: from the trailing foot
+            lead, trail, psi = (pr, pl, psi_r) if psi_r < psi_l else (pl, pr, psi_l)
+            w = float(smooth_step(psi / ds))
+            zmp[i] = (1 - w) * trail + w * lead
+        else:
+            zmp[i] = pr if pr is not None else pl
+    w_z = 4 * math.pi / T
+    arg = w_z * T * (phase - ds / 2)
+    z = z_mean - COM_BOB * np.cos(arg)
+    dz = COM_BOB * w_z * np.sin(arg)
+    ddz = COM_BOB * w_z**2 * np.cos(arg)
+    omega2 = (g + ddz) / z
+    v = 2 * L / T
+    x = v * T * phase + periodic_pendulum(zmp[:, 0] - v * T * phase, omega2, dt)
+    y = periodic_pendulum(zmp[:, 1], omega2, dt)
+    dx = v + periodic_derivative(x - v * T * phase, dt)
+    c = np.stack([x, y, z], axis=1)
+    dc = np.stack([dx, periodic_derivative(y, dt), dz], axis=1)
+    ddc = np.stack([omega2 * (x - zmp[:, 0]), omega2 * (y - zmp[:, 1]), ddz], axis=1)
+    return CenterOfMassPlan(phase, c, dc, ddc, zmp, 2 * L, T)
+
+
 def lateral_sway(
     phase: np.ndarray, period: float, width: float, height: float, double_support: float
 ) -> np.ndarray:
     """The periodic lateral path of a linear inverted pendulum of ``height`` [m] whose zero-moment
     point sits on the stance foot's centre line (-width/2 on the right foot from the right heel
     strike, +width/2 on the left from half a cycle on; it moves across during each double
-    support, which lasts ``double_support / 2`` from each heel strike):
-    y'' = (y - p) g / height, periodic, on the phase grid."""
-    n = len(phase)
-    dt = period / n
+    support, which lasts ``double_support / 2`` from each heel strike), on the phase grid."""
     psi = phase % 1.0
 
     def zmp(x):  # from the left foot to the right during the double support from 0, and back
@@ -199,9 +313,7 @@ def lateral_sway(
         return width / 2
 
     p = np.array([zmp(x) for x in psi])
-    k = 9.81 / height
-    D2 = (np.roll(np.eye(n), 1, axis=1) - 2 * np.eye(n) + np.roll(np.eye(n), -1, axis=1)) / dt**2
-    return np.linalg.solve(D2 - k * np.eye(n), -k * p)
+    return periodic_pendulum(p, 9.81 / height, period / len(phase))
 
 
 def fit_cycle(h, speed: float | None = None, width: float | None = None,
@@ -344,11 +456,23 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
             feet[s].append(np.concatenate([M.translation, pin.rpy.matrixToRpy(M.rotation)]))
             contact[s].append(kinds[s])
         qs.append(q.copy())
+    gait = gait | {"width": width, "heel_off": heel_off}
+    feet_plan = {
+        s: (
+            float(soles0[s].translation[0]) - (L if s == "left" else 0.0),
+            width / 2 if s == "left" else -width / 2,
+            float(fitter.edge[s][0][0]),
+            float(fitter.edge[s][1][0]),
+        )  # fmt: skip
+        for s in SIDES
+    }
+    z_mean_com = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs]))
     return GaitCycle(
         phase=phase,
         q=np.array(qs),
-        gait=gait | {"width": width, "heel_off": heel_off},
+        gait=gait,
         feet={s: np.array(v) for s, v in feet.items()},
         contact={s: np.array(v) for s, v in contact.items()},
         residual=worst,
+        com=plan_com(gait, feet_plan, z_mean_com),
     )

@@ -15,10 +15,16 @@ joint torques tau = (M dv + h - J^T f)[6:] leave it:
 - **Inequalities.** Those points' forces inside the friction cone (a pyramid, at a smaller
   friction coefficient than the floor's); every other sole point near the floor does not go
   through it (J_n (v + dt dv) + gap >= 0, no force); joint ranges as velocity dampers.
-- **Costs.** Both feet's poses (the swing foot's path is the cycle's, bent to land where the
-  balance feedback says), the centre of mass, the pelvis's and the trunk's orientation, the
-  joints' angles (the cycle's, so the knee, ankle and arm motion are a person's), and small
-  forces.
+- **Costs.** The swing foot's pose, on a minimum-jerk path from where it lifted off to the
+  cycle's heel-strike pose on the next footstep (moved where the balance feedback says), raised
+  in mid-swing and aimed a little into the floor at the end, so that it lands whatever the
+  timing; a foot that should bear load and does not touch yet reaches for the floor; a bearing
+  foot's sticking points hold it, and its task only keeps it from rolling over its sides (and
+  flat once the cycle says flat). The centre of mass on the cycle's dynamically consistent plan
+  (:class:`~humanoid.walking.reference.CenterOfMassPlan`: a pendulum over a centre of pressure
+  that rolls heel to toe), not on the fitted kinematics, whose centre of mass a floor could not
+  carry. The pelvis and trunk upright, facing the way the feet point. The joints' angles (the
+  cycle's, at a low weight, so the knee, ankle and arm motion are a person's), and small forces.
 
 **Balance** is kept the way people keep it, by where the feet land: the divergent component of
 motion xi = c + c'/omega (the capture point) is compared with the cycle's, and the landing foot
@@ -52,6 +58,8 @@ __all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
+REACH = 5e-3  # [m] a foot that should bear and does not touch aims this far into the floor
+SWING_HEIGHT = 0.04  # [m] the swing foot's rise above its straight path, mid-swing
 TOUCH = 2e-4  # [m] a sole point this close to the floor may carry load
 
 
@@ -108,6 +116,7 @@ class TrackingGains:
     posture_kp: float = 100.0
     posture_kd: float = 20.0
     w_foot: float = 1.0
+    w_stance_foot: float = 0.02  # a loaded foot: its sticking points hold it; it rolls freely
     w_com: float = 1.0
     w_trunk: float = 0.3
     w_posture: float = 3e-2
@@ -163,6 +172,7 @@ class GaitController(Effect):
         # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
         self.anchors = {s: {} for s in SIDES}
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
+        self.lift = {}  # side -> (footstep it left, its pose at lift-off)
         self.last = None
         self.failures = 0
         z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
@@ -206,6 +216,46 @@ class GaitController(Effect):
         w = float(smooth_step(psi / self.flat))
         return (1 - w) * self.anchor(trail, k_trail) + w * a_lead
 
+    def landing(self, side: str, k: int) -> pin.SE3:
+        """The pose of a side's sole at its heel strike on footstep k, anchored."""
+        shift = 0.5 if side == "left" else 0.0
+        t = (k - shift - self.player.phase0) * self.player.period
+        q = self.player.configuration(t)
+        pin.framesForwardKinematics(self.model, self.rdata, q)
+        M = self.rdata.oMf[self.sole[side]]
+        a = self.anchor(side, k)
+        return pin.SE3(_rot(a) @ M.rotation, _apply(a, M.translation))
+
+    def swing_path(self, side: str, k: int, psi: float, M_now: pin.SE3):
+        """The swing foot's pose, spatial velocity and acceleration (world, 6-vectors): a
+        minimum-jerk path from where it lifted off to where it lands (the next footstep's
+        heel-strike pose), raised SWING_HEIGHT in the middle, a little into the floor at the
+        end so that it lands whatever the timing."""
+        if self.lift.get(side, (None,))[0] != k:
+            self.lift[side] = (k, M_now.copy())
+        M0 = self.lift[side][1]
+        M1 = self.landing(side, k + 1)
+        T_sw = (1.0 - self.off) * self.player.period
+        u = min(max((psi - self.off) / (1.0 - self.off), 0.0), 1.0)
+        du = 1.0 / T_sw
+        s5 = u**3 * (10 - 15 * u + 6 * u * u)
+        ds5 = 30 * u * u * (1 - u) ** 2 * du
+        dds5 = 60 * u * (1 - u) * (1 - 2 * u) * du * du
+        b = 64 * u**3 * (1 - u) ** 3
+        db = 192 * u * u * (1 - u) ** 2 * (1 - 2 * u) * du
+        ddb = 192 * u * (1 - u) * (2 - 10 * u + 10 * u * u) * du * du
+        p1 = M1.translation - np.array([0.0, 0.0, REACH])
+        dp = p1 - M0.translation
+        up = np.array([0.0, 0.0, SWING_HEIGHT])
+        p = M0.translation + s5 * dp + b * up
+        v = ds5 * dp + db * up
+        a = dds5 * dp + ddb * up
+        w = pin.log3(M0.rotation.T @ M1.rotation)
+        R = M0.rotation @ pin.exp3(s5 * w)
+        w_world = M0.rotation @ w
+        return (pin.SE3(R, p), np.concatenate([v, ds5 * w_world]),
+                np.concatenate([a, dds5 * w_world]))  # fmt: skip
+
     # -- the QP ----------------------------------------------------------------------------
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
@@ -221,8 +271,7 @@ class GaitController(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
-        dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        c_r, dc_r, ddc_r = self.cycle.com.at(self.player.phase(t))
         c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
         A = self.body_anchor(t)
@@ -253,38 +302,64 @@ class GaitController(Effect):
             rhs.append(a)
             weights.append(np.full(J.shape[0], w))
 
+        # contacts: the plant's own detection, split into loaded (sticking) and free points
+        cms, cds, phi, points = self.ground.ground.detect(model, data)
+        loaded, free, bearing = [], [], set()
+        for i, cm in enumerate(cms):
+            joint = cm.extract().joint2_id
+            side = next((s for s in SIDES if self.foot_joint[s] == joint), None)
+            ok = False
+            if side is not None and phi[i] < TOUCH:
+                kind = kinds[side]
+                x = self.data.oMf[self.sole[side]].actInv(points[i])[0] - self.sole_middle[side]
+                ok = kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
+            (loaded if ok else free).append(i)
+            if ok:
+                bearing.add(side)
         # feet: the cycle's pose, on the foot's own anchor (a swing foot moves from the
         # anchor of the step it left to that of the step it lands)
         for s in SIDES:
             k, psi = steps[s]
-            if kinds[s] == 0:
-                u = (psi - self.off) / (1.0 - self.off)
-                w = float(smooth_step(u))
-                a = (1 - w) * self.anchor(s, k) + w * self.anchor(s, k + 1)
-            else:
-                a = self.anchor(s, k)
             fid = self.sole[s]
-            Rz = _rot(a)
-            M_r = rd.oMf[fid]
-            p_ref = _apply(a, M_r.translation)
-            R_ref = Rz @ M_r.rotation
-            vel_r = pin.getFrameVelocity(model, rd, fid, LWA)
-            acc_r = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
             J = pin.getFrameJacobian(model, data, fid, LWA)
             vel = pin.getFrameVelocity(model, data, fid, LWA)
             acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
             M_f = data.oMf[fid]
+            if kinds[s] == 0:
+                M_ref, v_ref, a_ref = self.swing_path(s, k, psi, M_f)
+            else:
+                self.lift.pop(s, None)
+                a = self.anchor(s, k)
+                Rz = _rot(a)
+                M_r = rd.oMf[fid]
+                M_ref = pin.SE3(Rz @ M_r.rotation, _apply(a, M_r.translation))
+                vf_r = pin.getFrameVelocity(model, rd, fid, LWA)
+                a_r_f = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
+                v_ref = np.concatenate([Rz @ vf_r.linear, Rz @ vf_r.angular])
+                a_ref = np.concatenate([Rz @ a_r_f.linear, Rz @ a_r_f.angular])
+                if s not in bearing:
+                    M_ref.translation[2] -= REACH
             a_lin = (
-                Rz @ acc_r.linear
-                + g.foot_kp * (p_ref - M_f.translation)
-                + g.foot_kd * (Rz @ vel_r.linear - vel.linear)
+                a_ref[:3]
+                + g.foot_kp * (M_ref.translation - M_f.translation)
+                + g.foot_kd * (v_ref[:3] - vel.linear)
             )
             a_ang = (
-                Rz @ acc_r.angular
-                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ R_ref))
-                + g.foot_kd * (Rz @ vel_r.angular - vel.angular)
+                a_ref[3:]
+                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_ref.rotation))
+                + g.foot_kd * (v_ref[3:] - vel.angular)
             )
-            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+            # a bearing foot's sticking points hold it (it rolls freely); a foot that should
+            # bear and does not touch yet reaches for the floor
+            if s not in bearing:
+                task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+            else:  # it rolls freely over its heel or toes, but not over its sides
+                R_f = M_f.rotation
+                task(J[:3], a_lin - acc.linear, g.w_stance_foot)
+                rows.append(R_f.T @ J[3:])
+                rhs.append(R_f.T @ (a_ang - acc.angular))
+                w_pitch = g.w_foot if kinds[s] == 2 else g.w_stance_foot
+                weights.append(np.array([g.w_foot, w_pitch, g.w_foot]))
         # centre of mass
         Jcom = pin.jacobianCenterOfMass(model, data, q)
         kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
@@ -296,28 +371,13 @@ class GaitController(Effect):
             vel = pin.getFrameVelocity(model, data, frame, LWA).angular
             acc = pin.getFrameAcceleration(model, data, frame, LWA).angular
             R = data.oMf[frame].rotation
-            R_ref = R_A @ rd.oMf[frame].rotation
-            w_r = R_A @ pin.getFrameVelocity(model, rd, frame, LWA).angular
-            dw_r = R_A @ pin.getFrameAcceleration(model, rd, frame, LWA).angular
-            a_des = dw_r + g.trunk_kp * (R @ pin.log3(R.T @ R_ref)) + g.trunk_kd * (w_r - vel)
+            a_des = g.trunk_kp * (R @ pin.log3(R.T @ R_A)) - g.trunk_kd * vel
             task(J, a_des - acc, g.w_trunk)
         # joints: the cycle's angles
         e = pin.difference(model, q, q_r)[6:]
-        task(np.eye(nv)[6:], a_r[6:] + g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]),
+        task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]),
              g.w_posture)  # fmt: skip
 
-        # contacts: the plant's own detection, split into loaded (sticking) and free points
-        cms, cds, phi, points = self.ground.ground.detect(model, data)
-        loaded, free = [], []
-        for i, cm in enumerate(cms):
-            joint = cm.extract().joint2_id
-            side = next((s for s in SIDES if self.foot_joint[s] == joint), None)
-            ok = False
-            if side is not None and phi[i] < TOUCH:
-                kind = kinds[side]
-                x = self.data.oMf[self.sole[side]].actInv(points[i])[0] - self.sole_middle[side]
-                ok = kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
-            (loaded if ok else free).append(i)
         for cm, cd in zip(cms, cds, strict=True):
             cm.calc(model, data, cd)
         Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
