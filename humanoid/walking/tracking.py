@@ -154,6 +154,7 @@ class GaitController(Effect):
         self.h, self.model, self.cycle = h, model, cycle
         self.data = model.createData()
         self.rdata = model.createData()
+        self.ldata = model.createData()  # the landing poses' (not to clobber the reference's)
         self.player = CyclePlayer(model, cycle, phase0)
         self.ground = ground
         self.dt = dt
@@ -221,8 +222,8 @@ class GaitController(Effect):
         shift = 0.5 if side == "left" else 0.0
         t = (k - shift - self.player.phase0) * self.player.period
         q = self.player.configuration(t)
-        pin.framesForwardKinematics(self.model, self.rdata, q)
-        M = self.rdata.oMf[self.sole[side]]
+        pin.forwardKinematics(self.model, self.ldata, q)
+        M = pin.updateFramePlacement(self.model, self.ldata, self.sole[side])
         a = self.anchor(side, k)
         return pin.SE3(_rot(a) @ M.rotation, _apply(a, M.translation))
 
@@ -328,7 +329,6 @@ class GaitController(Effect):
             if kinds[s] == 0:
                 M_ref, v_ref, a_ref = self.swing_path(s, k, psi, M_f)
             else:
-                self.lift.pop(s, None)
                 a = self.anchor(s, k)
                 Rz = _rot(a)
                 M_r = rd.oMf[fid]
