@@ -234,11 +234,15 @@ class CenterOfMassPlan:
     def at(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(c, dc, ddc) at the cycle's phase phi (any real number: laps add strides)."""
         lap = math.floor(phi)
+        u = phi - lap
+        # x less its steady progress is periodic (interpolating x itself across the lap's end
+        # would blend in the first sample, a stride behind)
+        c = self.c - np.outer(self.phase, [self.stride, 0.0, 0.0])
         out = [
-            np.array([np.interp(phi - lap, self.phase, x[:, i], period=1.0) for i in range(3)])
-            for x in (self.c, self.dc, self.ddc)
+            np.array([np.interp(u, self.phase, x[:, i], period=1.0) for i in range(3)])
+            for x in (c, self.dc, self.ddc)
         ]
-        out[0][0] += self.stride * lap
+        out[0][0] += self.stride * phi
         return out[0], out[1], out[2]
 
 
