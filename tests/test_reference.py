@@ -12,8 +12,8 @@ from humanoid.scene import Effects, GroundSpec, JointLimitSpec, Scene
 from humanoid.simulation import Simulation
 from humanoid.walking.clinical import ANGLES, clinical_angles
 from humanoid.walking.norms import norms
-from humanoid.walking.reference import CLEARANCE, fit_cycle, lateral_sway
-from humanoid.walking.tracking import CyclePlayer, GaitController
+from humanoid.walking.reference import CLEARANCE, fit_cycle, periodic_pendulum
+from humanoid.walking.tracking import CyclePlayer, GaitController, TrackingGains, closest_in_hull
 
 
 @pytest.fixture(scope="module")
@@ -78,11 +78,25 @@ def test_the_angles_follow_the_norms(male):
 
 
 def test_lateral_sway_of_an_inverted_pendulum():
-    """The periodic pendulum path: symmetric, inside the feet (the body never gets over the
-    stance foot: +-1.7 cm for these numbers, from y_max = w/2 (1 - 1/cosh(T/2 tau)) of the
-    pendulum without double support, 2.3 cm), and across the middle in the double support."""
-    phase = np.arange(400) / 400
-    y = lateral_sway(phase, 1.0, 0.12, 0.95, 0.2)
+    """The periodic pendulum path over a zero-moment point that steps from foot to foot:
+    symmetric, inside the feet (the body never gets over the stance foot: +-1.7 cm for these
+    numbers, below y_max = w/2 (1 - 1/cosh(T/2 tau)) of the pendulum without double support,
+    2.3 cm), and across the middle in the double support."""
+    from humanoid.walking.plan import smooth_step
+
+    n, w, ds = 400, 0.12, 0.2
+    psi = np.arange(n) / n
+
+    def zmp(x):  # from the left foot to the right in the double support from 0, and back
+        if x < ds / 2:
+            return w / 2 - w * float(smooth_step(x / (ds / 2)))
+        if x < 0.5:
+            return -w / 2
+        if x < 0.5 + ds / 2:
+            return -w / 2 + w * float(smooth_step((x - 0.5) / (ds / 2)))
+        return w / 2
+
+    y = periodic_pendulum(np.array([zmp(x) for x in psi]), 9.81 / 0.95, 1.0 / n)
     assert abs(y.max() + y.min()) < 1e-9
     tau = np.sqrt(0.95 / 9.81)
     assert 0.005 < y.max() < 0.06 * (1 - 1 / np.cosh(0.5 / (2 * tau)))
@@ -91,7 +105,9 @@ def test_lateral_sway_of_an_inverted_pendulum():
 
 def test_the_cycle_player_passes_through_the_cycle(male):
     """The reference as a function of time: through every fitted instant exactly, one stride
-    further each lap, and a flat foot nearly still between the instants (< 1 cm/s)."""
+    further each lap, and a flat foot nearly still between the instants (< 1.5 cm/s where its
+    neighbours are flat too: the spline through the joint angles at 2 % steps; 0.9 cm/s
+    measured, male body)."""
     h, c = male
     m, d = h.model, h.model.createData()
     player = CyclePlayer(m, c)
@@ -102,19 +118,22 @@ def test_the_cycle_player_passes_through_the_cycle(male):
     now = player.configuration(0.3 * T)
     now[0] += c.stride
     assert np.abs(pin.difference(m, now, later)).max() < 1e-9
-    for i in np.flatnonzero(c.contact["right"] == 2):
+    flat = c.contact["right"] == 2
+    for i in np.flatnonzero(flat & np.roll(flat, 1) & np.roll(flat, -1)):
         q, v, _ = player.state(c.phase[i] * T)
         pin.forwardKinematics(m, d, q, v)
         pin.updateFramePlacements(m, d)
         foot = pin.getFrameVelocity(m, d, h.sole_id("right"), pin.LOCAL_WORLD_ALIGNED)
-        assert np.linalg.norm(foot.linear) < 0.01
+        assert np.linalg.norm(foot.linear) < 0.015
 
 
 def test_the_tracking_controller_and_the_ground_agree(male):
     """A few steps of the tracking controller on the rigid ground contact, from the cycle's
     own state at 20 % (right foot flat, left swinging): the plant's accelerations are the
     controller's (relative 1e-5: the contact solver's tolerance), the free flyer gets no
-    torque, and the ground's total impulse is the controller's planned forces times dt."""
+    torque, and the ground's total impulse is the controller's planned forces times dt. (With
+    the plant's own contact rule: a point touches within 0.2 mm and sticks within one step;
+    the walk's defaults settle a point within 2 mm onto the floor over 20 ms instead.)"""
     h, c = male
     scene = Scene(
         name="track", body=h.source, ball_joints=h.ball_joints, duration=0.03, dt=1e-3,
@@ -123,7 +142,8 @@ def test_the_tracking_controller_and_the_ground_agree(male):
                         ground=GroundSpec(bodies="feet")),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
-    ctl = GaitController(h, sim.model, c, sim.ground, scene.dt, phase0=0.2)
+    exact = TrackingGains(touch=2e-4, settle=0.0, contact_time=0.0)
+    ctl = GaitController(h, sim.model, c, sim.ground, scene.dt, phase0=0.2, gains=exact)
     sim.q0, sim.v0, _ = ctl.player.state(0.0)
     sim.controller = ctl
     seen = []
@@ -149,25 +169,51 @@ def test_the_tracking_controller_and_the_ground_agree(male):
     assert seen[:, 0].max() < 1e-5
     assert seen[:, 1].max() == 0.0
     assert seen[:, 2].max() < 1e-5
-    # the swing foot's path: from its lift-off pose at rest, to the next heel-strike pose (a
+    # the swing foot's path: from its lift-off pose and velocity (no jump in the foot's
+    # target when it leaves the floor rolling over its toes), to the next heel-strike pose (a
     # little into the floor) at rest, raised in between
     from humanoid.walking.tracking import REACH, SWING_HEIGHT
 
     k, _ = ctl.side_phase("left", 0.0)
     ctl.lift.clear()  # a new swing: it starts where the foot is
     M0 = pin.SE3(pin.utils.rotate("y", -0.6), np.array([0.1, 0.06, 0.08]))
+    v0 = np.array([1.2, 0.05, 0.3])
     off = ctl.off
-    start = ctl.swing_path("left", k, off, M0)
-    end = ctl.swing_path("left", k, 1.0, M0)
-    middle = ctl.swing_path("left", k, (1 + off) / 2, M0)
+    start = ctl.swing_path("left", k, off, M0, v0)
+    end = ctl.swing_path("left", k, 1.0, M0, v0)
+    middle = ctl.swing_path("left", k, (1 + off) / 2, M0, v0)
     land = ctl.landing("left", k + 1)
     assert np.abs(pin.log6(start[0].actInv(M0)).vector).max() < 1e-12
+    assert np.abs(start[1][:3] - v0).max() < 1e-12 and np.abs(start[2]).max() < 1e-12
     goal = pin.SE3(land.rotation, land.translation - [0.0, 0.0, REACH])
     assert np.abs(pin.log6(end[0].actInv(goal)).vector).max() < 1e-12
-    for _, vel, acc in (start, end):
-        assert np.abs(vel).max() < 1e-12 and np.abs(acc).max() < 1e-12
-    straight = (M0.translation[2] + goal.translation[2]) / 2
+    assert np.abs(end[1]).max() < 1e-12 and np.abs(end[2]).max() < 1e-12
+    # in the middle: halfway up, the bump, and the lift-off velocity's Hermite term (5/32 of
+    # the swing's duration times that velocity)
+    duration = (1 - off) * c.period
+    straight = (M0.translation[2] + goal.translation[2]) / 2 + 5 / 32 * duration * v0[2]
     assert abs(middle[0].translation[2] - straight - SWING_HEIGHT) < 1e-12
+    # and by finite differences, the velocity and acceleration are the path's
+    eps = 1e-6
+    ahead = ctl.swing_path("left", k, (1 + off) / 2 + eps, M0, v0)
+    behind = ctl.swing_path("left", k, (1 + off) / 2 - eps, M0, v0)
+    dt = 2 * eps * c.period
+    assert np.allclose((ahead[0].translation - behind[0].translation) / dt, middle[1][:3],
+                       atol=1e-6)  # fmt: skip
+    assert np.allclose((ahead[1] - behind[1]) / dt, middle[2], atol=1e-4)
+
+
+def test_the_centre_of_mass_target_is_one_the_feet_can_carry():
+    """closest_in_hull: a centre of pressure inside the soles stays; outside, it goes to the
+    nearest point of their hull (an edge, a corner); two points are a segment, one a point."""
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]])
+    assert np.allclose(closest_in_hull(np.array([0.3, 0.6]), square), [0.3, 0.6])
+    assert np.allclose(closest_in_hull(np.array([2.0, 0.4]), square), [1.0, 0.4])
+    assert np.allclose(closest_in_hull(np.array([-1.0, -2.0]), square), [0.0, 0.0])
+    segment = np.array([[0.0, 0.0], [2.0, 0.0]])
+    assert np.allclose(closest_in_hull(np.array([1.5, 0.7]), segment), [1.5, 0.0])
+    assert np.allclose(closest_in_hull(np.array([3.0, 0.0]), segment), [2.0, 0.0])
+    assert np.allclose(closest_in_hull(np.array([3.0, 3.0]), np.array([[1.0, 1.0]])), [1.0, 1.0])
 
 
 def test_the_centre_of_mass_plan_is_a_pendulum_over_the_feet(male):

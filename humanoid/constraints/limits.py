@@ -161,6 +161,16 @@ class JointRanges:
         Jb[np.arange(len(b))[:, None], self._bv[b][:, None] + np.arange(3)] = sgn * rates[b, i]
         return np.concatenate([r[keep], dist[b, i, side]]), np.vstack([J, Jb])
 
+    def excess(self, q) -> np.ndarray:
+        """How far q is beyond each bound [rad], >= 0 (0 inside): every hinge's lower and upper
+        bound, then every ball joint's three angles' (a vector of fixed length)."""
+        x = q[self.iq]
+        out = [self.lo - x, x - self.hi]
+        if self.balls:
+            th = self.angles(q, remember=False)
+            out += [(self._blo - th).ravel(), (th - self._bhi).ravel()]
+        return np.maximum(np.concatenate(out), 0.0)
+
     def violation(self, q) -> float:
         """Largest excursion beyond a range [rad] (0 inside every range)."""
         r, _ = self.rows(q, margin=0.0)

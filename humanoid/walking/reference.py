@@ -7,18 +7,23 @@ constraints a walking foot obeys:
 - **Stance** (heel strike to foot off, each foot at its footstep): the foot rolls over its heel,
   lies flat, then rolls over its toes. Its pitch is prescribed: from the pitch at heel strike
   (what the normative angles give) smoothly to flat at the end of the loading response, flat
-  until heel off, then smoothly to the pitch at foot off; the heel edge's or toe edge's middle
-  stays where it touched the ground. The pose of a stance foot is a constraint.
+  until heel off, then the pitch the normative chain itself gives (hip, knee and ankle against
+  the pelvis: 20 degrees at the opposite heel strike, 50 at foot off), eased in over
+  ``HEEL_RISE``; the heel edge's or toe edge's middle stays where it touched the ground. The
+  pose of a stance foot is a constraint.
 - **Swing**: a first fit leaves the swing foot where the normative angles carry it; that path
   is then bent, smoothly, to leave from the foot-off pose and land on the next heel-strike pose,
   raised where a corner of the sole would be lower than ``CLEARANCE sin(pi u)`` (u from 0 at
   foot off to 1 at heel strike), and a second fit makes it a constraint.
-- **Everything else** is a least-squares fit (Gauss-Newton on the configuration's Lie group,
-  numerical Jacobians): the pelvis angles, the hip, knee and ankle angles of both sides against
-  the norms (:mod:`humanoid.walking.clinical`); the pelvis's sideways sway, that of a linear
-  inverted pendulum whose zero-moment point is on the stance foot (:func:`lateral_sway`), and
-  its rise and fall (2.5 cm amplitude, lowest as the loading response ends); the trunk upright
-  and facing forward; every other joint near the standing posture. (Arm swing: not yet.)
+- **Everything else** is a least-squares fit (Levenberg-Marquardt on the configuration's Lie
+  group, numerical Jacobians): the pelvis angles, the hip, knee and ankle angles of both sides
+  against the norms (:mod:`humanoid.walking.clinical`); the centre of mass, across and along,
+  on the walk's dynamically consistent plan (:func:`plan_com`: a pendulum over a centre of
+  pressure that rolls heel to toe), its height left to the legs; the trunk upright and facing
+  forward; the legs' joints near the standing posture, the trunk's, head's and arms' more
+  strongly (the legs carry the centre of mass, not a swing of the arms); every joint inside its
+  range. (Arm swing: not yet.) The fitted kinematics' centre of mass is the plan's to 0.1 mm
+  across and along (1.5 cm in height), so a controller that tracks both does not fight itself.
 
 Foot placement: steps of the length a person chooses at the speed
 (:func:`~humanoid.walking.norms.choose_gait`), the feet a walking base apart, pointing forward.
@@ -33,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..constraints.limits import JointRanges
 from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import ANGLES, leg_chains, torso_frame
@@ -43,21 +49,22 @@ __all__ = [
     "CenterOfMassPlan",
     "GaitCycle",
     "fit_cycle",
-    "lateral_sway",
     "leg_length",
     "periodic_pendulum",
     "plan_com",
 ]
 
 FRAMES = 50  # instants per cycle (the norms' 2 % steps)
-W_FOOT = 1e3  # weight of a constrained foot pose (per m and per rad)
+W_FOOT = 1e4  # weight of a constrained foot pose (per m and per rad)
 W_ANGLE = 1.0  # per rad of a normative angle
 W_TRUNK = 1.0  # per rad of the thorax's tilt and turn
-W_POSTURE = 0.1  # per rad from the standing posture, every joint
-W_PELVIS = 20.0  # per m of the pelvis from its lateral and vertical path
-PELVIS_BOB = 0.025  # [m] amplitude of the pelvis's rise and fall (people's CoM: 3-5 cm p-p)
-COM_BOB = 0.0175  # [m] amplitude of the planned centre of mass's rise and fall (3.5 cm p-p)
+W_POSTURE = 0.1  # per rad from the standing posture, a leg's joints
+W_RANGE = 1000.0  # per rad beyond a joint's range
+W_UPPER = 3.0  # per rad from the standing posture, the trunk's, head's and arms' joints
+W_COM = 200.0  # per m of the centre of mass from its plan
+COM_BOB = 0.0175  # [m] amplitude of the centre of mass's rise and fall (people: 3-5 cm p-p)
 COP_START, COP_END = 0.1, 0.9  # the centre of pressure's run, heel to toe edge, over a stance
+HEEL_RISE = 0.05  # [cycle] the heel's rise eases into the norms' foot pitch this fast
 CLEARANCE = 0.01  # [m] the swing foot's lowest corner this far above the floor in mid-swing
 
 
@@ -80,8 +87,7 @@ class GaitCycle:
         feet: for each side, the (N, 6) poses of its sole (x, y, z, roll, pitch, yaw).
         contact: for each side, (N,) its contact phase (0 swing, 1 heel, 2 flat, 3 toe).
         residual: largest residual of a stance foot's pose in the fit [m or rad].
-        com: a dynamically consistent plan of the centre of mass for the walk's footsteps
-            (:func:`plan_com`), at the cycle's mean height, for a controller to track.
+        com: the centre of mass's plan, which the fit follows.
     """
 
     phase: np.ndarray
@@ -126,7 +132,14 @@ class _Fitter:
             order = np.argsort(pts[:, 0])
             self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
         self.thorax = torso_frame(self.model)
-        self.pelvis_target = None
+        self.ranges = JointRanges(h)
+        self.com_target = None  # phi -> the centre of mass's target (NaN: free)
+        # the legs carry the centre of mass where it must go, not a swing of the arms
+        self.w_posture = np.full(self.model.nv - 6, W_UPPER)
+        for chain in self.chains.values():
+            for j in chain.joints:
+                i = self.model.joints[j].idx_v - 6
+                self.w_posture[i : i + self.model.joints[j].nv] = W_POSTURE
 
     def norm(self, name: str, psi: float) -> float:
         """A normative angle [deg] at a side's phase psi (periodic)."""
@@ -139,9 +152,9 @@ class _Fitter:
     # -- the residual ----------------------------------------------------------------------
     def wants(self, phi: float) -> tuple[dict, tuple | None]:
         """What the fit aims at, at the cycle's phase phi: each side's normative angles [deg],
-        and the pelvis's (y, z or None) [m] if it has a path."""
+        and the centre of mass [m] (NaN where free) if it has a plan."""
         angles = {s: self.angles(phi + (0.5 if s == "left" else 0.0)) for s in SIDES}
-        return angles, None if self.pelvis_target is None else self.pelvis_target(phi)
+        return angles, None if self.com_target is None else self.com_target(phi)
 
     def residual(self, q, targets: dict, wants: tuple) -> np.ndarray:
         model, data = self.model, self.data
@@ -150,40 +163,48 @@ class _Fitter:
         for s, target in targets.items():
             err = target.actInv(data.oMf[self.sole[s]])
             r.append(W_FOOT * pin.log6(err).vector)
-        angles, pelvis = wants
+        angles, com = wants
         for s in SIDES:
             a, want = self.chains[s].angles(data), angles[s]
             # the pelvis is shared: each side fits its own view of it at half weight
             r.append(W_ANGLE * math.sqrt(0.5) * np.radians(a[:3] - want[:3]))
             r.append(W_ANGLE * np.radians(a[3:] - want[3:]))
-        if pelvis is not None:  # lateral sway and rise and fall, of the pelvis
-            c = data.oMi[1].translation
-            r.append(
-                W_PELVIS
-                * np.array([c[1] - pelvis[0], 0.0 if pelvis[1] is None else c[2] - pelvis[1]])
-            )
+        if com is not None:
+            c = pin.centerOfMass(model, data, q)
+            r.append(W_COM * np.where(np.isnan(com), 0.0, c - np.nan_to_num(com)))
         if self.thorax is not None:
             R = data.oMf[self.thorax].rotation
             r.append(W_TRUNK * pin.log3(R))
         d = pin.difference(model, self.q0, q)
-        r.append(W_POSTURE * d[6:])
+        r.append(self.w_posture * d[6:])
+        r.append(W_RANGE * self.ranges.excess(q))
 
         return np.concatenate([np.ravel(x) for x in r])
 
     def solve(self, q, phi: float, targets: dict, iterations: int = 30) -> np.ndarray:
-        """Gauss-Newton with a small damping, numerical Jacobian on the tangent space."""
+        """Levenberg-Marquardt (a Gauss-Newton step, damped until it lowers the cost),
+        numerical Jacobian on the tangent space."""
         model = self.model
         eps = 1e-7
         wants = self.wants(phi)
+        r = self.residual(q, targets, wants)
+        damping = 1e-8
         for _ in range(iterations):
-            r = self.residual(q, targets, wants)
             J = np.empty((len(r), model.nv))
             for i in range(model.nv):
                 dq = np.zeros(model.nv)
                 dq[i] = eps
                 J[:, i] = (self.residual(pin.integrate(model, q, dq), targets, wants) - r) / eps
-            step = np.linalg.solve(J.T @ J + 1e-8 * np.eye(model.nv), -J.T @ r)
-            q = pin.integrate(model, q, step)
+            JtJ, Jtr = J.T @ J, J.T @ r
+            while True:
+                step = np.linalg.solve(JtJ + damping * np.eye(model.nv), -Jtr)
+                q_new = pin.integrate(model, q, step)
+                r_new = self.residual(q_new, targets, wants)
+                if r_new @ r_new <= r @ r or damping > 1e6:
+                    break
+                damping *= 10.0
+            q, r = q_new, r_new
+            damping = max(1e-8, damping / 10.0)
             if np.abs(step).max() < 1e-7:
                 break
         return q
@@ -297,29 +318,6 @@ def plan_com(gait: dict, feet: dict, z_mean: float, g: float = 9.81,
     return CenterOfMassPlan(phase, c, dc, ddc, zmp, 2 * L, T)
 
 
-def lateral_sway(
-    phase: np.ndarray, period: float, width: float, height: float, double_support: float
-) -> np.ndarray:
-    """The periodic lateral path of a linear inverted pendulum of ``height`` [m] whose zero-moment
-    point sits on the stance foot's centre line (-width/2 on the right foot from the right heel
-    strike, +width/2 on the left from half a cycle on; it moves across during each double
-    support, which lasts ``double_support / 2`` from each heel strike), on the phase grid."""
-    psi = phase % 1.0
-
-    def zmp(x):  # from the left foot to the right during the double support from 0, and back
-        half = double_support / 2
-        if x < half:
-            return width / 2 - width * float(smooth_step(x / half))
-        if x < 0.5:
-            return -width / 2
-        if x < 0.5 + half:
-            return -width / 2 + width * float(smooth_step((x - 0.5) / half))
-        return width / 2
-
-    p = np.array([zmp(x) for x in psi])
-    return periodic_pendulum(p, 9.81 / height, period / len(phase))
-
-
 def fit_cycle(h, speed: float | None = None, width: float | None = None,
               frames: int = FRAMES) -> GaitCycle:  # fmt: skip
     """Fit one stride of a person's gait to ``h`` (see the module docstring).
@@ -360,10 +358,21 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         a = fitter.angles(psi)
         return math.radians(a[7] + a[3] - a[0] - a[6])
 
-    pitch_strike, pitch_off = foot_pitch(0.0), foot_pitch(off)
+    pitch_strike = foot_pitch(0.0)
     z_com0 = pin.centerOfMass(model, data, fitter.q0)[2]
-    sway = lateral_sway(phase, gait["cycle"], width, z_com0, gait["double_support"])
-    fitter.pelvis_target = lambda phi: (float(np.interp(phi % 1.0, phase, sway, period=1.0)), None)
+    gait = gait | {"width": width, "heel_off": heel_off}
+    feet_plan = {
+        s: (
+            float(soles0[s].translation[0]) - (L if s == "left" else 0.0),
+            width / 2 if s == "left" else -width / 2,
+            float(fitter.edge[s][0][0]),
+            float(fitter.edge[s][1][0]),
+        )  # fmt: skip
+        for s in SIDES
+    }
+    # pass 1 follows the planned sway only (its height is not known yet)
+    plan = plan_com(gait, feet_plan, z_com0)
+    fitter.com_target = lambda phi: np.array([np.nan, plan.at(phi)[0][1], np.nan])
 
     def stance_target(side, psi, k) -> tuple[pin.SE3, int]:
         """Pose of a stance foot at its phase psi (< off), on footstep k."""
@@ -374,7 +383,8 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         elif psi < heel_off:
             return base, 2
         else:
-            theta = pitch_off * smooth_step((psi - heel_off) / (off - heel_off))
+            # the normative chain's own pitch, eased in over HEEL_RISE after heel off
+            theta = min(foot_pitch(psi), 0.0) * smooth_step((psi - heel_off) / HEEL_RISE)
             pivot, kind = toe, 3
         # rotate about the pivot edge (toes up positive: a rotation about -y)
         R = pin.utils.rotate("y", -theta)
@@ -397,6 +407,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
 
     # pass 1: stance feet only; the swing foot goes where the normative angles carry it
     q = fitter.q0.copy()
+    q[0] += 1.5 * L  # between the footsteps of the second lap
     qs1, free = [], {s: [] for s in SIDES}
     back = pin.SE3(np.eye(3), np.array([-2 * L, 0.0, 0.0]))  # one stride back
     for phi in phase + 1.0:  # the second lap (footsteps k = 1, 2), from the standing posture
@@ -437,18 +448,16 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
             return pin.SE3(R, p)
 
         paths[s] = path
-    # pass 2: both feet constrained; the pelvis rises and falls about its mean height in the
-    # first pass, lowest at the end of each loading response (the opposite foot's lift-off)
-    pelvis1 = np.array([qk[:3] for qk in qs1])
-    z_mean, mid_ds = float(pelvis1[:, 2].mean()), gait["opposite_foot_off"]
-
-    def pelvis_target(phi):
-        y = float(np.interp(phi % 1.0, phase, sway, period=1.0))
-        return y, z_mean - PELVIS_BOB * math.cos(4 * math.pi * (phi - mid_ds))
-
-    fitter.pelvis_target = pelvis_target
+    # pass 2: both feet constrained; the centre of mass on its plan, about its mean height in
+    # the first pass
+    z_mean = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs1]))
+    plan = plan_com(gait, feet_plan, z_mean)
+    # (its height is the legs' to choose: the plan's, at pass 1's mean, would hold the pelvis
+    # too high for the leading leg to reach its heel strike)
+    fitter.com_target = lambda phi: plan.at(phi)[0] * np.array([1.0, 1.0, np.nan])
     qs, feet, contact, worst = [], {s: [] for s in SIDES}, {s: [] for s in SIDES}, 0.0
     q = qs1[0].copy()
+    q[0] -= 2 * L  # pass 1 ran one stride on
     for phi in phase:
         targets, kinds = targets_at(phi, paths)
         q = fitter.solve(q, phi, targets)
@@ -460,17 +469,6 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
             feet[s].append(np.concatenate([M.translation, pin.rpy.matrixToRpy(M.rotation)]))
             contact[s].append(kinds[s])
         qs.append(q.copy())
-    gait = gait | {"width": width, "heel_off": heel_off}
-    feet_plan = {
-        s: (
-            float(soles0[s].translation[0]) - (L if s == "left" else 0.0),
-            width / 2 if s == "left" else -width / 2,
-            float(fitter.edge[s][0][0]),
-            float(fitter.edge[s][1][0]),
-        )  # fmt: skip
-        for s in SIDES
-    }
-    z_mean_com = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs]))
     return GaitCycle(
         phase=phase,
         q=np.array(qs),
@@ -478,5 +476,5 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         feet={s: np.array(v) for s, v in feet.items()},
         contact={s: np.array(v) for s, v in contact.items()},
         residual=worst,
-        com=plan_com(gait, feet_plan, z_mean_com),
+        com=plan,
     )
