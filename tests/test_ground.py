@@ -136,6 +136,13 @@ def test_range_rows_match_finite_differences(name):
     w = rng.normal(size=h.nv)
     r2, _ = ranges.rows(pin.integrate(h.model, q, eps * w), margin=None)
     np.testing.assert_allclose((r2 - r) / eps, J @ w, atol=1e-4)
+    # excess: zero inside every range; a hinge pushed 0.1 rad past its upper bound shows 0.1
+    # there and nowhere else
+    assert np.abs(ranges.excess(q)).max() == 0.0
+    q_out = q.copy()
+    q_out[ranges.iq[0]] = ranges.hi[0] + 0.1
+    x = ranges.excess(q_out)
+    assert abs(x.max() - 0.1) < 1e-12 and np.count_nonzero(x) == 1
 
 
 def test_ground_scene_errors_name_the_key():
