@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
+from scipy.spatial import ConvexHull, QhullError
 
 from ..constraints.limits import JointRanges
 from ..effects import Effect
@@ -143,8 +144,6 @@ class TrackingGains:
 
 def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """The point of the convex hull of 2D points ``pts`` nearest to p (p itself if inside)."""
-    from scipy.spatial import ConvexHull, QhullError
-
     try:
         hull = ConvexHull(pts)
         if np.all(hull.equations[:, :2] @ p + hull.equations[:, 2] <= 1e-12):
