@@ -268,3 +268,56 @@ def test_the_centre_of_mass_plan_is_a_pendulum_over_the_feet(male):
     step = np.linalg.norm(np.diff(path, axis=0), axis=1).max()
     assert step < 1.05 * np.linalg.norm(p.dc, axis=1).max() * p.period * 1e-4, step
     assert np.allclose(p.at(2.0)[0], p.c[0] + [2 * p.stride, 0, 0])
+
+
+def test_the_male_body_walks_twenty_steps_on_the_ground(male):
+    """The whole loop on the rigid ground (every sole point a frictional contact, mu 0.8, the
+    joint ranges as constraints), torques only, from the cycle's own state at 20 %: twenty heel
+    strikes without a fall, the centre of mass on its plan (within 8 cm), at the plan's speed
+    (the walk's free speed, 1.25-1.45 m/s: the adult norms), no step relaxed."""
+    h, c = male
+    T = c.period
+    duration = (0.3 + 9.5) * T + 0.25  # past the twentieth heel strike (the first at 0.3 T)
+    scene = Scene(
+        name="walk", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=1e-3,
+        integrator="semi_implicit_euler", record_rate=100.0,
+        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+                        ground=GroundSpec(bodies="feet", mu=0.8)),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    ctl = GaitController(h, sim.model, c, sim.ground, scene.dt, phase0=0.2)
+    sim.q0, sim.v0, _ = ctl.player.state(0.0)
+    sim.controller = ctl
+    data = sim.model.createData()
+    feet = {h.sole_id(s): s for s in ("left", "right")}
+    log = []
+
+    class Watch:
+        def observe(self, sim, k, t, q, v, step):
+            c_now = pin.centerOfMass(sim.model, data, q)
+            phi = ctl.player.phase(t)
+            c_ref = _anchored(ctl, t, c.com.at(phi)[0])
+            pin.framesForwardKinematics(sim.model, data, q)
+            down = [
+                min(data.oMf[f].act(p)[2] for p in h.sole_points(s)) < 1e-3 for f, s in feet.items()
+            ]
+            log.append((t, *c_now, *(c_now - c_ref), *down))
+
+    sim.monitors.append(Watch())
+    traj = sim.run(quiet=True)
+    assert traj.metadata["status"] == "completed", traj.metadata["message"]
+    log = np.array(log)
+    assert log[:, 3].min() > 0.8  # the centre of mass never drops (a fall)
+    strikes = sum(int(np.sum(np.diff(log[:, 7 + i].astype(int)) == 1)) for i in range(2))
+    assert strikes >= 20, strikes
+    assert np.abs(log[:, 4:6]).max() < 0.08, np.abs(log[:, 4:6]).max()
+    late = log[:, 0] > 2.0
+    speed = np.polyfit(log[late, 0], log[late, 1], 1)[0]
+    assert 1.25 <= speed <= 1.45, speed
+    assert ctl.relaxed == 0
+
+
+def _anchored(ctl, t, p):
+    from humanoid.walking.tracking import _apply
+
+    return _apply(ctl.body_anchor(t), p)

@@ -57,7 +57,7 @@ from ..constraints.limits import JointRanges
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
-from .clinical import leg_chains, torso_frame
+from .clinical import ANGLES, leg_chains, torso_frame
 from .plan import smooth_step
 from .qp import WarmQP, pyramid_rows, range_damper
 
@@ -140,6 +140,7 @@ class TrackingGains:
     settle: float = 0.02  # [s] ... and one above it settles onto the floor in this time
     contact_time: float = 0.02  # [s] a loaded point's velocity reaches its target in this time
     late_lift: float = 0.1  # [cycle] a trailing foot waits at most this long for the other
+    heel_rise_margin: float = 0.05  # [rad] a flat foot's heel rises this near the ankle's stop
 
 
 def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -159,6 +160,35 @@ def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
         if np.linalg.norm(x - p) < dist:
             best, dist = x, float(np.linalg.norm(x - p))
     return best
+
+
+def _ankle_stop(h, chain) -> tuple[int, float, float] | None:
+    """(q index, bound, sign) of a leg's ankle hinge and its dorsiflexion stop: the one-DoF
+    joint below the knee that pitches the foot most (clinical ankle angle), the bound it
+    reaches dorsiflexing, and +1 if dorsiflexion raises q. None without such a joint or bound."""
+    model = h.model
+    data = model.createData()
+    q0 = h.standing_configuration()
+    pin.forwardKinematics(model, data, q0)
+    pin.updateFramePlacements(model, data)
+    a0 = chain.angles(data)[ANGLES.index("ankle_dorsiflexion")]
+    best = None
+    for j in chain.joints[chain.joints.index(chain.knee) + 1 :]:
+        if model.joints[j].nq != 1:
+            continue
+        q = q0.copy()
+        q[model.joints[j].idx_q] += 1e-3
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        rate = chain.angles(data)[ANGLES.index("ankle_dorsiflexion")] - a0  # [deg per mrad]
+        if abs(rate) > 0.03 and (best is None or abs(rate) > abs(best[1])):
+            best = (j, rate)
+    if best is None:
+        return None
+    iq = model.joints[best[0]].idx_q
+    sign = 1.0 if best[1] > 0 else -1.0
+    bound = float(model.upperPositionLimit[iq] if sign > 0 else model.lowerPositionLimit[iq])
+    return (iq, bound, sign) if np.isfinite(bound) else None
 
 
 def _apply(anchor: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -218,7 +248,10 @@ class GaitController(Effect):
         # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
         # the cycle's angles only regularise them
         self.w_posture = np.full(model.nv - 6, self.gains.w_posture)
-        for chain in leg_chains(h).values():
+        chains = leg_chains(h)
+        self.ankle = {s: _ankle_stop(h, chains[s]) for s in SIDES}
+        self.ankle = {s: a for s, a in self.ankle.items() if a is not None}
+        for chain in chains.values():
             for j in chain.joints:
                 i = model.joints[j].idx_v - 6
                 self.w_posture[i : i + model.joints[j].nv] = self.gains.w_leg_posture
@@ -347,6 +380,12 @@ class GaitController(Effect):
                     and steps[s][1] < self.off + g.late_lift):  # fmt: skip
                 kinds[s] = 3
             self.down[s] = kinds[s] != 0
+            # a flat foot lets its heel rise when its ankle is about to reach its dorsiflexion
+            # stop, as a person's does: else the stop halts the shank and the knee vaults
+            if kinds[s] == 2 and s in self.ankle:
+                iq, bound, sign = self.ankle[s]
+                if sign * (bound - q[iq]) < g.heel_rise_margin:
+                    kinds[s] = 3
         for s in SIDES:
             k, psi = steps[s]
             if kinds[s] == 0:  # swing: land the next footstep k + 1 corrected
