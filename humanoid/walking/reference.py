@@ -448,12 +448,11 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
             return pin.SE3(R, p)
 
         paths[s] = path
-    # pass 2: both feet constrained; the centre of mass on its plan, about its mean height in
-    # the first pass
+    # pass 2: both feet constrained; the centre of mass on its plan across and along (a
+    # pendulum at the first pass's mean height); its height is the legs' to choose (the plan's
+    # would hold the pelvis too high for the leading leg to reach its heel strike)
     z_mean = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs1]))
     plan = plan_com(gait, feet_plan, z_mean)
-    # (its height is the legs' to choose: the plan's, at pass 1's mean, would hold the pelvis
-    # too high for the leading leg to reach its heel strike)
     fitter.com_target = lambda phi: plan.at(phi)[0] * np.array([1.0, 1.0, np.nan])
     qs, feet, contact, worst = [], {s: [] for s in SIDES}, {s: [] for s in SIDES}, 0.0
     q = qs1[0].copy()
