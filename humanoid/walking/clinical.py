@@ -25,7 +25,14 @@ import pinocchio as pin
 from ..errors import ModelError
 from ..model import SIDES
 
-__all__ = ["ANGLES", "LegChain", "clinical_angles", "leg_chains", "torso_frame"]
+__all__ = [
+    "ANGLES",
+    "LegChain",
+    "clinical_angles",
+    "leg_chains",
+    "leg_joint_weights",
+    "torso_frame",
+]
 
 # the angles of one side, in order
 ANGLES = (
@@ -110,6 +117,17 @@ def _yxz(R: np.ndarray) -> tuple[float, float, float]:
 def leg_chains(h) -> dict[str, LegChain]:
     """Both legs' chains of a humanoid."""
     return {s: LegChain(h, s) for s in SIDES}
+
+
+def leg_joint_weights(model, chains: dict[str, LegChain], legs: float, others: float) -> np.ndarray:
+    """A weight per joint velocity (the free flyer's six excluded): ``legs`` on the legs'
+    joints, ``others`` on every other joint."""
+    w = np.full(model.nv - 6, others)
+    for chain in chains.values():
+        for j in chain.joints:
+            i = model.joints[j].idx_v - 6
+            w[i : i + model.joints[j].nv] = legs
+    return w
 
 
 def clinical_angles(h, q, chains: dict[str, LegChain] | None = None) -> dict[str, np.ndarray]:

@@ -41,7 +41,7 @@ import pinocchio as pin
 from ..constraints.limits import JointRanges
 from ..errors import HumanoidError
 from ..model import SIDES
-from .clinical import ANGLES, leg_chains, torso_frame
+from .clinical import ANGLES, leg_chains, leg_joint_weights, torso_frame
 from .norms import choose_gait, free_speed, norms
 from .plan import smooth_step
 
@@ -135,11 +135,7 @@ class _Fitter:
         self.ranges = JointRanges(h)
         self.com_target = None  # phi -> the centre of mass's target (NaN: free)
         # the legs carry the centre of mass where it must go, not a swing of the arms
-        self.w_posture = np.full(self.model.nv - 6, W_UPPER)
-        for chain in self.chains.values():
-            for j in chain.joints:
-                i = self.model.joints[j].idx_v - 6
-                self.w_posture[i : i + self.model.joints[j].nv] = W_POSTURE
+        self.w_posture = leg_joint_weights(self.model, self.chains, W_POSTURE, W_UPPER)
 
     def norm(self, name: str, psi: float) -> float:
         """A normative angle [deg] at a side's phase psi (periodic)."""

@@ -57,7 +57,7 @@ from ..constraints.limits import JointRanges
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
-from .clinical import ANGLES, leg_chains, torso_frame
+from .clinical import ANGLES, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
 from .qp import WarmQP, pyramid_rows, range_damper
 
@@ -67,6 +67,7 @@ __all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
 # walk; :func:`humanoid.walking.run.walk` is still the welded-feet walk.
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+OTHER = {"left": "right", "right": "left"}
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
 REACH = 5e-3  # [m] a foot that should bear and does not touch aims this far into the floor
@@ -247,14 +248,11 @@ class GaitController(Effect):
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
         # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
         # the cycle's angles only regularise them
-        self.w_posture = np.full(model.nv - 6, self.gains.w_posture)
         chains = leg_chains(h)
-        self.ankle = {s: _ankle_stop(h, chains[s]) for s in SIDES}
-        self.ankle = {s: a for s, a in self.ankle.items() if a is not None}
-        for chain in chains.values():
-            for j in chain.joints:
-                i = model.joints[j].idx_v - 6
-                self.w_posture[i : i + model.joints[j].nv] = self.gains.w_leg_posture
+        gains = self.gains
+        self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture)
+        stops = {s: _ankle_stop(h, chains[s]) for s in SIDES}
+        self.ankle = {s: a for s, a in stops.items() if a is not None}
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
 
     def force(self, model, data, t, q, v):
@@ -285,7 +283,7 @@ class GaitController(Effect):
         from the trailing foot's to the leading foot's."""
         steps = {s: self.side_phase(s, t) for s in SIDES}
         lead = min(SIDES, key=lambda s: steps[s][1])  # the foot that landed last
-        trail = "left" if lead == "right" else "right"
+        trail = OTHER[lead]
         k_lead, psi = steps[lead]
         a_lead = self.anchor(lead, k_lead)
         if psi >= self.flat:
@@ -356,7 +354,8 @@ class GaitController(Effect):
             next((s for s in SIDES if self.foot_joint[s] == cm.extract().joint2_id), None)
             for cm in cms
         ]
-        touching = {s for s, d in zip(side_of, phi, strict=True) if s is not None and d < g.touch}
+        near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
+        touching = {s for s, n in zip(side_of, near, strict=True) if n}
         # the reference, its feet and centre of mass
         q_r, v_r, a_r = self.player.state(t)
         rd = self.rdata
@@ -375,8 +374,7 @@ class GaitController(Effect):
         steps = {s: self.side_phase(s, t) for s in SIDES}
         kinds = {s: self.contact_kind(steps[s][1]) for s in SIDES}
         for s in SIDES:  # the trailing foot stays down (on its toes) until the other one lands
-            other = "left" if s == "right" else "right"
-            if (kinds[s] == 0 and self.down.get(s, False) and other not in touching
+            if (kinds[s] == 0 and self.down.get(s, False) and OTHER[s] not in touching
                     and steps[s][1] < self.off + g.late_lift):  # fmt: skip
                 kinds[s] = 3
             self.down[s] = kinds[s] != 0
@@ -389,8 +387,7 @@ class GaitController(Effect):
         for s in SIDES:
             k, psi = steps[s]
             if kinds[s] == 0:  # swing: land the next footstep k + 1 corrected
-                other = "left" if s == "right" else "right"
-                base = self.anchor(other, steps[other][0])
+                base = self.anchor(OTHER[s], steps[OTHER[s]][0])
                 if psi < 0.85 + 0.15 * self.off:  # frozen in the last part of the swing
                     shift = g.placement * err
                     norm = np.linalg.norm(shift)
@@ -409,7 +406,7 @@ class GaitController(Effect):
         loaded, free, bearing = [], [], set()
         for i, side in enumerate(side_of):
             ok = False
-            if side is not None and phi[i] < g.touch:
+            if near[i]:
                 kind = kinds[side]
                 x = self.data.oMf[self.sole[side]].actInv(points[i])[0] - self.sole_middle[side]
                 ok = kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
@@ -466,7 +463,7 @@ class GaitController(Effect):
         kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
         kd = np.array([g.com_kd, g.com_kd, g.com_z_kd])
         ddc_des = ddc_r + kp * (c_r - c) + kd * (dc_r - dc)
-        support = [points[i][:2] for i in range(len(phi)) if side_of[i] and phi[i] < g.touch]
+        support = [p[:2] for p, n in zip(points, near, strict=True) if n]
         if support:
             gz = float(np.linalg.norm(model.gravity.linear)) + ddc_des[2]
             cop = c[:2] - ddc_des[:2] * c[2] / gz
