@@ -81,6 +81,18 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--html", help="also write the viewer as one HTML file")
     w.add_argument("--figure", help="figure file (PNG); default: next to the trajectory")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
+    w.add_argument(
+        "--gait",
+        choices=("welded", "human"),
+        default="welded",
+        help="welded: flat feet welded at each step (any humanoid); human: a person's "
+        "gait cycle fitted to the body, tracked on the rigid ground, heel to toe",
+    )
+    w.add_argument(
+        "--report",
+        help="(--gait human) the gait report: angles, moments, powers "
+        "and forces over the normative bands, and the table (PNG)",
+    )
     w.add_argument("--integrator", choices=list(INTEGRATORS), default="semi_implicit_euler",
                    help="the plant's integrator (humanoid variants)")  # fmt: skip
     w.add_argument("--dt", type=float, default=1e-3, help="simulation and control step [s]")
@@ -288,6 +300,10 @@ def _walk(args) -> int:
         raise HumanoidError("give --speed or --step-length, not both")
     if not 2 <= args.steps <= MAX_STEPS:
         raise HumanoidError(f"--steps must be in [2, {MAX_STEPS}], got {args.steps}")
+    if args.gait == "human":
+        return _walk_human(args)
+    if args.report:
+        raise HumanoidError("--report needs --gait human (the welded walk draws --figure)")
     h = load_any(args, ball_joints="quaternion")
     kw = {"steps": args.steps}
     if args.step_length is not None:
@@ -309,6 +325,34 @@ def _walk(args) -> int:
         print(f"humanoid walk: checks failed: {', '.join(failed)}", file=sys.stderr)
         return 3
     return 0
+
+
+def _walk_human(args) -> int:
+    from .walking.gait import analyse, walk_on_ground
+    from .walking.report import format_gait_table, plot_gait_report
+
+    given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure))
+             if v is not None]  # fmt: skip
+    if given:
+        raise HumanoidError(f"{', '.join(given)}: only with --gait welded")
+    h = load_any(args, ball_joints="quaternion")
+    walk = walk_on_ground(h, args.speed, steps=args.steps, dt=args.dt, mu=args.mu,
+                          quiet=args.quiet)  # fmt: skip
+    path = walk.trajectory.save(args.output)
+    analysis = analyse(h, walk)
+    meta = walk.trajectory.metadata
+    print(f"status       {meta['status']}" + (f": {meta['message']}" if meta["message"] else ""))
+    print(f"real time    {walk.real_time_factor:.2f} x ({walk.wall_time:.0f} s of wall time)")
+    print(format_gait_table(analysis))
+    print(f"\nsaved        {path}")
+    if args.report:
+        print(f"report       {plot_gait_report(analysis, args.report)}")
+    if args.html:
+        from .viewer import export_html
+
+        page = export_html(h, args.html, traj=walk.trajectory, title="walk")
+        print(f"viewer       {page}")
+    return 0 if walk.completed else 3
 
 
 def _view(args) -> int:

@@ -28,7 +28,7 @@ solve: their cone is the non-negative orthant.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import coal
 import numpy as np
@@ -242,6 +242,7 @@ class StepContacts:
         impulses: Ground impulses per contact, world axes (n, 3) [N s].
         limit_impulses: Impulses of the active joint-range rows [N m s].
         iterations: ADMM iterations; converged: whether it met its tolerance.
+        joints: The joint of the body each contact is on, (n,).
     """
 
     points: np.ndarray
@@ -250,6 +251,7 @@ class StepContacts:
     limit_impulses: np.ndarray
     iterations: int
     converged: bool
+    joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     @property
     def force(self) -> np.ndarray:
@@ -359,6 +361,7 @@ class ContactSolver:
             self.failures += 1
         v_new = v_free + MJt @ lam
         impulses = lam[: 3 * n_ground].reshape(-1, 3)
+        joints = np.array([cm.extract().joint2_id for cm in cms[:n_ground]], dtype=int)
         out = StepContacts(points, phi, impulses, lam[3 * n_ground :], int(res.iterations),
-                           bool(res.converged))  # fmt: skip
+                           bool(res.converged), joints)  # fmt: skip
         return v_new, out

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["format_summary", "plot_walk"]
+__all__ = ["format_gait_table", "format_summary", "gait_table", "plot_gait_report", "plot_walk"]
 
 ROWS = (
     # key, label, unit, scale, human value
@@ -123,5 +123,134 @@ def plot_walk(result, path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+# -- the gait lab's report of a walk on the ground ------------------------------------------
+
+PANELS = (
+    ("hip_flexion", "hip flexion", "deg"),
+    ("knee_flexion", "knee flexion", "deg"),
+    ("ankle_dorsiflexion", "ankle dorsiflexion", "deg"),
+    ("hip_extension_moment", "hip extensor moment", "N m/kg"),
+    ("knee_extension_moment", "knee extensor moment", "N m/kg"),
+    ("ankle_plantarflexion_moment", "ankle plantarflexor moment", "N m/kg"),
+    ("hip_power", "hip power", "W/kg"),
+    ("knee_power", "knee power", "W/kg"),
+    ("ankle_power", "ankle power", "W/kg"),
+    ("grf_vertical", "vertical GRF", "BW"),
+    ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
+)
+SIDE_COLOURS = {"left": "tab:red", "right": "tab:green"}  # a gait lab's colours
+GAIT_ROWS = (
+    # key, label, unit, scale, the adult norm (low, high) or None, its source
+    ("speed", "speed", "m/s", 1.0, (1.27, 1.46), "Bohannon 1997"),
+    ("cadence", "cadence", "steps/min", 1.0, (100.0, 120.0), "Murray 1964; Öberg 1993"),
+    ("step_length", "step length", "m", 1.0, (0.66, 0.79), "Murray 1964/1970"),
+    ("double_support", "double support", "% cycle", 100.0, (18.0, 26.0), "Perry; Schwartz 2008"),
+    ("stance", "stance", "% cycle", 100.0, (58.0, 62.0), "Perry & Burnfield"),
+    ("com_vertical", "CoM vertical excursion", "cm", 100.0, (3.0, 5.0), "Gard 2004"),
+    ("com_lateral", "CoM lateral sway", "cm", 100.0, (2.0, 5.0), "Perry & Burnfield"),
+    ("grf_first_peak", "vertical GRF, 1st peak", "BW", 1.0, (1.05, 1.30), "Winter 2009"),
+    ("grf_trough", "vertical GRF, trough", "BW", 1.0, (0.60, 0.85), "Winter 2009"),
+    ("grf_second_peak", "vertical GRF, 2nd peak", "BW", 1.0, (1.05, 1.30), "Winter 2009"),
+    ("braking", "braking force peak", "BW", 1.0, (0.15, 0.25), "Winter 2009"),
+    ("propulsion", "propulsive force peak", "BW", 1.0, (0.15, 0.25), "Winter 2009"),
+    ("knee_at_strike", "knee at heel strike", "deg", 1.0, (0.0, 10.0), "Perry & Burnfield"),
+    ("knee_loading", "knee loading flexion", "deg", 1.0, (10.0, 25.0), "Perry & Burnfield"),
+    ("knee_swing", "knee swing flexion", "deg", 1.0, (55.0, 70.0), "Perry & Burnfield"),
+    ("ankle_moment_peak", "ankle moment peak", "N m/kg", 1.0, (1.2, 1.6), "Winter 2009"),
+    ("heel_to_toe", "steps heel to toe", "%", 100.0, None, ""),
+    ("slip", "largest slide in stance", "mm", 1000.0, (0.0, 2.0), ""),
+)
+
+
+def gait_table(analysis) -> list[tuple[str, str, str, bool | None]]:
+    """The report's rows: (label, this walk, the adult norm, whether it is within it)."""
+    s = analysis.summary
+    rows = []
+    for key, label, unit, scale, norm, source in GAIT_ROWS:
+        value = s.get(key, float("nan")) * scale
+        text = f"{value:.3g} {unit}" if np.isfinite(value) else "-"
+        if norm is None or not np.isfinite(value):  # no norm, or no complete cycle to measure
+            rows.append((label, text, "", None))
+            continue
+        lo, hi = norm
+        ok = bool(np.isfinite(value) and lo <= value <= hi)
+        rows.append((label, text, f"{lo:g}-{hi:g} {unit}" + (f" ({source})" if source else ""), ok))
+    return rows
+
+
+def format_gait_table(analysis) -> str:
+    """The report's table as text."""
+    lines = [f"{'':<26} {'this walk':>14}   adult norm"]
+    for label, value, norm, ok in gait_table(analysis):
+        mark = "" if ok is None else ("" if ok else "  (outside)")
+        lines.append(f"{label:<26} {value:>14}   {norm}{mark}".rstrip())
+    return "\n".join(lines)
+
+
+def plot_gait_report(analysis, path, title: str | None = None) -> Path:
+    """A gait lab's report (PNG): hip, knee and ankle angles, moments and powers and the
+    ground reaction forces over 0-100 % of the cycle, left and right, over Schwartz 2008's
+    normative band (mean +- 1 SD at the walk's dimensionless speed), and the table of
+    spatiotemporal values beside adult norms."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .gait import PERCENT
+    from .norms import norms
+
+    n = norms()
+    fig = plt.figure(figsize=(13, 15), constrained_layout=True)
+    grid = fig.add_gridspec(5, 3, height_ratios=(1, 1, 1, 1, 1.25))
+    stance = analysis.summary["stance"] * 100.0
+    for i, (name, label, unit) in enumerate(PANELS):
+        ax = fig.add_subplot(grid[i // 3, i % 3])
+        mean, sd = n.curve(name, analysis.dimensionless_speed)
+        ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
+        ax.plot(n.percent, mean, color="0.55", lw=1, ls="--")
+        for side, colour in SIDE_COLOURS.items():
+            c = analysis.curves[side][name]
+            if len(c):
+                ax.plot(PERCENT, c.mean(axis=0), color=colour, lw=1.6, label=side)
+        if np.isfinite(stance):
+            ax.axvline(stance, color="0.3", lw=0.8, ls=":")
+        ax.axhline(0.0, color="0.5", lw=0.5)
+        ax.set(title=label, ylabel=unit, xlim=(0, 100))
+        if i >= 8:
+            ax.set_xlabel("% gait cycle")
+        ax.grid(alpha=0.3)
+        if i == 0 and ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper right", fontsize=8)
+    ax = fig.add_subplot(grid[3, 2])
+    ax.axis("off")
+    ax.text(0.0, 1.0, "grey: Schwartz et al. 2008, mean +- 1 SD at the same\n"
+            "dimensionless speed (J Biomech 41:1639, CC-BY-SA 4.0);\n"
+            "dotted line: toe off (this walk). Moments are internal,\n"
+            "extensor / plantarflexor positive; powers generated +.",
+            va="top", fontsize=8.5)  # fmt: skip
+    ax = fig.add_subplot(grid[4, :])
+    ax.axis("off")
+    rows = gait_table(analysis)
+    cells = [[label, value, norm] for label, value, norm, _ in rows]
+    table = ax.table(cellText=cells, colLabels=["", "this walk", "adult norm"], loc="upper center",
+                     colWidths=(0.25, 0.15, 0.42), cellLoc="left")  # fmt: skip
+    table.auto_set_font_size(False)
+    table.set_fontsize(8.5)
+    table.scale(1.0, 1.15)
+    for k, (*_, ok) in enumerate(rows, start=1):
+        if ok is False:
+            table[k, 1].set_text_props(color="tab:red")
+    s = analysis.summary
+    name = Path(analysis.source).stem
+    fig.suptitle(title or (f"{name}: {s['speed']:.2f} m/s, {s['cadence']:.0f} steps/min, "
+                           f"{int(s['cycles'])} cycles analysed"))  # fmt: skip
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
     return path

@@ -9,10 +9,12 @@ generalised acceleration dv and the forces f of the sole points that carry load,
 joint torques tau = (M dv + h - J^T f)[6:] leave it:
 
 - **Equalities.** The free flyer's six rows of the dynamics (it is never actuated). Each sole
-  point within ``touch`` (2 mm) of the floor that the cycle's contact phase says is loaded (the
+  point within ``touch`` (1 cm) of the floor that the cycle's contact phase says is loaded (the
   heel's points from heel strike, all of them from foot flat, the toe's from heel off) sticks:
   J (v + T dv) + gap = 0, its velocity brought to rest over ``contact_time`` T (20 ms; a point
-  still above the floor settles onto it over ``settle``). The plant resolves the impacts; the
+  still above the floor settles onto it over ``settle``: with a 2 mm reach a flat foot's toes
+  hovered a few millimetres up all of mid-stance and the heel carried the whole load, its
+  pitch about the heel left to round-off). The plant resolves the impacts; the
   controller does not command them. (With T = dt, touch = 0.2 mm and no settling, the QP is
   the plant's own velocity-level rule and the two agree to 1e-5: a test.)
 - **Inequalities.** Those points' forces inside the friction cone (a pyramid, at a smaller
@@ -63,8 +65,7 @@ from .qp import WarmQP, pyramid_rows, range_damper
 
 __all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
 
-# Work in progress (issue 13): the controller holds a few steps of the fitted cycle, not yet a
-# walk; :func:`humanoid.walking.run.walk` is still the welded-feet walk.
+# The walk itself, and its analysis: :mod:`humanoid.walking.gait` (``humanoid walk --gait human``).
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 OTHER = {"left": "right", "right": "left"}
@@ -137,7 +138,7 @@ class TrackingGains:
     mu: float = 0.6
     placement: float = 1.0  # the capture-point error's share moved into the next footstep
     max_shift: float = 0.15  # [m] largest footstep correction
-    touch: float = 2e-3  # [m] a sole point this close to the floor may carry load ...
+    touch: float = 1e-2  # [m] a sole point this close to the floor may carry load ...
     settle: float = 0.02  # [s] ... and one above it settles onto the floor in this time
     contact_time: float = 0.02  # [s] a loaded point's velocity reaches its target in this time
     late_lift: float = 0.1  # [cycle] a trailing foot waits at most this long for the other

@@ -1,0 +1,497 @@
+"""A person's walk on the rigid ground, and what a gait lab measures of it.
+
+:func:`walk_on_ground` fits the body's gait cycle (:func:`~humanoid.walking.reference.fit_cycle`)
+and simulates it, tracked by the :class:`~humanoid.walking.tracking.GaitController`: joint
+torques only (the free flyer is never actuated), every sole point a unilateral contact with
+Coulomb friction, the joint ranges as constraints of the same velocity-level solve.
+
+A :class:`GaitRecorder` watches every step the way a gait lab's force plates and inverse
+dynamics would, but exactly: each foot's ground force and centre of pressure (the sum of its
+contact impulses over the step), the joint moments and powers (inverse dynamics, RNEA, of the
+step's own acceleration and ground forces: with the semi-implicit step this is the plant's own
+equation of motion, not an estimate), which parts of each sole carry load (heel, toe), and how
+far the loaded points slide.
+
+:func:`analyse` turns the record into what a gait lab reports:
+
+- **events**: heel strike and toe off of each foot, where its vertical force crosses 2 % of
+  body weight (a force plate's threshold), contacts shorter than 50 ms ignored;
+- **spatiotemporal parameters** per cycle: speed (stride length over stride time), cadence,
+  step length (along the stride), stance and double support, centre-of-mass vertical and
+  lateral excursion;
+- **curves** over 0-100 % of the cycle (from the side's heel strike) in the normative data's
+  conventions (:mod:`humanoid.walking.norms`): joint angles (:mod:`~humanoid.walking.clinical`)
+  [deg]; ground reaction forces (vertical, and fore-aft along the stride, braking negative)
+  [body weights]; internal joint moments [N m/kg] (hip extensor and abductor, knee extensor,
+  ankle plantarflexor positive: the moment the proximal segment exerts on the distal one,
+  projected on the proximal segment's axes) and joint powers [W/kg] (moment times the distal
+  segment's angular velocity relative to the proximal one; positive is generated).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError, RunFailed
+from ..model import SIDES
+from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
+from ..simulation import Simulation, Trajectory
+from .clinical import ANGLES, clinical_angles, leg_chains
+from .norms import norms
+from .reference import GaitCycle, fit_cycle
+from .tracking import GaitController, TrackingGains, _ankle_stop
+
+__all__ = ["GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "analyse", "walk_on_ground"]
+
+EVENT_THRESHOLD = 0.02  # [body weights] a foot is on the ground above this vertical force
+MIN_CONTACT = 0.05  # [s] shorter contacts and gaps are ignored (bounces, not steps)
+POINT_LOAD = 1.0  # [N] a contact point with more vertical force carries load
+FALL_HEIGHT = 0.7  # a fall: the centre of mass below this fraction of its height in the cycle
+PERCENT = np.linspace(0.0, 100.0, 51)  # the normative data's samples of the cycle
+KINETICS = (
+    "grf_vertical", "grf_anterior", "hip_extension_moment", "hip_abduction_moment",
+    "knee_extension_moment", "ankle_plantarflexion_moment", "hip_power", "knee_power",
+    "ankle_power",
+)  # fmt: skip
+_MOMENTS = KINETICS[2:]
+EVERY = 10  # kinematic samples (angles, centre of mass) every this many steps
+
+
+@dataclass
+class GaitRecord:
+    """What :class:`GaitRecorder` saw, one row per simulation step.
+
+    Attributes:
+        t: (N,) times [s]. q, v: (N, nq), (N, nv) the state at the start of each step.
+        force: per side, (N, 3) the ground's force on the foot, world axes [N].
+        cop: per side, (N, 2) its centre of pressure on the floor [m] (NaN when unloaded).
+        heel, toe: per side, (N,) whether the rear / front half of the sole carries load.
+        slip: per side, (N, 2) how far the loaded points moved along the floor in the step
+            (their force-weighted mean) [m].
+        kinetics: per side, (N, 7) the moments [N m] and powers [W] of :data:`_MOMENTS`.
+        mass: the body's mass [kg]; dt: the step [s].
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    force: dict
+    cop: dict
+    heel: dict
+    toe: dict
+    slip: dict
+    kinetics: dict
+    mass: float
+    dt: float
+
+
+class GaitRecorder:
+    """A simulation monitor: ground forces, load on heel and toe, slip, joint moments and
+    powers at every step (see the module docstring); raises RunFailed at a fall."""
+
+    def __init__(self, h, model: pin.Model, fall_height: float | None = None) -> None:
+        self.h, self.model = h, model
+        self.data = model.createData()
+        self.next = model.createData()
+        self.chains = leg_chains(h)
+        self.sole = {s: h.sole_id(s) for s in SIDES}
+        self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        self.middle = {s: float(np.mean(h.sole_points(s)[:, 0])) for s in SIDES}
+        self.ankle = {}
+        for s, chain in self.chains.items():
+            stop = _ankle_stop(h, chain)
+            below = chain.joints[chain.joints.index(chain.knee) + 1 :]
+            if stop is None and not below:
+                raise HumanoidError(f"{h.source}: the {s} leg has no ankle below its knee")
+            self.ankle[s] = below[0] if below else stop[0]
+        # the side of every joint at or below a hip
+        self.side_of = {}
+        for j in range(1, model.njoints):
+            i = j
+            while i > 0 and not any(i in c.joints for c in self.chains.values()):
+                i = model.parents[i]
+            for s, c in self.chains.items():
+                if i in c.joints:
+                    self.side_of[j] = s
+        self.fall_height = fall_height
+        self.rows = []
+        self.qs, self.vs = [], []
+
+    def observe(self, sim, k: int, t: float, q, v, step) -> None:
+        model, d = self.model, self.data
+        dt = sim.scene.dt
+        a = (step.v - v) / dt
+        pin.forwardKinematics(model, d, q)
+        fext = pin.StdVec_Force()
+        for _ in range(model.njoints):
+            fext.append(pin.Force.Zero())
+        force = {s: np.zeros(3) for s in SIDES}
+        moment = {s: np.zeros(3) for s in SIDES}
+        heel = dict.fromkeys(SIDES, False)
+        toe = dict.fromkeys(SIDES, False)
+        slip = {s: np.zeros(2) for s in SIDES}
+        load = dict.fromkeys(SIDES, 0.0)
+        gs = sim.ground_step
+        if gs is not None and len(gs.impulses):
+            pin.forwardKinematics(model, self.next, step.q)
+            soles = {s: pin.updateFramePlacement(model, d, self.sole[s]) for s in SIDES}
+            for p, imp, j in zip(gs.points, gs.impulses, gs.joints.tolist(), strict=True):
+                f = imp / dt
+                fext[j] = fext[j] + d.oMi[j].actInv(pin.Force(f, np.cross(p, f)))
+                s = self.side_of.get(j)
+                if s is None:
+                    continue
+                force[s] += f
+                moment[s] += np.cross(p * (1.0, 1.0, 0.0), f)
+                if f[2] > POINT_LOAD:
+                    if soles[s].actInv(p)[0] < self.middle[s]:
+                        heel[s] = True
+                    else:
+                        toe[s] = True
+                    moved = self.next.oMi[j].act(d.oMi[j].actInv(p)) - p
+                    slip[s] += f[2] * moved[:2]
+                    load[s] += f[2]
+        pin.rnea(model, d, q, v, a, fext)
+        row = [t]
+        for s in SIDES:
+            fz = force[s][2]
+            cop = (np.array([-moment[s][1], moment[s][0]]) / fz if fz > POINT_LOAD
+                   else np.full(2, np.nan))  # fmt: skip
+            row += [*force[s], *cop, heel[s], toe[s],
+                    *(slip[s] / load[s] if load[s] > 0 else slip[s]),
+                    *self._kinetics(s)]  # fmt: skip
+        self.rows.append(row)
+        self.qs.append(np.array(q))
+        self.vs.append(np.array(v))
+        if self.fall_height is not None and k % EVERY == 0:
+            z = pin.centerOfMass(model, self.next, q)[2]
+            if z < self.fall_height:
+                raise RunFailed(f"the body fell at t = {t:.2f} s (centre of mass {z:.2f} m high)")
+
+    def _kinetics(self, side: str) -> list[float]:
+        """Moments [N m] and powers [W] of :data:`_MOMENTS` (``data`` after RNEA)."""
+        d, chain = self.data, self.chains[side]
+        for f in (self.sole[side],):
+            pin.updateFramePlacement(self.model, d, f)
+        pelvis, thigh, _, _ = chain._segments(d)
+        p0, t0, s0, _ = chain.zero
+        shank = d.oMi[chain.knee].rotation
+        x_p, y_p = pelvis @ p0[0], pelvis @ p0[1]
+        y_t, y_s = thigh @ t0[1], shank @ s0[1]
+        sign = 1.0 if side == "right" else -1.0
+
+        def m(j):
+            return d.oMi[j].rotation @ d.f[j].angular
+
+        def w(j):
+            return d.oMi[j].rotation @ d.v[j].angular
+
+        hip, knee, ankle = chain.joints[0], chain.knee, self.ankle[side]
+        m_hip, m_knee, m_ankle = m(hip), m(knee), m(ankle)
+        w_pelvis, w_thigh, w_shank, w_foot = w(1), w(chain.thigh), w(knee), w(self.foot[side])
+        return [
+            m_hip @ y_p, -sign * (m_hip @ x_p), -(m_knee @ y_t), m_ankle @ y_s,
+            m_hip @ (w_thigh - w_pelvis), m_knee @ (w_shank - w_thigh),
+            m_ankle @ (w_foot - w_shank),
+        ]  # fmt: skip
+
+    def record(self, mass: float, dt: float) -> GaitRecord:
+        rows = np.array(self.rows, dtype=float).reshape(len(self.rows), -1)
+        out = {k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")}
+        width = 3 + 2 + 2 + 2 + len(_MOMENTS)
+        for i, s in enumerate(SIDES):
+            c = 1 + i * width
+            out["force"][s] = rows[:, c : c + 3]
+            out["cop"][s] = rows[:, c + 3 : c + 5]
+            out["heel"][s] = rows[:, c + 5] > 0.5
+            out["toe"][s] = rows[:, c + 6] > 0.5
+            out["slip"][s] = rows[:, c + 7 : c + 9]
+            out["kinetics"][s] = rows[:, c + 9 : c + width]
+        q = np.array(self.qs) if self.qs else np.zeros((0, self.model.nq))
+        v = np.array(self.vs) if self.vs else np.zeros((0, self.model.nv))
+        return GaitRecord(rows[:, 0], q, v, mass=mass, dt=dt, **out)
+
+
+@dataclass
+class GroundWalk:
+    """A walk on the ground: its trajectory (100 Hz), the per-step record, the cycle it
+    tracked, and the controller's counters."""
+
+    trajectory: Trajectory
+    record: GaitRecord
+    cycle: GaitCycle
+    relaxed: int
+    wall_time: float
+    steps: int
+
+    @property
+    def completed(self) -> bool:
+        return self.trajectory.metadata["status"] == "completed"
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated time over wall time (above 1: faster than real time)."""
+        return (
+            float(self.record.t[-1] + self.record.dt) / self.wall_time
+            if len(self.record.t)
+            else 0.0
+        )
+
+
+def walk_duration(cycle: GaitCycle, steps: int, phase0: float = 0.2) -> float:
+    """Time [s] to make ``steps`` heel strikes from ``phase0`` (the right heel strikes at
+    phase 1, the left at 0.5), plus 0.3 s."""
+    first = (1.0 - phase0) % 0.5 or 0.5
+    return (first + (steps - 1) / 2) * cycle.period + 0.3
+
+
+def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None, gains=None,
+                   dt: float = 1e-3, mu: float = 0.8, quiet: bool = True):  # fmt: skip
+    """Simulate ``h`` walking ``steps`` steps on the rigid ground (see the module docstring).
+
+    Args:
+        h: The humanoid. speed: Walking speed [m/s] (default: the body's free speed).
+        steps: Heel strikes to make. cycle: A fitted :class:`GaitCycle` (default: fitted here).
+        gains: :class:`~humanoid.walking.tracking.TrackingGains`. dt: The step [s].
+        mu: The floor's friction coefficient. quiet: No progress bar.
+
+    The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
+    swing) and stops as failed at a fall; what it recorded up to then is kept.
+    """
+    if steps < 1:
+        raise HumanoidError(f"steps must be at least 1, got {steps}")
+    cycle = cycle if cycle is not None else fit_cycle(h, speed)
+    phase0 = 0.2
+    scene = Scene(
+        name="walk", body=h.source, ball_joints=h.ball_joints,
+        duration=walk_duration(cycle, steps, phase0), dt=dt,
+        integrator="semi_implicit_euler", record_rate=100.0,
+        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+                        ground=GroundSpec(bodies="feet", mu=mu)),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=phase0,
+                         gains=gains or TrackingGains())  # fmt: skip
+    sim.q0, sim.v0, _ = ctl.player.state(0.0)
+    sim.controller = ctl
+    z = pin.centerOfMass(sim.model, sim.model.createData(), sim.q0)[2]
+    recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)
+    sim.monitors.append(recorder)
+    start = time.perf_counter()
+    traj = sim.run(quiet=quiet)
+    wall = time.perf_counter() - start
+    record = recorder.record(h.mass, dt)
+    return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps)
+
+
+# -- analysis ------------------------------------------------------------------------------
+
+
+@dataclass
+class GaitAnalysis:
+    """What a gait lab reports of a walk (see the module docstring).
+
+    Attributes:
+        events: per side, ``strike`` and ``off`` times [s].
+        cycles: per side, the (start, end) times of the analysed cycles.
+        curves: per side, name -> (n_cycles, 51) over :data:`PERCENT`.
+        table: per cycle values: ``speed`` [m/s], ``cadence`` [steps/min], ``step_length``
+            [m], ``stride_length`` [m], ``stance`` and ``double_support`` [fraction of the
+            cycle], ``com_vertical`` and ``com_lateral`` (excursions) [m], one array each.
+        feet: per side and stance, whether it went heel strike, foot flat, heel off, toe off;
+            and the largest slide of its loaded points [m].
+        dimensionless_speed: the walk's speed in leg lengths (for the normative bands).
+    """
+
+    events: dict
+    cycles: dict
+    curves: dict
+    table: dict
+    feet: dict
+    dimensionless_speed: float
+    mass: float
+    source: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def mean(self, name: str, side: str | None = None) -> np.ndarray:
+        """The mean curve of a side, or of both sides' cycles."""
+        sides = [side] if side else list(SIDES)
+        curves = [self.curves[s][name] for s in sides if len(self.curves[s][name])]
+        return np.vstack(curves).mean(axis=0) if curves else np.full(len(PERCENT), np.nan)
+
+    @property
+    def summary(self) -> dict:
+        """The walk's key numbers (means over the analysed cycles of both sides)."""
+        out = {k: float(np.mean(v)) if len(v) else float("nan") for k, v in self.table.items()}
+        stance = out["stance"] * 100.0 if math.isfinite(out["stance"]) else 60.0
+        pct = PERCENT
+
+        def window(name, lo, hi, fn):
+            c = self.mean(name)
+            sel = (pct >= lo) & (pct <= hi)
+            return float(fn(c[sel])) if sel.any() else float("nan")
+
+        fz = self.mean("grf_vertical")
+        half = stance / 2
+        first = (pct <= half) & (pct >= 5)
+        second = (pct >= half) & (pct <= stance)
+        i1 = np.flatnonzero(first)[np.argmax(fz[first])] if first.any() else 0
+        i2 = np.flatnonzero(second)[np.argmax(fz[second])] if second.any() else 0
+        out["grf_first_peak"] = float(fz[i1])
+        out["grf_second_peak"] = float(fz[i2])
+        out["grf_trough"] = float(fz[i1 : i2 + 1].min()) if i2 > i1 else float("nan")
+        out["braking"] = -window("grf_anterior", 0, half, np.min)
+        out["propulsion"] = window("grf_anterior", half, stance, np.max)
+        out["knee_at_strike"] = float(self.mean("knee_flexion")[0])
+        out["knee_loading"] = window("knee_flexion", 0, 25, np.max)
+        out["knee_swing"] = window("knee_flexion", stance, 100, np.max)
+        out["ankle_moment_peak"] = window("ankle_plantarflexion_moment", 0, stance, np.max)
+        out["ankle_power_peak"] = window("ankle_power", 0, stance + 10, np.max)
+        feet = [f for s in SIDES for f in self.feet[s]]
+        out["heel_to_toe"] = (
+            sum(f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"] for f in feet)
+            / len(feet) if feet else float("nan")
+        )  # fmt: skip
+        out["slip"] = max((f["slip"] for f in feet), default=float("nan"))
+        out["cycles"] = sum(len(c) for c in self.cycles.values())
+        out.update(self.extra)
+        return out
+
+
+def _runs(x: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
+    """(start, end) index pairs of the True runs of x, runs and gaps shorter than ``shortest``
+    [s] removed (gaps first: a bounce does not split a contact)."""
+
+    def edges(y):
+        d = np.diff(np.concatenate([[0], y.astype(int), [0]]))
+        return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+    x = x.copy()
+    for a, b in edges(~x):
+        if a > 0 and b < len(x) and t[b - 1] - t[a] < shortest:
+            x[a:b] = True
+    return [(a, b) for a, b in edges(x) if t[b - 1] - t[a] >= shortest]
+
+
+def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> GaitAnalysis:
+    """A gait lab's analysis of a walk (see the module docstring).
+
+    Args:
+        h: The humanoid that walked. walk: the :class:`GroundWalk` (or its record).
+        skip: Cycles that start before this time [s] are left out (default one cycle period:
+            the start from the reference's state is not a steady walk).
+    """
+    rec = walk.record if isinstance(walk, GroundWalk) else walk
+    period = walk.cycle.period if isinstance(walk, GroundWalk) else 1.0
+    skip = period if skip is None else skip
+    model = h.model
+    t, g = rec.t, float(np.linalg.norm(model.gravity.linear))
+    weight = rec.mass * g
+    chains = leg_chains(h)
+    # kinematics at 100 Hz: angles, centre of mass, soles
+    ks = np.arange(0, len(t), EVERY)
+    tk = t[ks]
+    angles = (
+        clinical_angles(h, rec.q[ks], chains) if len(ks) else {s: np.zeros((0, 8)) for s in SIDES}
+    )
+    data = model.createData()
+    com = np.zeros((len(ks), 3))
+    soles = {s: np.zeros((len(ks), 3)) for s in SIDES}
+    for i, k in enumerate(ks):
+        com[i] = pin.centerOfMass(model, data, rec.q[k])
+        pin.framesForwardKinematics(model, data, rec.q[k])
+        for s in SIDES:
+            soles[s][i] = data.oMf[h.sole_id(s)].translation
+    # events from the vertical force
+    loaded, events, contacts = {}, {}, {}
+    for s in SIDES:
+        contacts[s] = _runs(rec.force[s][:, 2] > EVENT_THRESHOLD * weight, t, MIN_CONTACT)
+        loaded[s] = np.zeros(len(t), dtype=bool)
+        for a, b in contacts[s]:
+            loaded[s][a:b] = True
+        events[s] = {"strike": [t[a] for a, _ in contacts[s] if a > 0],
+                     "off": [t[b - 1] for _, b in contacts[s] if b < len(t)]}  # fmt: skip
+    both = loaded["left"] & loaded["right"]
+    curves = {s: {n: [] for n in (*ANGLES, *KINETICS)} for s in SIDES}
+    table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
+                             "double_support", "com_vertical", "com_lateral")}  # fmt: skip
+    cycles = {s: [] for s in SIDES}
+    feet = {s: [] for s in SIDES}
+
+    def at(x, times, tt):
+        return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
+
+    for s in SIDES:
+        other = "left" if s == "right" else "right"
+        strikes = [a for a, _ in contacts[s] if a > 0]
+        for a, b in contacts[s]:  # every complete stance: the foot's rocker sequence
+            if a == 0 or b == len(t):
+                continue
+            heel, toe = rec.heel[s][a:b], rec.toe[s][a:b]
+            flat = heel & toe
+            first = np.flatnonzero(heel | toe)
+            last = first[-1] if len(first) else 0
+            i_flat = np.flatnonzero(flat)
+            slide = np.cumsum(rec.slip[s][a:b], axis=0)
+            feet[s].append({
+                "time": float(t[a]),
+                "heel_strike": bool(len(first)) and heel[first[0]] and not toe[first[0]],
+                "flat": bool(len(i_flat)),
+                "heel_off": bool(len(i_flat)) and bool((toe & ~heel)[i_flat[-1]:].any()),
+                "toe_off": bool(len(first)) and toe[last] and not heel[last],
+                "slip": float(np.linalg.norm(slide - slide[0], axis=1).max()),
+            })  # fmt: skip
+        for i0, i1 in zip(strikes[:-1], strikes[1:], strict=True):
+            t0, t1 = t[i0], t[i1]
+            if t0 < skip:
+                continue
+            offs = [b for _, b in contacts[s] if i0 < b < i1]
+            others = [a for a, _ in contacts[other] if i0 < a < i1]
+            if not offs or not others:
+                continue
+            cycles[s].append((t0, t1))
+            T = t1 - t0
+            tt = t0 + PERCENT / 100.0 * T
+            ang = at(angles[s], tk, tt)
+            for j, name in enumerate(ANGLES):
+                curves[s][name].append(ang[:, j])
+            p0, p1 = (at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
+            stride = (p1 - p0)[:2]
+            L = float(np.linalg.norm(stride))
+            u = stride / L if L > 0 else np.array([1.0, 0.0])
+            f = at(rec.force[s], t, tt) / weight
+            curves[s]["grf_vertical"].append(f[:, 2])
+            curves[s]["grf_anterior"].append(f[:, :2] @ u)
+            kin = at(rec.kinetics[s], t, tt) / rec.mass
+            for j, name in enumerate(_MOMENTS):
+                curves[s][name].append(kin[:, j])
+            po = at(soles[other], tk, np.array([t[others[0]]]))[0]
+            table["speed"].append(L / T)
+            table["cadence"].append(120.0 / T)
+            table["stride_length"].append(L)
+            table["step_length"].append(float((po - p0)[:2] @ u))
+            table["stance"].append((t[offs[0] - 1] - t0) / T)
+            table["double_support"].append(float(both[i0:i1].mean()))
+            c = at(com, tk, tt)
+            lateral = (c[:, :2] - c[0, :2]) @ np.array([-u[1], u[0]])
+            lateral -= np.linspace(lateral[0], lateral[-1], len(lateral))
+            table["com_vertical"].append(float(np.ptp(c[:, 2])))
+            table["com_lateral"].append(float(np.ptp(lateral)))
+    curves = {s: {n: np.array(c).reshape(len(c), len(PERCENT)) for n, c in cs.items()}
+              for s, cs in curves.items()}  # fmt: skip
+    table = {k: np.array(v) for k, v in table.items()}
+    from .reference import leg_length
+
+    speed = float(np.mean(table["speed"])) if len(table["speed"]) else 0.0
+    v_hat = speed / math.sqrt(g * leg_length(h))
+    return GaitAnalysis(events, cycles, curves, table, feet, v_hat, rec.mass, h.source)
+
+
+def normative_band(name: str, dimensionless_speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """Schwartz 2008's (mean, SD) of a curve at a dimensionless speed, over :data:`PERCENT`."""
+    return norms().curve(name, dimensionless_speed)
