@@ -21,7 +21,8 @@ demo: $(STAMP)
 	$(PY) -m humanoid simulate push -o results/push.npz
 	$(PY) -m humanoid view results/push.npz --html results/push.html
 	$(PY) -m humanoid walk -o results/walk.npz --html results/walk.html --figure results/walk.png
-	@echo "demo: results in results/: walk.npz, walk.png, walk.html (open it in a browser)"
+	$(PY) -m humanoid walk --gait human --steps 20 -o results/gait.npz --html results/gait.html --report results/gait_report.png
+	@echo "demo: results in results/: walk.npz, walk.png, walk.html, gait_report.png, gait.html (open the HTML in a browser)"
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q
