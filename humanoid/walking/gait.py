@@ -42,8 +42,7 @@ from ..model import SIDES
 from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, clinical_angles, leg_chains
-from .norms import norms
-from .reference import GaitCycle, fit_cycle
+from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import GaitController, TrackingGains, _ankle_stop
 
 __all__ = ["GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "analyse", "walk_on_ground"]
@@ -176,8 +175,7 @@ class GaitRecorder:
     def _kinetics(self, side: str) -> list[float]:
         """Moments [N m] and powers [W] of :data:`_MOMENTS` (``data`` after RNEA)."""
         d, chain = self.data, self.chains[side]
-        for f in (self.sole[side],):
-            pin.updateFramePlacement(self.model, d, f)
+        pin.updateFramePlacement(self.model, d, self.sole[side])
         pelvis, thigh, _, _ = chain._segments(d)
         p0, t0, s0, _ = chain.zero
         shank = d.oMi[chain.knee].rotation
@@ -485,13 +483,6 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     curves = {s: {n: np.array(c).reshape(len(c), len(PERCENT)) for n, c in cs.items()}
               for s, cs in curves.items()}  # fmt: skip
     table = {k: np.array(v) for k, v in table.items()}
-    from .reference import leg_length
-
     speed = float(np.mean(table["speed"])) if len(table["speed"]) else 0.0
     v_hat = speed / math.sqrt(g * leg_length(h))
     return GaitAnalysis(events, cycles, curves, table, feet, v_hat, rec.mass, h.source)
-
-
-def normative_band(name: str, dimensionless_speed: float) -> tuple[np.ndarray, np.ndarray]:
-    """Schwartz 2008's (mean, SD) of a curve at a dimensionless speed, over :data:`PERCENT`."""
-    return norms().curve(name, dimensionless_speed)
