@@ -80,9 +80,9 @@ class LegChain:
         self.thigh = model.parents[self.knee]
         self.knee_placement = model.jointPlacements[self.knee].rotation.copy()
         # the standing posture's relative rotations: the zero of every angle
-        self.zero = [r.copy() for r in self._segments(data)]
+        self.zero = [r.copy() for r in self.segments(data)]
 
-    def _segments(self, data) -> tuple[np.ndarray, ...]:
+    def segments(self, data) -> tuple[np.ndarray, ...]:
         """Rotations (pelvis, thigh, shank, foot) in the world."""
         pelvis = data.oMi[1].rotation
         thigh = data.oMi[self.thigh].rotation @ self.knee_placement
@@ -90,7 +90,7 @@ class LegChain:
 
     def angles(self, data) -> np.ndarray:
         """The side's :data:`ANGLES` [deg] from kinematics already computed in ``data``."""
-        pelvis, thigh, shank, foot = self._segments(data)
+        pelvis, thigh, shank, foot = self.segments(data)
         p0, t0, s0, f0 = self.zero
         sign = 1.0 if self.side == "right" else -1.0
         # each segment against the one above it, in the standing posture's world axes:

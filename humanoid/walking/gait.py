@@ -43,7 +43,7 @@ from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, clinical_angles, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
-from .tracking import GaitController, TrackingGains, _ankle_stop
+from .tracking import GaitController, TrackingGains, ankle_stop
 
 __all__ = ["GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "analyse", "walk_on_ground"]
 
@@ -103,7 +103,7 @@ class GaitRecorder:
         self.middle = {s: float(np.mean(h.sole_points(s)[:, 0])) for s in SIDES}
         self.ankle = {}
         for s, chain in self.chains.items():
-            stop = _ankle_stop(h, chain)
+            stop = ankle_stop(h, chain)
             below = chain.joints[chain.joints.index(chain.knee) + 1 :]
             if stop is None and not below:
                 raise HumanoidError(f"{h.source}: the {s} leg has no ankle below its knee")
@@ -176,7 +176,7 @@ class GaitRecorder:
         """Moments [N m] and powers [W] of :data:`_MOMENTS` (``data`` after RNEA)."""
         d, chain = self.data, self.chains[side]
         pin.updateFramePlacement(self.model, d, self.sole[side])
-        pelvis, thigh, _, _ = chain._segments(d)
+        pelvis, thigh, _, _ = chain.segments(d)
         p0, t0, s0, _ = chain.zero
         shank = d.oMi[chain.knee].rotation
         x_p, y_p = pelvis @ p0[0], pelvis @ p0[1]

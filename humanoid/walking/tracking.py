@@ -164,7 +164,7 @@ def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return best
 
 
-def _ankle_stop(h, chain) -> tuple[int, float, float] | None:
+def ankle_stop(h, chain) -> tuple[int, float, float] | None:
     """(q index, bound, sign) of a leg's ankle hinge and its dorsiflexion stop: the one-DoF
     joint below the knee that pitches the foot most (clinical ankle angle), the bound it
     reaches dorsiflexing, and +1 if dorsiflexion raises q. None without such a joint or bound."""
@@ -252,7 +252,7 @@ class GaitController(Effect):
         chains = leg_chains(h)
         gains = self.gains
         self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture)
-        stops = {s: _ankle_stop(h, chains[s]) for s in SIDES}
+        stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
         self.ankle = {s: a for s, a in stops.items() if a is not None}
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
 
