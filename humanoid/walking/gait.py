@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -41,9 +41,9 @@ from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
 from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
 from ..simulation import Simulation, Trajectory
-from .clinical import ANGLES, clinical_angles, leg_chains
+from .clinical import ANGLES, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
-from .tracking import GaitController, TrackingGains, ankle_stop
+from .tracking import GaitController, TrackingGains
 
 __all__ = ["GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "analyse", "walk_on_ground"]
 
@@ -102,12 +102,11 @@ class GaitRecorder:
         self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
         self.middle = {s: float(np.mean(h.sole_points(s)[:, 0])) for s in SIDES}
         self.ankle = {}
-        for s, chain in self.chains.items():
-            stop = ankle_stop(h, chain)
+        for s, chain in self.chains.items():  # the ankle: the first joint below the knee
             below = chain.joints[chain.joints.index(chain.knee) + 1 :]
-            if stop is None and not below:
+            if not below:
                 raise HumanoidError(f"{h.source}: the {s} leg has no ankle below its knee")
-            self.ankle[s] = below[0] if below else stop[0]
+            self.ankle[s] = below[0]
         # the side of every joint at or below a hip
         self.side_of = {}
         for j in range(1, model.njoints):
@@ -314,7 +313,6 @@ class GaitAnalysis:
     dimensionless_speed: float
     mass: float
     source: str = ""
-    extra: dict = field(default_factory=dict)
 
     def mean(self, name: str, side: str | None = None) -> np.ndarray:
         """The mean curve of a side, or of both sides' cycles."""
@@ -357,7 +355,6 @@ class GaitAnalysis:
         )  # fmt: skip
         out["slip"] = max((f["slip"] for f in feet), default=float("nan"))
         out["cycles"] = sum(len(c) for c in self.cycles.values())
-        out.update(self.extra)
         return out
 
 
@@ -394,16 +391,15 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     # kinematics at 100 Hz: angles, centre of mass, soles
     ks = np.arange(0, len(t), EVERY)
     tk = t[ks]
-    angles = (
-        clinical_angles(h, rec.q[ks], chains) if len(ks) else {s: np.zeros((0, 8)) for s in SIDES}
-    )
     data = model.createData()
+    angles = {s: np.zeros((len(ks), len(ANGLES))) for s in SIDES}
     com = np.zeros((len(ks), 3))
     soles = {s: np.zeros((len(ks), 3)) for s in SIDES}
-    for i, k in enumerate(ks):
-        com[i] = pin.centerOfMass(model, data, rec.q[k])
+    for i, k in enumerate(ks):  # one forward kinematics per sample serves all three
         pin.framesForwardKinematics(model, data, rec.q[k])
+        com[i] = pin.centerOfMass(model, data, pin.KinematicLevel.POSITION, False)
         for s in SIDES:
+            angles[s][i] = chains[s].angles(data)
             soles[s][i] = data.oMf[h.sole_id(s)].translation
     # events from the vertical force
     loaded, events, contacts = {}, {}, {}

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .norms import ADULT
+
 __all__ = ["format_gait_table", "format_summary", "gait_table", "plot_gait_report", "plot_walk"]
 
 ROWS = (
@@ -143,12 +145,21 @@ PANELS = (
     ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
 )
 SIDE_COLOURS = {"left": "tab:red", "right": "tab:green"}  # a gait lab's colours
+
+
+def _adult(key: str, scale: float = 1.0) -> tuple[tuple[float, float], str]:
+    """An adult spatiotemporal norm of :data:`~humanoid.walking.norms.ADULT` (in the table's
+    units) and its source's short name."""
+    (lo, hi), _, source = ADULT[key]
+    return (lo * scale, hi * scale), source.split(":")[0]
+
+
 GAIT_ROWS = (
     # key, label, unit, scale, the adult norm (low, high) or None, its source
-    ("speed", "speed", "m/s", 1.0, (1.27, 1.46), "Bohannon 1997"),
-    ("cadence", "cadence", "steps/min", 1.0, (100.0, 120.0), "Murray 1964; Öberg 1993"),
-    ("step_length", "step length", "m", 1.0, (0.66, 0.79), "Murray 1964/1970"),
-    ("double_support", "double support", "% cycle", 100.0, (18.0, 26.0), "Perry; Schwartz 2008"),
+    ("speed", "speed", "m/s", 1.0, *_adult("speed")),
+    ("cadence", "cadence", "steps/min", 1.0, *_adult("cadence")),
+    ("step_length", "step length", "m", 1.0, *_adult("step_length")),
+    ("double_support", "double support", "% cycle", 100.0, *_adult("double_support", 100.0)),
     ("stance", "stance", "% cycle", 100.0, (58.0, 62.0), "Perry & Burnfield"),
     ("com_vertical", "CoM vertical excursion", "cm", 100.0, (3.0, 5.0), "Gard 2004"),
     ("com_lateral", "CoM lateral sway", "cm", 100.0, (2.0, 5.0), "Perry & Burnfield"),
@@ -177,7 +188,7 @@ def gait_table(analysis) -> list[tuple[str, str, str, bool | None]]:
             rows.append((label, text, "", None))
             continue
         lo, hi = norm
-        ok = bool(np.isfinite(value) and lo <= value <= hi)
+        ok = bool(lo <= value <= hi)
         rows.append((label, text, f"{lo:g}-{hi:g} {unit}" + (f" ({source})" if source else ""), ok))
     return rows
 
