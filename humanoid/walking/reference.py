@@ -421,8 +421,14 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         i_on = int(round(((1.0 - shift) % 1.0) * frames)) % frames
         start, _ = stance_target(s, off - 1e-9, 0)
         end, _ = stance_target(s, 0.0, 1)
-        a0, a1 = free[s][i_off], free[s][i_on]
-        if i_on < i_off:  # the free path's landing instant is in the next lap
+        # the free path where it would land: its last swing pose carried on one frame at its
+        # own velocity (free[i_on] is already the stance's heel-strike pose: blending to it
+        # kept the foot 4 cm up until the last frame, then dropped it, and the body with it,
+        # onto the floor: a controller tracking that lifted the female body off its feet)
+        i_last = (i_on - 1) % frames
+        last, before = free[s][i_last], free[s][(i_last - 1) % frames]
+        a0, a1 = free[s][i_off], last * before.actInv(last)
+        if i_last < i_off:  # the free path's landing instant is in the next lap
             a1 = pin.SE3(np.eye(3), np.array([2 * L, 0.0, 0.0])) * a1
         dp0, dp1 = start.translation - a0.translation, end.translation - a1.translation
         dr0 = pin.log3(a0.rotation.T @ start.rotation)
