@@ -93,11 +93,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="(--gait human) the gait report: angles, moments, powers "
         "and forces over the normative bands, and the table (PNG)",
     )
-    w.add_argument("--integrator", choices=list(INTEGRATORS), default="semi_implicit_euler",
-                   help="the plant's integrator (humanoid variants)")  # fmt: skip
+    w.add_argument("--integrator", choices=list(INTEGRATORS),
+                   help="(--gait welded) the plant's integrator (humanoid variants; default "
+                   "semi_implicit_euler)")  # fmt: skip
     w.add_argument("--dt", type=float, default=1e-3, help="simulation and control step [s]")
     w.add_argument(
-        "--drop", type=float, default=0.04, help="pelvis lowered before walking [m] (bent knees)"
+        "--drop", type=float, help="(--gait welded) pelvis lowered before walking [m] (0.04)"
+    )
+    w.add_argument(
+        "--push",
+        action="append",
+        default=[],
+        metavar="DIRECTION:FRACTION",
+        help="(--gait human) push the pelvis for 0.1 s at a mid-stance (the third stride), "
+        "FRACTION of body weight, DIRECTION forward, backward, left or right; repeatable",
+    )
+    w.add_argument(
+        "--largest-push",
+        choices=("forward", "backward", "left", "right"),
+        help="(--gait human) search the largest such push the walk survives (a walk per try)",
     )
     _model_options(w, ball_joints=False)
 
@@ -302,15 +316,18 @@ def _walk(args) -> int:
         raise HumanoidError(f"--steps must be in [2, {MAX_STEPS}], got {args.steps}")
     if args.gait == "human":
         return _walk_human(args)
-    if args.report:
-        raise HumanoidError("--report needs --gait human (the welded walk draws --figure)")
+    given = [o for o, v in (("--report", args.report), ("--push", args.push),
+                            ("--largest-push", args.largest_push)) if v]  # fmt: skip
+    if given:
+        raise HumanoidError(f"{', '.join(given)}: only with --gait human")
     h = load_any(args, ball_joints="quaternion")
     kw = {"steps": args.steps}
     if args.step_length is not None:
         kw["step_length"] = args.step_length
     gait = GaitParameters.for_speed(args.speed, **kw) if args.speed else GaitParameters(**kw)
-    result = walk(h, gait, dt=args.dt, mu=args.mu, drop=args.drop, quiet=args.quiet,
-                  integrator=args.integrator)  # fmt: skip
+    result = walk(h, gait, dt=args.dt, mu=args.mu, quiet=args.quiet,
+                  drop=0.04 if args.drop is None else args.drop,
+                  integrator=args.integrator or "semi_implicit_euler")  # fmt: skip
     path = result.trajectory.save(args.output)
     figure = plot_walk(result, args.figure or Path(args.output).with_suffix(".png"))
     print(format_summary(result))
@@ -328,15 +345,47 @@ def _walk(args) -> int:
 
 
 def _walk_human(args) -> int:
-    from .walking.gait import analyse, walk_on_ground
+    from .walking.gait import DIRECTIONS, analyse, largest_push, pelvis_push, walk_on_ground
+    from .walking.reference import fit_cycle
     from .walking.report import format_gait_table, plot_gait_report
 
-    given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure))
+    given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
+                            ("--drop", args.drop), ("--integrator", args.integrator))
              if v is not None]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait welded")
+    pushes = []
+    for spec in args.push:
+        direction, _, fraction = spec.partition(":")
+        try:
+            value = float(fraction)
+        except ValueError:
+            value = math.nan
+        if direction not in DIRECTIONS or not 0.0 < value <= 2.0:
+            raise HumanoidError(
+                f"--push {spec!r}: give DIRECTION:FRACTION, DIRECTION one of "
+                f"{', '.join(DIRECTIONS)}, FRACTION of body weight in (0, 2]"
+            )
+        pushes.append((direction, value))
+    if pushes and args.steps < 8:
+        raise HumanoidError(
+            f"--push acts in the third stride: give --steps 8 or more, not {args.steps}"
+        )
     h = load_any(args, ball_joints="quaternion")
-    walk = walk_on_ground(h, args.speed, steps=args.steps, dt=args.dt, mu=args.mu,
+    cycle = fit_cycle(h, args.speed)
+    if args.largest_push:
+
+        def tried(fraction, survived):
+            print(f"push {fraction:.3f} BW {args.largest_push:8s} "
+                  f"{'survived' if survived else 'fell'}", flush=True)  # fmt: skip
+
+        found = largest_push(h, args.largest_push, cycle, progress=tried)
+        fell = f"{found.fell:.3f} BW" if found.fell is not None else "none tried fell"
+        print(f"largest push survived  {found.survived:.3f} BW {found.direction} "
+              f"(0.1 s at mid-stance; smallest fall: {fell})")  # fmt: skip
+        return 0
+    walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt, mu=args.mu,
+                          pushes=[pelvis_push(h, cycle, f, d) for d, f in pushes],
                           quiet=args.quiet)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)

@@ -345,6 +345,12 @@ def test_feet_option_names_the_soles_and_bad_names_are_one_line(capsys):
     (["--dt", "0.5"], "--dt must be in (0, 0.01], got 0.5"),
     (["--drop", "0"], "--drop must be in (0, 0.2], got 0.0"),
     (["--integrator", "leapfrog"], "invalid choice: 'leapfrog'"),
+    (["--push", "forward:0.1"], "--push: only with --gait human"),
+    (["--gait", "human", "--drop", "0.02"], "--drop: only with --gait welded"),
+    (["--gait", "human", "--integrator", "rk4"], "--integrator: only with --gait welded"),
+    (["--gait", "human", "--push", "up:0.1"], "--push 'up:0.1': give DIRECTION:FRACTION"),
+    (["--gait", "human", "--push", "left:x"], "--push 'left:x': give DIRECTION:FRACTION"),
+    (["--gait", "human", "--push", "left:0.1"], "--push acts in the third stride"),
 ])  # fmt: skip
 def test_walk_options_are_checked_in_their_own_words(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) if "choice" in message else contextlib.nullcontext():

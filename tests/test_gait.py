@@ -8,8 +8,10 @@ import pytest
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
+from humanoid.errors import HumanoidError
 from humanoid.model import SIDES
-from humanoid.walking.gait import PERCENT, GaitRecord, analyse, walk_on_ground
+from humanoid.walking.gait import PERCENT, GaitRecord, analyse, pelvis_push, walk_on_ground
+from humanoid.walking.reference import fit_cycle
 from humanoid.walking.report import format_gait_table, gait_table, plot_gait_report
 
 
@@ -19,9 +21,14 @@ def male():
 
 
 @pytest.fixture(scope="module")
-def male_walk(male):
-    """Twenty steps of the male body at its free speed (about 75 s)."""
-    walk = walk_on_ground(male, steps=20)
+def male_cycle(male):
+    return fit_cycle(male)
+
+
+@pytest.fixture(scope="module")
+def male_walk(male, male_cycle):
+    """Twenty steps of the male body at its free speed (about 60 s)."""
+    walk = walk_on_ground(male, steps=20, cycle=male_cycle)
     return walk, analyse(male, walk)
 
 
@@ -87,6 +94,29 @@ def test_the_recorded_ground_forces_change_the_momentum(male, male_walk):
         p = [rec.mass * pin.centerOfMass(model, data, rec.q[i], rec.v[i])[1] for i in (i0, i1)]
         weight_time = rec.mass * 9.81 * (t1 - t0)
         assert np.linalg.norm(p[1] - p[0] - impulse) < 0.01 * weight_time
+
+
+@pytest.mark.parametrize("direction", ["forward", "left"])
+def test_the_walk_survives_a_push_of_15_percent_body_weight(male, male_cycle, direction):
+    """A 0.1 s push of 15 % of body weight at the pelvis, at a mid-stance of the third stride,
+    forward or sideways: the body walks on (four steps more) without a fall, and over the
+    push the body's momentum changes by the push's impulse plus the ground's and gravity's
+    (within 1 % of m g T: the push is 15 % of it)."""
+    push = pelvis_push(male, male_cycle, 0.15, direction)
+    assert np.linalg.norm(push.force) == pytest.approx(0.15 * male.mass * 9.81)
+    walk = walk_on_ground(male, steps=10, cycle=male_cycle, pushes=[push])
+    assert walk.completed, walk.trajectory.metadata["message"]
+    rec, model = walk.record, male.model
+    data = model.createData()
+    i0, i1 = np.searchsorted(rec.t, [push.start - 0.05, push.start + push.duration + 0.05])
+    ground = sum(rec.force[s][i0:i1].sum(axis=0) for s in SIDES) * rec.dt
+    gravity = rec.mass * model.gravity.linear * (rec.t[i1] - rec.t[i0])
+    pushed = np.array(push.force) * push.duration
+    p = [rec.mass * pin.centerOfMass(model, data, rec.q[i], rec.v[i])[1] for i in (i0, i1)]
+    error = np.linalg.norm(p[1] - p[0] - ground - gravity - pushed)
+    assert error < 0.01 * rec.mass * 9.81 * (rec.t[i1] - rec.t[i0]), error
+    with pytest.raises(HumanoidError, match="direction"):
+        pelvis_push(male, male_cycle, 0.15, "up")
 
 
 def test_joint_moments_are_the_plants_torques(male):

@@ -39,13 +39,17 @@ import pinocchio as pin
 
 from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
-from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
+from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import GaitController, TrackingGains
 
-__all__ = ["GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "analyse", "walk_on_ground"]
+__all__ = [
+    "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
+    "largest_push", "pelvis_push",
+    "walk_on_ground",
+]  # fmt: skip
 
 EVENT_THRESHOLD = 0.02  # [body weights] a foot is on the ground above this vertical force
 MIN_CONTACT = 0.05  # [s] shorter contacts and gaps are ignored (bounces, not steps)
@@ -58,6 +62,10 @@ KINETICS = (
     "ankle_power",
 )  # fmt: skip
 _MOMENTS = KINETICS[2:]
+PHASE0 = 0.2  # the walk starts at this phase of the cycle (the right foot in stance)
+MID_STANCE = 0.25  # [cycle] mid-stance: between the other foot's toe off and this one's heel off
+DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0),
+              "right": (0.0, -1.0)}  # fmt: skip
 EVERY = 10  # kinematic samples (angles, centre of mass) every this many steps
 
 
@@ -240,7 +248,7 @@ class GroundWalk:
         )
 
 
-def walk_duration(cycle: GaitCycle, steps: int, phase0: float = 0.2) -> float:
+def walk_duration(cycle: GaitCycle, steps: int, phase0: float = PHASE0) -> float:
     """Time [s] to make ``steps`` heel strikes from ``phase0`` (the right heel strikes at
     phase 1, the left at 0.5), plus 0.3 s."""
     first = (1.0 - phase0) % 0.5 or 0.5
@@ -248,14 +256,15 @@ def walk_duration(cycle: GaitCycle, steps: int, phase0: float = 0.2) -> float:
 
 
 def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None, gains=None,
-                   dt: float = 1e-3, mu: float = 0.8, quiet: bool = True):  # fmt: skip
+                   dt: float = 1e-3, mu: float = 0.8, pushes=(), quiet: bool = True):  # fmt: skip
     """Simulate ``h`` walking ``steps`` steps on the rigid ground (see the module docstring).
 
     Args:
         h: The humanoid. speed: Walking speed [m/s] (default: the body's free speed).
         steps: Heel strikes to make. cycle: A fitted :class:`GaitCycle` (default: fitted here).
         gains: :class:`~humanoid.walking.tracking.TrackingGains`. dt: The step [s].
-        mu: The floor's friction coefficient. quiet: No progress bar.
+        mu: The floor's friction coefficient. pushes: :class:`~humanoid.scene.PushSpec` s
+        (:func:`pelvis_push` makes one at a mid-stance). quiet: No progress bar.
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
     swing) and stops as failed at a fall; what it recorded up to then is kept.
@@ -263,13 +272,13 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
-    phase0 = 0.2
+    phase0 = PHASE0
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints,
         duration=walk_duration(cycle, steps, phase0), dt=dt,
         integrator="semi_implicit_euler", record_rate=100.0,
         effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
-                        ground=GroundSpec(bodies="feet", mu=mu)),
+                        ground=GroundSpec(bodies="feet", mu=mu), pushes=tuple(pushes)),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
     ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=phase0,
@@ -284,6 +293,71 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     wall = time.perf_counter() - start
     record = recorder.record(h.mass, dt)
     return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps)
+
+
+def pelvis_push(h, cycle: GaitCycle, fraction: float, direction: str = "forward",
+                step: int = 3, duration: float = 0.1) -> PushSpec:  # fmt: skip
+    """A push at the pelvis of ``fraction`` of body weight for ``duration`` [s], horizontal in
+    ``direction`` (forward, backward, left, right: the walk goes along +x), at the mid-stance
+    of the right foot's ``step``-th stance of a :func:`walk_on_ground` walk."""
+    if direction not in DIRECTIONS:
+        raise HumanoidError(f"push direction must be one of {sorted(DIRECTIONS)}: {direction!r}")
+    if fraction < 0 or duration <= 0 or step < 1:
+        raise HumanoidError(
+            f"a push needs fraction >= 0, duration > 0 and step >= 1, got {fraction}, "
+            f"{duration}, {step}"
+        )
+    weight = h.mass * float(np.linalg.norm(h.model.gravity.linear))
+    x, y = DIRECTIONS[direction]
+    start = (step + MID_STANCE - PHASE0) * cycle.period
+    frame = h.model.frames[h.model.getFrameId(h.model.names[1], pin.FrameType.JOINT)].name
+    return PushSpec(frame, (fraction * weight * x, fraction * weight * y, 0.0), start, duration)
+
+
+@dataclass
+class PushTrials:
+    """What :func:`largest_push` found: the largest push survived and the smallest that made
+    the body fall [body weights] (None: none did, up to the search's limit), and every trial
+    as (fraction, survived)."""
+
+    direction: str
+    survived: float
+    fell: float | None
+    trials: list
+
+
+def largest_push(h, direction: str = "forward", cycle=None, *, step: int = 3, after: int = 4,
+                 duration: float = 0.1, resolution: float = 0.02, first: float = 0.15,
+                 most: float = 1.0, progress=None) -> PushTrials:  # fmt: skip
+    """The largest push at the pelvis (:func:`pelvis_push`) that the walking body survives:
+    pushed at a mid-stance of its ``step``-th stride and walking ``after`` steps more without a
+    fall. Doubles from ``first`` until a fall (or ``most``), then bisects to ``resolution`` [body
+    weights]. ``progress(fraction, survived)`` is called after each trial."""
+    cycle = cycle if cycle is not None else fit_cycle(h)
+    trials = []
+
+    def survives(fraction: float) -> bool:
+        push = pelvis_push(h, cycle, fraction, direction, step=step, duration=duration)
+        walk = walk_on_ground(h, steps=2 * step + after, cycle=cycle, pushes=[push])
+        trials.append((fraction, walk.completed))
+        if progress is not None:
+            progress(fraction, walk.completed)
+        return walk.completed
+
+    lo, hi, f = 0.0, None, first
+    while hi is None and lo < most:
+        f = min(f, most)
+        if survives(f):
+            lo, f = f, 2 * f
+        else:
+            hi = f
+    while hi is not None and hi - lo > resolution:
+        mid = 0.5 * (lo + hi)
+        if survives(mid):
+            lo = mid
+        else:
+            hi = mid
+    return PushTrials(direction, lo, hi, trials)
 
 
 # -- analysis ------------------------------------------------------------------------------
