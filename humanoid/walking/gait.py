@@ -47,8 +47,7 @@ from .tracking import GaitController, TrackingGains
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
-    "largest_push", "pelvis_push",
-    "walk_on_ground",
+    "largest_push", "pelvis_push", "walk_on_ground",
 ]  # fmt: skip
 
 EVENT_THRESHOLD = 0.02  # [body weights] a foot is on the ground above this vertical force
