@@ -43,7 +43,7 @@ from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
-from .tracking import GaitController, TrackingGains
+from .tracking import OTHER, GaitController, TrackingGains
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
@@ -271,16 +271,15 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
-    phase0 = PHASE0
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints,
-        duration=walk_duration(cycle, steps, phase0), dt=dt,
+        duration=walk_duration(cycle, steps), dt=dt,
         integrator="semi_implicit_euler", record_rate=100.0,
         effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu), pushes=tuple(pushes)),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
-    ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=phase0,
+    ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=PHASE0,
                          gains=gains or TrackingGains())  # fmt: skip
     sim.q0, sim.v0, _ = ctl.player.state(0.0)
     sim.controller = ctl
@@ -309,8 +308,9 @@ def pelvis_push(h, cycle: GaitCycle, fraction: float, direction: str = "forward"
     weight = h.mass * float(np.linalg.norm(h.model.gravity.linear))
     x, y = DIRECTIONS[direction]
     start = (step + MID_STANCE - PHASE0) * cycle.period
-    frame = h.model.frames[h.model.getFrameId(h.model.names[1], pin.FrameType.JOINT)].name
-    return PushSpec(frame, (fraction * weight * x, fraction * weight * y, 0.0), start, duration)
+    return PushSpec(
+        h.model.names[1], (fraction * weight * x, fraction * weight * y, 0.0), start, duration
+    )
 
 
 @dataclass
@@ -494,7 +494,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
         return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
 
     for s in SIDES:
-        other = "left" if s == "right" else "right"
+        other = OTHER[s]
         strikes = [a for a, _ in contacts[s] if a > 0]
         for a, b in contacts[s]:  # every complete stance: the foot's rocker sequence
             if a == 0 or b == len(t):

@@ -197,7 +197,7 @@ def format_gait_table(analysis) -> str:
     """The report's table as text."""
     lines = [f"{'':<26} {'this walk':>14}   adult norm"]
     for label, value, norm, ok in gait_table(analysis):
-        mark = "" if ok is None else ("" if ok else "  (outside)")
+        mark = "  (outside)" if ok is False else ""
         lines.append(f"{label:<26} {value:>14}   {norm}{mark}".rstrip())
     return "\n".join(lines)
 

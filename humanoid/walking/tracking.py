@@ -398,10 +398,10 @@ class GaitController(Effect):
                 self.anchors[s][k + 1] = base + np.array([*self.shift[s], 0.0])
         rows, rhs, weights = [], [], []
 
-        def task(J, a, w):
+        def task(J, a, w):  # w: one weight, or one per row
             rows.append(J)
             rhs.append(a)
-            weights.append(np.full(J.shape[0], w))
+            weights.append(np.broadcast_to(w, J.shape[0]))
 
         # contacts, split into loaded (sticking) and free points
         loaded, free, bearing = [], [], set()
@@ -470,9 +470,7 @@ class GaitController(Effect):
             cop = c[:2] - ddc_des[:2] * c[2] / gz
             cop_in = closest_in_hull(cop, np.array(support))
             ddc_des[:2] = (c[:2] - cop_in) * gz / c[2]
-        rows.append(Jcom)
-        rhs.append(ddc_des - com_drift)
-        weights.append(np.full(3, g.w_com))
+        task(Jcom, ddc_des - com_drift, g.w_com)
         # pelvis and trunk orientation
         for frame in [self.pelvis] + ([self.torso] if self.torso is not None else []):
             J = pin.getFrameJacobian(model, data, frame, LWA)[3:]
@@ -483,9 +481,7 @@ class GaitController(Effect):
             task(J, a_des - acc, g.w_trunk)
         # joints: the cycle's angles
         e = pin.difference(model, q, q_r)[6:]
-        rows.append(np.eye(nv)[6:])
-        rhs.append(g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]))
-        weights.append(self.w_posture)
+        task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]), self.w_posture)
 
         for cm, cd in zip(cms, cds, strict=True):
             cm.calc(model, data, cd)
