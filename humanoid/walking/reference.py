@@ -32,6 +32,7 @@ The cycle starts at the right heel strike; one cycle is a stride (two steps).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -248,16 +249,18 @@ class CenterOfMassPlan:
     stride: float
     period: float
 
+    @functools.cached_property
+    def periodic(self) -> np.ndarray:
+        """c less its steady progress along x: periodic (interpolating x itself across the
+        lap's end would blend in the first sample, a stride behind)."""
+        return self.c - np.outer(self.phase, [self.stride, 0.0, 0.0])
+
     def at(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(c, dc, ddc) at the cycle's phase phi (any real number: laps add strides)."""
-        lap = math.floor(phi)
-        u = phi - lap
-        # x less its steady progress is periodic (interpolating x itself across the lap's end
-        # would blend in the first sample, a stride behind)
-        c = self.c - np.outer(self.phase, [self.stride, 0.0, 0.0])
+        u = phi - math.floor(phi)
         out = [
             np.array([np.interp(u, self.phase, x[:, i], period=1.0) for i in range(3)])
-            for x in (c, self.dc, self.ddc)
+            for x in (self.periodic, self.dc, self.ddc)
         ]
         out[0][0] += self.stride * phi
         return out[0], out[1], out[2]
