@@ -241,6 +241,8 @@ class StepContacts:
         phi: Their signed distances to the floor [m] at the start of the step.
         impulses: Ground impulses per contact, world axes (n, 3) [N s].
         limit_impulses: Impulses of the active joint-range rows [N m s].
+        limit_generalized: The same in generalised coordinates, J_r^T lambda, (nv,) [N m s]:
+            divided by dt, the passive moment the ranges added to each joint in the step.
         iterations: ADMM iterations; converged: whether it met its tolerance.
         joints: The joint of the body each contact is on, (n,).
     """
@@ -252,6 +254,7 @@ class StepContacts:
     iterations: int
     converged: bool
     joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    limit_generalized: np.ndarray | None = None
 
     @property
     def force(self) -> np.ndarray:
@@ -340,8 +343,9 @@ class ContactSolver:
                 cm, cd = self._orthant(n_limits)
                 cms, cds = [*cms, cm], [*cds, cd]
         if not rows:
-            return v_free, StepContacts(np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)),
-                                        np.zeros(0), 0, True)  # fmt: skip
+            none = np.zeros((0, 3))
+            return v_free, StepContacts(none, np.zeros(0), none, np.zeros(0), 0, True,
+                                        limit_generalized=np.zeros(model.nv))  # fmt: skip
         J = np.vstack(rows)
         g = np.concatenate(g_parts)
         MJt = Minv @ J.T
@@ -362,6 +366,8 @@ class ContactSolver:
         v_new = v_free + MJt @ lam
         impulses = lam[: 3 * n_ground].reshape(-1, 3)
         joints = np.array([cm.extract().joint2_id for cm in cms[:n_ground]], dtype=int)
-        out = StepContacts(points, phi, impulses, lam[3 * n_ground :], int(res.iterations),
-                           bool(res.converged), joints)  # fmt: skip
+        limits = lam[3 * n_ground :]
+        generalized = J[3 * n_ground :].T @ limits if n_limits else np.zeros(model.nv)
+        out = StepContacts(points, phi, impulses, limits, int(res.iterations),
+                           bool(res.converged), joints, generalized)  # fmt: skip
         return v_new, out

@@ -72,7 +72,8 @@ OTHER = {"left": "right", "right": "left"}
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
 REACH = 5e-3  # [m] a foot that should bear and does not touch aims this far into the floor
-SWING_HEIGHT = 0.04  # [m] the swing foot's rise above its straight path, mid-swing
+LIFT = 0.03  # [m] the swing foot is raised this much above the cycle's path in mid-swing (the
+# cycle clears the floor by 1 cm there, as people do; the tracking is not that precise)
 
 
 class CyclePlayer:
@@ -143,6 +144,10 @@ class TrackingGains:
     contact_time: float = 0.02  # [s] a loaded point's velocity reaches its target in this time
     late_lift: float = 0.1  # [cycle] a trailing foot waits at most this long for the other
     heel_rise_margin: float = 0.05  # [rad] a flat foot's heel rises this near the ankle's stop
+    horizon: float = 0.02  # [s] free points and joint ranges are kept off their bounds this far
+    # ahead: a toe descending at 0.5 m/s 1 cm above the floor is slowed over 20 ms, not stopped
+    # within one 1 ms step (which asked 1e4-1e5 rad/s^2 of the joints and made the plant
+    # diverge); at 10 ms the female body fell, the male's feet slid 0.9 mm (2.1 at 20 ms)
 
 
 def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -303,18 +308,27 @@ class GaitController(Effect):
         a = self.anchor(side, k)
         return pin.SE3(_rot(a) @ M.rotation, _apply(a, M.translation))
 
-    def swing_path(self, side: str, k: int, psi: float, M_now: pin.SE3, v_now: np.ndarray):
-        """The swing foot's pose, spatial velocity and acceleration (world, 6-vectors): from
-        its pose and velocity at lift-off to where it lands (the next footstep's heel-strike
-        pose, at rest), a quintic (the minimum-jerk blend plus the Hermite term that carries
-        the lift-off velocity), raised SWING_HEIGHT in the middle and aimed a little into the
-        floor at the end so that it lands whatever the timing. A walk that starts in mid-swing
-        starts the path where the foot is."""
-        M1 = self.landing(side, k + 1)
+    def swing_path(self, side: str, k: int, psi: float, M_now: pin.SE3, v_now: np.ndarray,
+                   cycle_pose: tuple):  # fmt: skip
+        """The swing foot's pose, spatial velocity and acceleration (world, 6-vectors): the
+        cycle's own swing (``cycle_pose``: its pose, velocity and acceleration at this instant,
+        unanchored), carried from the anchor of the footstep it left to that of the footstep it
+        lands on, and corrected for where the foot really was at lift-off: that error (pose and
+        velocity) fades out over the swing along a quintic (the minimum-jerk blend plus the
+        Hermite term that carries a velocity). The swing thus keeps the person's foot path,
+        knee flexion and clearance (raised LIFT in mid-swing, for the tracking's errors); it is
+        aimed REACH into the floor at the end so that it lands whatever the timing. A walk
+        that starts in mid-swing starts where the foot is."""
+        M_r, v_r, a_r = cycle_pose
+        a0, a1 = self.anchor(side, k), self.anchor(side, k + 1)
         u = min(max((psi - self.off) / (1.0 - self.off), 0.0), 1.0)
         if self.lift.get(side, (None,))[0] != k:
-            self.lift[side] = (k, M_now.copy(), v_now[:3].copy(), min(u, 0.9))
-        _, M0, v0, u0 = self.lift[side]
+            R0 = _rot(a0)
+            e_p = M_now.translation - _apply(a0, M_r.translation)
+            e_v = v_now[:3] - R0 @ v_r[:3]
+            e_R = pin.log3(M_now.rotation @ (R0 @ M_r.rotation).T)
+            self.lift[side] = (k, e_p, e_v, e_R, min(u, 0.9))
+        _, e_p, e_v, e_R, u0 = self.lift[side]
         D = (1.0 - u0) * (1.0 - self.off) * self.player.period  # the path's duration [s]
         x = (u - u0) / (1.0 - u0)
         dx = 1.0 / D
@@ -327,17 +341,21 @@ class GaitController(Effect):
         b = 64 * x**3 * (1 - x) ** 3
         db = 192 * x * x * (1 - x) ** 2 * (1 - 2 * x) * dx
         ddb = 192 * x * (1 - x) * (2 - 10 * x + 10 * x * x) * dx * dx
-        p1 = M1.translation - np.array([0.0, 0.0, REACH])
-        dp = p1 - M0.translation
-        up = np.array([0.0, 0.0, SWING_HEIGHT * (1.0 - u0)])
-        p = M0.translation + s5 * dp + D * h1 * v0 + b * up
-        v = ds5 * dp + D * dh1 * v0 + db * up
-        a = dds5 * dp + D * ddh1 * v0 + ddb * up
-        w = pin.log3(M0.rotation.T @ M1.rotation)
-        R = M0.rotation @ pin.exp3(s5 * w)
-        w_world = M0.rotation @ w
-        return (pin.SE3(R, p), np.concatenate([v, ds5 * w_world]),
-                np.concatenate([a, dds5 * w_world]))  # fmt: skip
+        up = np.array([0.0, 0.0, LIFT * (1.0 - u0)])
+        step = a1 - a0
+        a = a0 + s5 * step
+        Rz = _rot(a)
+        down = np.array([step[0], step[1], -REACH])  # the anchor's shift, and the reach
+        reach = np.array([0.0, 0.0, -REACH])
+        p = _apply(a, M_r.translation) + (1 - s5) * e_p + D * h1 * e_v + s5 * reach + b * up
+        v = Rz @ v_r[:3] + ds5 * down - ds5 * e_p + D * dh1 * e_v + db * up
+        acc = Rz @ a_r[:3] + dds5 * down - dds5 * e_p + D * ddh1 * e_v + ddb * up
+        E = pin.exp3((1 - s5) * e_R) @ Rz  # R = E R_r: w = E w_r - s5' e_R
+        R = E @ M_r.rotation
+        w_r = E @ v_r[3:]
+        w = w_r - ds5 * e_R
+        dw = E @ a_r[3:] - dds5 * e_R - ds5 * np.cross(e_R, w_r)
+        return pin.SE3(R, p), np.concatenate([v, w]), np.concatenate([acc, dw])
 
     # -- the QP ----------------------------------------------------------------------------
     def update(self, t: float, q, v) -> np.ndarray:
@@ -423,17 +441,18 @@ class GaitController(Effect):
             vel = pin.getFrameVelocity(model, data, fid, LWA)
             acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
             M_f = data.oMf[fid]
+            M_r = rd.oMf[fid]
+            vf_r = pin.getFrameVelocity(model, rd, fid, LWA).vector
+            af_r = pin.getFrameClassicalAcceleration(model, rd, fid, LWA).vector
             if kinds[s] == 0:
-                M_ref, v_ref, a_ref = self.swing_path(s, k, psi, M_f, vel.linear)
+                M_ref, v_ref, a_ref = self.swing_path(s, k, psi, M_f, vel.linear,
+                                                      (M_r, vf_r, af_r))  # fmt: skip
             else:
                 a = self.anchor(s, k)
                 Rz = _rot(a)
-                M_r = rd.oMf[fid]
                 M_ref = pin.SE3(Rz @ M_r.rotation, _apply(a, M_r.translation))
-                vf_r = pin.getFrameVelocity(model, rd, fid, LWA)
-                a_r_f = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
-                v_ref = np.concatenate([Rz @ vf_r.linear, Rz @ vf_r.angular])
-                a_ref = np.concatenate([Rz @ a_r_f.linear, Rz @ a_r_f.angular])
+                v_ref = np.concatenate([Rz @ vf_r[:3], Rz @ vf_r[3:]])
+                a_ref = np.concatenate([Rz @ af_r[:3], Rz @ af_r[3:]])
                 if s not in bearing:
                     M_ref.translation[2] -= REACH
             a_lin = (
@@ -497,7 +516,6 @@ class GaitController(Effect):
         P = A_cost.T @ (W[:, None] * A_cost)
         qv = -A_cost.T @ (W * b_cost)
         P[nv:, nv:] += g.w_force * np.eye(nf)
-        P[np.diag_indices(n)] += 1e-9
         weight = self.weight  # forces are solved in body weights
         A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
         b_eq = [-hvec[:6]]
@@ -517,11 +535,12 @@ class GaitController(Effect):
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
         G = [pyramid_rows(g.mu, len(loaded), n, nv)]
         h_ineq = [np.zeros(5 * len(loaded))]
-        if free:  # no point goes through the floor: -(J_n (v + dt dv) + gap) <= 0
+        if free:  # no point goes through the floor within the horizon H:
+            # -(J_n (v + H dv) + gap) <= 0 (the plant stops what is left within its step)
             Jn = np.vstack([Jall[3 * i + 2] for i in free])
             G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
-            h_ineq.append((Jn @ v + gap[free]) / dt)
-        Jr, bound = range_damper(self.ranges, q, v, dt, RANGE_MARGIN, RANGE_TIME)
+            h_ineq.append((Jn @ v + gap[free] * dt / g.horizon) / g.horizon)
+        Jr, bound = range_damper(self.ranges, q, v, g.horizon, RANGE_MARGIN, RANGE_TIME)
         if len(Jr):
             G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
             h_ineq.append(bound)
