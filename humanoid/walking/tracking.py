@@ -15,16 +15,18 @@ joint torques tau = (M dv + h - J^T f)[6:] leave it:
   still above the floor settles onto it over ``settle``: with a 2 mm reach a flat foot's toes
   hovered a few millimetres up all of mid-stance and the heel carried the whole load, its
   pitch about the heel left to round-off). The plant resolves the impacts; the
-  controller does not command them. (With T = dt, touch = 0.2 mm and no settling, the QP is
-  the plant's own velocity-level rule and the two agree to 1e-5: a test.)
+  controller does not command them. (With T = H = dt, touch = 0.2 mm and no settling, the QP
+  is the plant's own velocity-level rule and the two agree to 1e-5: a test.)
 - **Inequalities.** Those points' forces inside the friction cone (a pyramid, at a smaller
   friction coefficient than the floor's); every other sole point near the floor does not go
-  through it (J_n (v + dt dv) + gap >= 0, no force); joint ranges as velocity dampers. When no
-  point satisfies them all, the step is solved once more with the dynamics and the loaded
-  points only (the plant enforces the floor and the ranges; ``relaxed`` counts such steps).
-- **Costs.** The swing foot's pose, on a quintic from its pose and velocity at lift-off to the
-  cycle's heel-strike pose on the next footstep (moved where the balance feedback says), at
-  rest, raised in mid-swing and aimed a little into the floor at the end, so that it lands
+  through it within the ``horizon`` H (J_n (v + H dv) + depth / H >= 0, no force: 20 ms, so a
+  toe descending fast is slowed over it, not stopped within one step); joint ranges as
+  velocity dampers over the same horizon. When no point satisfies them all, the step is solved
+  once more with the dynamics and the loaded points only (the plant enforces the floor and the
+  ranges; ``relaxed`` counts such steps).
+- **Costs.** The swing foot's pose: the cycle's own swing, carried from the footstep it left to
+  the next one (moved where the balance feedback says), its error at lift-off fading out along
+  a quintic, raised in mid-swing and aimed a little into the floor at the end, so that it lands
   whatever the timing; a foot that should bear load and does not touch yet reaches for the
   floor; a bearing foot's sticking points hold it, and its task only keeps it from rolling over
   its sides (and flat, strongly, once the cycle says flat). The centre of mass on the cycle's
@@ -505,7 +507,8 @@ class GaitController(Effect):
         for cm, cd in zip(cms, cds, strict=True):
             cm.calc(model, data, cd)
         Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
-        gap = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi) / dt
+        depth = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi)
+        gap = depth / dt
         nf = 3 * len(loaded)
         n = nv + nf
         Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
@@ -536,10 +539,10 @@ class GaitController(Effect):
         G = [pyramid_rows(g.mu, len(loaded), n, nv)]
         h_ineq = [np.zeros(5 * len(loaded))]
         if free:  # no point goes through the floor within the horizon H:
-            # -(J_n (v + H dv) + gap) <= 0 (the plant stops what is left within its step)
+            # -(J_n (v + H dv) + depth / H) <= 0 (the plant stops what is left within its step)
             Jn = np.vstack([Jall[3 * i + 2] for i in free])
             G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
-            h_ineq.append((Jn @ v + gap[free] * dt / g.horizon) / g.horizon)
+            h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
         Jr, bound = range_damper(self.ranges, q, v, g.horizon, RANGE_MARGIN, RANGE_TIME)
         if len(Jr):
             G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
