@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 import humanoid as hm
-from humanoid.walking.clinical import ANGLES, LegChain, clinical_angles
+from humanoid.walking.clinical import ANGLES, LegChain, arm_chains, clinical_angles, leg_chains
 from humanoid.walking.norms import ADULT, choose_gait, free_speed, norms
 
 
@@ -74,6 +74,53 @@ def test_a_robots_knee_is_found():
     talos = hm.load("talos")
     assert talos.model.names[LegChain(talos, "left").knee] == "leg_left_4_joint"
     assert talos.model.names[LegChain(talos, "right").knee] == "leg_right_4_joint"
+
+
+@pytest.mark.parametrize(
+    "name, shoulder, elbow",
+    [("adult_male", "right_shoulder", "right_elbow"),
+     ("talos", "arm_right_2_joint", "arm_right_4_joint"),
+     ("g1", "right_shoulder_pitch_joint", "right_elbow_joint"),
+     ("human", "right_shoulder", "right_elbow_Z")],
+)  # fmt: skip
+def test_the_arms_are_found_and_their_swing_reads_as_shoulder_flexion(name, shoulder, elbow):
+    """Each model's right arm: its shoulder and elbow found from the tree; zero standing; the
+    whole arm turned forward about the trunk's lateral axis by 0.3 rad (rotating the upper arm
+    and everything below it) reads as 0.3 rad of shoulder flexion and no elbow flexion."""
+    h = hm.load(name)
+    m = h.model
+    arm = arm_chains(h)["right"]
+    assert (m.names[arm.shoulder], m.names[arm.elbow]) == (shoulder, elbow)
+    d = m.createData()
+    pin.framesForwardKinematics(m, d, h.standing_configuration())
+    np.testing.assert_allclose(arm.angles(d), 0.0, atol=1e-9)
+    # rotate the shoulder-to-hand points about the shoulder's centre (the trunk is upright)
+    turn = pin.utils.rotate("y", -0.3)  # forward: the hanging arm's end moves to +x
+    s = d.oMi[arm.shoulder].translation.copy()
+    for j in (arm.elbow, arm.hand):
+        d.oMi[j].translation = s + turn @ (d.oMi[j].translation - s)
+    np.testing.assert_allclose(arm.angles(d), [math.degrees(0.3), 0.0], atol=1e-9)
+
+
+def test_a_body_without_arms_has_no_arm_chains(tmp_path):
+    """A humanoid whose trunk has nothing beside it: no arm chains, not an error."""
+    h = hm.load("adult_male")
+    legs = leg_chains(h)
+    arms = arm_chains(h, legs)
+    assert set(arms) == {"left", "right"}
+    # the same search on a model whose arms are cut off at the shoulder finds nothing
+    urdf = hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male"))
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(urdf.split("\n", 1)[1])
+    drop = {"upper_arm", "elbow", "forearm", "wrist", "hand", "shoulder"}
+    for el in list(root):
+        name = el.get("name", "")
+        if any(k in name for k in drop):
+            root.remove(el)
+    path = tmp_path / "no_arms.urdf"
+    path.write_text(ET.tostring(root, encoding="unicode"))
+    assert arm_chains(hm.load(path)) == {}
 
 
 def test_the_normative_curves():

@@ -10,7 +10,7 @@ import humanoid as hm
 from humanoid.constraints.limits import JointRanges
 from humanoid.scene import Effects, GroundSpec, JointLimitSpec, Scene
 from humanoid.simulation import Simulation
-from humanoid.walking.clinical import ANGLES, clinical_angles
+from humanoid.walking.clinical import ANGLES, arm_chains, clinical_angles
 from humanoid.walking.norms import norms
 from humanoid.walking.reference import CLEARANCE, fit_cycle, periodic_pendulum
 from humanoid.walking.tracking import CyclePlayer, GaitController, TrackingGains, closest_in_hull
@@ -87,6 +87,30 @@ def test_the_angles_follow_the_norms(male):
             mean = mean - n.curve("pelvis_tilt", v_hat)[0].mean()
         rms = np.sqrt(np.mean((a[:, ANGLES.index(name)] - mean) ** 2))
         assert rms < bound, (name, rms)
+
+
+def test_the_arms_swing_opposite_the_legs(male):
+    """Each arm swings against its own leg: most back at its own heel strike, most forward at
+    the other's, over a 30-degree arc at free speed (Perry & Burnfield), to within 2 degrees;
+    the elbow bends more when the arm is forward."""
+    h, c = male
+    arms = arm_chains(h)
+    m, d = h.model, h.model.createData()
+    hip = clinical_angles(h, c.q)
+    for side, arm in arms.items():
+        a = []
+        for q in c.q:
+            pin.framesForwardKinematics(m, d, q)
+            a.append(arm.angles(d))
+        shoulder, elbow = np.array(a).T
+        assert abs(np.ptp(shoulder) - 30.0) < 2.0, (side, np.ptp(shoulder))
+        own = hip[side][:, ANGLES.index("hip_flexion")]
+        assert np.corrcoef(shoulder, own)[0, 1] < -0.85  # -0.90 measured (the hip is no sine)
+        assert np.corrcoef(shoulder, elbow)[0, 1] > 0.9
+    strike = {"right": 0, "left": len(c.phase) // 2}
+    for side, i in strike.items():  # at its own heel strike an arm is at its most back
+        pin.framesForwardKinematics(m, d, c.q[i])
+        assert arms[side].angles(d)[0] < -13.0
 
 
 def test_lateral_sway_of_an_inverted_pendulum():

@@ -27,7 +27,9 @@ from ..model import SIDES
 
 __all__ = [
     "ANGLES",
+    "ArmChain",
     "LegChain",
+    "arm_chains",
     "clinical_angles",
     "leg_chains",
     "leg_joint_weights",
@@ -145,3 +147,73 @@ def clinical_angles(h, q, chains: dict[str, LegChain] | None = None) -> dict[str
     if np.ndim(q) == 1:
         return {s: a[0] for s, a in out.items()}
     return out
+
+
+class ArmChain:
+    """One arm, found from the model's tree whatever its joints: the subtree that hangs from
+    the trunk on the side's side, above the hips, without a leg in it. Its shoulder is the
+    highest joint above the elbow, the elbow the joint named so (else the one nearest the
+    middle of the arm), the hand the joint furthest from the shoulder. Two angles, zero in the
+    standing posture [deg]: the shoulder's flexion (the upper arm's swing forward in the
+    trunk's sagittal plane) and the elbow's flexion (the angle between upper arm and forearm).
+    """
+
+    def __init__(self, h, side: str, legs: dict[str, LegChain]) -> None:
+        model = h.model
+        self.side = side
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, h.standing_configuration())
+        leg = {j for c in legs.values() for j in c.joints}
+        hip = data.oMi[legs[side].joints[0]].translation
+        sign = 1.0 if side == "left" else -1.0
+        subtree = {j: set(model.subtrees[j]) for j in range(2, model.njoints)}
+        root = None
+        for j in range(2, model.njoints):  # tree order: a parent before its children
+            p = data.oMi[j].translation
+            if (j not in leg and not subtree[j] & leg and sign * p[1] > abs(hip[1]) * 0.5
+                    and p[2] > hip[2] + 0.2 * hip[2]):  # fmt: skip
+                root = j
+                break
+        if root is None:
+            raise ModelError(f"{h.source}: no {side} arm (a subtree beside the trunk)")
+        joints = sorted(subtree[root])
+        pos = {j: data.oMi[j].translation.copy() for j in joints}
+        named = [j for j in joints if "elbow" in model.names[j].lower()]
+        top = max(joints, key=lambda j: pos[j][2])
+        self.hand = max(joints, key=lambda j: np.linalg.norm(pos[j] - pos[top]))
+        middle = (pos[top] + pos[self.hand]) / 2
+        self.elbow = named[0] if named else min(
+            joints, key=lambda j: np.linalg.norm(pos[j] - middle))  # fmt: skip
+        above = [j for j in joints if j < self.elbow and j in model.supports[self.elbow]]
+        self.shoulder = max(above or [root], key=lambda j: pos[j][2])
+        self.joints = joints
+        self.torso = torso_frame(model)
+        self.trunk0 = self.trunk(data).copy()  # the trunk's axes standing (any convention)
+        self.zero = np.zeros(2)
+        self.zero = self.angles(data)
+
+    def trunk(self, data) -> np.ndarray:
+        return data.oMf[self.torso].rotation if self.torso is not None else data.oMi[1].rotation
+
+    def vectors(self, data) -> tuple[np.ndarray, np.ndarray]:
+        """The upper arm (shoulder to elbow) and the forearm (elbow to hand), world [m]."""
+        s, e, w = (data.oMi[j].translation for j in (self.shoulder, self.elbow, self.hand))
+        return e - s, w - e
+
+    def angles(self, data) -> np.ndarray:
+        """(shoulder flexion, elbow flexion) [deg] from kinematics already in ``data``."""
+        upper, fore = self.vectors(data)
+        d = self.trunk0 @ self.trunk(data).T @ upper  # in the standing trunk's world axes
+        flexion = math.atan2(d[0], -d[2])
+        cos = upper @ fore / (np.linalg.norm(upper) * np.linalg.norm(fore))
+        elbow = math.acos(float(np.clip(cos, -1.0, 1.0)))
+        return np.degrees([flexion, elbow]) - self.zero
+
+
+def arm_chains(h, legs: dict[str, LegChain] | None = None) -> dict[str, ArmChain]:
+    """Both arms of a humanoid (empty if it has none: see :class:`ArmChain`)."""
+    legs = legs or leg_chains(h)
+    try:
+        return {s: ArmChain(h, s, legs) for s in SIDES}
+    except ModelError:
+        return {}

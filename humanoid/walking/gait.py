@@ -22,10 +22,12 @@ far the loaded points slide.
 - **curves** over 0-100 % of the cycle (from the side's heel strike) in the normative data's
   conventions (:mod:`humanoid.walking.norms`): joint angles (:mod:`~humanoid.walking.clinical`)
   [deg]; ground reaction forces (vertical, and fore-aft along the stride, braking negative)
-  [body weights]; internal joint moments [N m/kg] (hip extensor and abductor, knee extensor,
-  ankle plantarflexor positive: the moment the proximal segment exerts on the distal one,
-  projected on the proximal segment's axes) and joint powers [W/kg] (moment times the distal
-  segment's angular velocity relative to the proximal one; positive is generated).
+  [body weights]; the arms' shoulder and elbow flexion
+  (:class:`~humanoid.walking.clinical.ArmChain`) [deg]; internal joint moments [N m/kg] (hip
+  extensor and abductor, knee extensor, ankle plantarflexor positive: the moment the proximal
+  segment exerts on the distal one, projected on the proximal segment's axes) and joint powers
+  [W/kg] (moment times the distal segment's angular velocity relative to the proximal one;
+  positive is generated).
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
 from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
-from .clinical import ANGLES, leg_chains
+from .clinical import ANGLES, arm_chains, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import OTHER, GaitController, TrackingGains
 
@@ -61,6 +63,7 @@ KINETICS = (
     "ankle_power",
 )  # fmt: skip
 _MOMENTS = KINETICS[2:]
+ARM_ANGLES = ("shoulder_flexion", "elbow_flexion")  # see clinical.ArmChain
 PHASE0 = 0.2  # the walk starts at this phase of the cycle (the right foot in stance)
 MID_STANCE = 0.25  # [cycle] mid-stance: between the other foot's toe off and this one's heel off
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0),
@@ -421,6 +424,16 @@ class GaitAnalysis:
         out["knee_swing"] = window("knee_flexion", stance, 100, np.max)
         out["ankle_moment_peak"] = window("ankle_plantarflexion_moment", 0, stance, np.max)
         out["ankle_power_peak"] = window("ankle_power", 0, stance + 10, np.max)
+        # the pelvis's and the arms' motion (each side's own curves, averaged)
+        for name in ("pelvis_obliquity", "pelvis_rotation", "shoulder_flexion"):
+            c = [np.ptp(self.mean(name, s)) for s in SIDES if len(self.curves[s][name])]
+            out[name] = float(np.mean(c)) if c else float("nan")
+        # the arms swing opposite the legs: each shoulder's flexion against its own hip's
+        # (-1: exactly opposite)
+        pairs = [(self.mean("shoulder_flexion", s), self.mean("hip_flexion", s))
+                 for s in SIDES if len(self.curves[s]["shoulder_flexion"])]  # fmt: skip
+        r = [np.corrcoef(a, b)[0, 1] for a, b in pairs if min(np.ptp(a), np.ptp(b)) > 1e-9]
+        out["arm_leg_correlation"] = float(np.mean(r)) if r else float("nan")  # still: none
         feet = [f for s in SIDES for f in self.feet[s]]
         out["heel_to_toe"] = (
             sum(f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"] for f in feet)
@@ -461,18 +474,21 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     t, g = rec.t, float(np.linalg.norm(model.gravity.linear))
     weight = rec.mass * g
     chains = leg_chains(h)
+    arms = arm_chains(h, chains)
     # kinematics at 100 Hz: angles, centre of mass, soles
     ks = np.arange(0, len(t), EVERY)
     tk = t[ks]
     data = model.createData()
-    angles = {s: np.zeros((len(ks), len(ANGLES))) for s in SIDES}
+    angles = {s: np.zeros((len(ks), len(ANGLES) + len(ARM_ANGLES))) for s in SIDES}
     com = np.zeros((len(ks), 3))
     soles = {s: np.zeros((len(ks), 3)) for s in SIDES}
     for i, k in enumerate(ks):  # one forward kinematics per sample serves all three
         pin.framesForwardKinematics(model, data, rec.q[k])
         com[i] = pin.centerOfMass(model, data, pin.KinematicLevel.POSITION, False)
         for s in SIDES:
-            angles[s][i] = chains[s].angles(data)
+            angles[s][i, : len(ANGLES)] = chains[s].angles(data)
+            if arms:
+                angles[s][i, len(ANGLES) :] = arms[s].angles(data)
             soles[s][i] = data.oMf[h.sole_id(s)].translation
     # events from the vertical force
     loaded, events, contacts = {}, {}, {}
@@ -484,7 +500,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
         events[s] = {"strike": [t[a] for a, _ in contacts[s] if a > 0],
                      "off": [t[b - 1] for _, b in contacts[s] if b < len(t)]}  # fmt: skip
     both = loaded["left"] & loaded["right"]
-    curves = {s: {n: [] for n in (*ANGLES, *KINETICS)} for s in SIDES}
+    curves = {s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES}
     table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
                              "double_support", "com_vertical", "com_lateral")}  # fmt: skip
     cycles = {s: [] for s in SIDES}
@@ -525,7 +541,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             T = t1 - t0
             tt = t0 + PERCENT / 100.0 * T
             ang = at(angles[s], tk, tt)
-            for j, name in enumerate(ANGLES):
+            for j, name in enumerate((*ANGLES, *ARM_ANGLES) if arms else ANGLES):
                 curves[s][name].append(ang[:, j])
             p0, p1 = (at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
             stride = (p1 - p0)[:2]

@@ -20,9 +20,9 @@ constraints a walking foot obeys:
   against the norms (:mod:`humanoid.walking.clinical`); the centre of mass, across and along,
   on the walk's dynamically consistent plan (:func:`plan_com`: a pendulum over a centre of
   pressure that rolls heel to toe), its height left to the legs; the trunk upright and facing
-  forward; the legs' joints near the standing posture, the trunk's, head's and arms' more
-  strongly (the legs carry the centre of mass, not a swing of the arms); every joint inside its
-  range. (Arm swing: not yet.) The fitted kinematics' centre of mass is the plan's to 0.1 mm
+  forward; the legs' joints near the standing posture, the trunk's and head's more strongly
+  (the legs carry the centre of mass); the arms swinging opposite the legs (:func:`arm_swing`);
+  every joint inside its range. The fitted kinematics' centre of mass is the plan's to 0.1 mm
   across and along (1.5 cm in height), so a controller that tracks both does not fight itself.
 
 Foot placement: steps of the length a person chooses at the speed
@@ -42,8 +42,8 @@ import pinocchio as pin
 from ..constraints.limits import JointRanges
 from ..errors import HumanoidError
 from ..model import SIDES
-from .clinical import ANGLES, leg_chains, leg_joint_weights, torso_frame
-from .norms import choose_gait, free_speed, norms
+from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
+from .norms import FREE_DIMENSIONLESS_SPEED, choose_gait, free_speed, norms
 from .plan import smooth_step
 
 __all__ = [
@@ -67,6 +67,21 @@ COM_BOB = 0.0175  # [m] amplitude of the centre of mass's rise and fall (people:
 COP_START, COP_END = 0.1, 0.9  # the centre of pressure's run, heel to toe edge, over a stance
 HEEL_RISE = 0.05  # [cycle] the heel's rise eases into the norms' foot pitch this fast
 CLEARANCE = 0.01  # [m] the swing foot's lowest corner this far above the floor in mid-swing
+W_ARM = 30.0  # per rad of the arm swing's shoulder and elbow angles
+ARM_ARC = 30.0  # [deg] the shoulder's swing, front to back, at the free dimensionless speed
+ELBOW_FLEXION = (15.0, 8.0)  # [deg] the elbow's mean flexion and its swing about it
+
+
+def arm_swing(psi: float, v_hat: float) -> np.ndarray:
+    """The arm swing at a side's phase psi (0 at its own heel strike) and dimensionless speed:
+    (shoulder flexion, elbow flexion) [deg] from the hanging arm. Each arm swings opposite its
+    leg, most back at its own heel strike, most forward at the other's, over a total arc of
+    about 30 degrees at free speed (Perry & Burnfield 2010, ch. 8), growing with the speed
+    (scaled with the dimensionless speed, 10-45 degrees); the elbow bends most when the arm is
+    forward."""
+    arc = float(np.clip(ARM_ARC * v_hat / FREE_DIMENSIONLESS_SPEED, 10.0, 45.0))
+    c = -math.cos(2 * math.pi * psi)
+    return np.array([0.5 * arc * c, ELBOW_FLEXION[0] + ELBOW_FLEXION[1] * c])
 
 
 def leg_length(h) -> float:
@@ -117,6 +132,8 @@ class _Fitter:
         self.chains = leg_chains(h)
         self.q0 = h.standing_configuration()
         v_hat = gait["dimensionless_speed"]
+        self.v_hat = v_hat
+        self.arms = arm_chains(h, self.chains)
         n = norms()
         self.pct = n.percent / 100.0
         self.curves = {name: n.curve(name, v_hat)[0] for name in ANGLES}
@@ -147,11 +164,13 @@ class _Fitter:
         return np.array([self.norm(k, psi) for k in ANGLES])
 
     # -- the residual ----------------------------------------------------------------------
-    def wants(self, phi: float) -> tuple[dict, tuple | None]:
+    def wants(self, phi: float) -> tuple[dict, tuple | None, dict]:
         """What the fit aims at, at the cycle's phase phi: each side's normative angles [deg],
-        and the centre of mass [m] (NaN where free) if it has a plan."""
-        angles = {s: self.angles(phi + (0.5 if s == "left" else 0.0)) for s in SIDES}
-        return angles, None if self.com_target is None else self.com_target(phi)
+        the centre of mass [m] (NaN where free) if it has a plan, and each arm's swing [deg]."""
+        psi = {s: phi + (0.5 if s == "left" else 0.0) for s in SIDES}
+        angles = {s: self.angles(psi[s]) for s in SIDES}
+        arms = {s: arm_swing(psi[s] % 1.0, self.v_hat) for s in self.arms}
+        return angles, None if self.com_target is None else self.com_target(phi), arms
 
     def residual(self, q, targets: dict, wants: tuple) -> np.ndarray:
         model, data = self.model, self.data
@@ -160,7 +179,9 @@ class _Fitter:
         for s, target in targets.items():
             err = target.actInv(data.oMf[self.sole[s]])
             r.append(W_FOOT * pin.log6(err).vector)
-        angles, com = wants
+        angles, com, arms = wants
+        for s, want in arms.items():
+            r.append(W_ARM * np.radians(self.arms[s].angles(data) - want))
         for s in SIDES:
             a, want = self.chains[s].angles(data), angles[s]
             # the pelvis is shared: each side fits its own view of it at half weight

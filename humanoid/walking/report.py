@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .norms import ADULT
+from .norms import ADULT, norms
 
 __all__ = ["format_gait_table", "format_summary", "gait_table", "plot_gait_report", "plot_walk"]
 
@@ -143,6 +143,9 @@ PANELS = (
     ("ankle_power", "ankle power", "W/kg"),
     ("grf_vertical", "vertical GRF", "BW"),
     ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
+    ("pelvis_obliquity", "pelvic obliquity (own hip up +)", "deg"),
+    ("pelvis_rotation", "pelvic rotation (own hip forward +)", "deg"),
+    ("shoulder_flexion", "shoulder flexion (arm swing; no norm)", "deg"),
 )
 SIDE_COLOURS = {"left": "tab:red", "right": "tab:green"}  # a gait lab's colours
 
@@ -155,7 +158,8 @@ def _adult(key: str, scale: float = 1.0) -> tuple[tuple[float, float], str]:
 
 
 GAIT_ROWS = (
-    # key, label, unit, scale, the adult norm (low, high) or None, its source
+    # key, label, unit, scale, the adult norm (low, high) or None, its source; "curve": the
+    # range of the normative curve of the same name at the walk's speed, +- its mean SD
     ("speed", "speed", "m/s", 1.0, *_adult("speed")),
     ("cadence", "cadence", "steps/min", 1.0, *_adult("cadence")),
     ("step_length", "step length", "m", 1.0, *_adult("step_length")),
@@ -172,6 +176,17 @@ GAIT_ROWS = (
     ("knee_loading", "knee loading flexion", "deg", 1.0, (10.0, 25.0), "Perry & Burnfield"),
     ("knee_swing", "knee swing flexion", "deg", 1.0, (55.0, 70.0), "Perry & Burnfield"),
     ("ankle_moment_peak", "ankle moment peak", "N m/kg", 1.0, (1.2, 1.6), "Winter 2009"),
+    ("pelvis_obliquity", "pelvic obliquity range", "deg", 1.0, "curve", "Schwartz 2008"),
+    ("pelvis_rotation", "pelvic rotation range", "deg", 1.0, "curve", "Schwartz 2008"),
+    (
+        "shoulder_flexion",
+        "arm swing (shoulder)",
+        "deg",
+        1.0,
+        (20.0, 40.0),
+        "a 30 deg arc, Perry & Burnfield",
+    ),
+    ("arm_leg_correlation", "arm against own hip (r)", "", 1.0, (-1.0, -0.7), "opposite"),
     ("heel_to_toe", "steps heel to toe", "%", 100.0, None, ""),
     ("slip", "largest slide in stance", "mm", 1000.0, (0.0, 2.0), ""),
 )
@@ -183,13 +198,17 @@ def gait_table(analysis) -> list[tuple[str, str, str, bool | None]]:
     rows = []
     for key, label, unit, scale, norm, source in GAIT_ROWS:
         value = s.get(key, float("nan")) * scale
-        text = f"{value:.3g} {unit}" if np.isfinite(value) else "-"
+        text = f"{value:.3g} {unit}".rstrip() if np.isfinite(value) else "-"
         if norm is None or not np.isfinite(value):  # no norm, or no complete cycle to measure
             rows.append((label, text, "", None))
             continue
+        if norm == "curve":
+            mean, sd = norms().curve(key, analysis.dimensionless_speed)
+            norm = (float(np.ptp(mean) - sd.mean()), float(np.ptp(mean) + sd.mean()))
         lo, hi = norm
         ok = bool(lo <= value <= hi)
-        rows.append((label, text, f"{lo:g}-{hi:g} {unit}" + (f" ({source})" if source else ""), ok))
+        band = f"{lo:.3g}{' to ' if lo < 0 else '-'}{hi:.3g} {unit}".rstrip()
+        rows.append((label, text, band + (f" ({source})" if source else ""), ok))
     return rows
 
 
@@ -213,26 +232,26 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     import matplotlib.pyplot as plt
 
     from .gait import PERCENT
-    from .norms import norms
 
     n = norms()
-    fig = plt.figure(figsize=(13, 15), constrained_layout=True)
-    grid = fig.add_gridspec(5, 3, height_ratios=(1, 1, 1, 1, 1.25))
+    fig = plt.figure(figsize=(13, 18), constrained_layout=True)
+    grid = fig.add_gridspec(6, 3, height_ratios=(1, 1, 1, 1, 1, 1.4))
     stance = analysis.summary["stance"] * 100.0
     for i, (name, label, unit) in enumerate(PANELS):
-        ax = fig.add_subplot(grid[i // 3, i % 3])
-        mean, sd = n.curve(name, analysis.dimensionless_speed)
-        ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
-        ax.plot(n.percent, mean, color="0.55", lw=1, ls="--")
+        ax = fig.add_subplot(grid[(i + (i >= 11)) // 3, (i + (i >= 11)) % 3])
+        if name in n.units:
+            mean, sd = n.curve(name, analysis.dimensionless_speed)
+            ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
+            ax.plot(n.percent, mean, color="0.55", lw=1, ls="--")
         for side, colour in SIDE_COLOURS.items():
-            c = analysis.curves[side][name]
+            c = analysis.curves[side].get(name, [])
             if len(c):
                 ax.plot(PERCENT, c.mean(axis=0), color=colour, lw=1.6, label=side)
         if np.isfinite(stance):
             ax.axvline(stance, color="0.3", lw=0.8, ls=":")
         ax.axhline(0.0, color="0.5", lw=0.5)
         ax.set(title=label, ylabel=unit, xlim=(0, 100))
-        if i >= 8:
+        if i >= 11:
             ax.set_xlabel("% gait cycle")
         ax.grid(alpha=0.3)
         if i == 0 and ax.get_legend_handles_labels()[0]:
@@ -244,7 +263,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
             "dotted line: toe off (this walk). Moments are internal,\n"
             "extensor / plantarflexor positive; powers generated +.",
             va="top", fontsize=8.5)  # fmt: skip
-    ax = fig.add_subplot(grid[4, :])
+    ax = fig.add_subplot(grid[5, :])
     ax.axis("off")
     rows = gait_table(analysis)
     cells = [[label, value, norm] for label, value, norm, _ in rows]

@@ -61,7 +61,7 @@ from ..constraints.limits import JointRanges
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
-from .clinical import ANGLES, leg_chains, leg_joint_weights, torso_frame
+from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
 from .qp import WarmQP, pyramid_rows, range_damper
 
@@ -137,6 +137,7 @@ class TrackingGains:
     w_trunk: float = 3.0
     w_posture: float = 3e-3  # every joint but the legs'
     w_leg_posture: float = 3e-3  # the legs' (their feet, the pelvis and the CoM fix them)
+    w_arm_posture: float = 0.03  # the arms' (their swing: at 3e-3 they swung 40-62 degrees)
     w_force: float = 1e-3
     mu: float = 0.6
     placement: float = 1.0  # the capture-point error's share moved into the next footstep
@@ -259,6 +260,10 @@ class GaitController(Effect):
         chains = leg_chains(h)
         gains = self.gains
         self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture)
+        for arm in arm_chains(h, chains).values():
+            for j in arm.joints:
+                i = model.joints[j].idx_v - 6
+                self.w_posture[i : i + model.joints[j].nv] = gains.w_arm_posture
         stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
         self.ankle = {s: a for s, a in stops.items() if a is not None}
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
