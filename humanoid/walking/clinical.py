@@ -121,14 +121,17 @@ def leg_chains(h) -> dict[str, LegChain]:
     return {s: LegChain(h, s) for s in SIDES}
 
 
-def leg_joint_weights(model, chains: dict[str, LegChain], legs: float, others: float) -> np.ndarray:
+def leg_joint_weights(model, chains: dict[str, LegChain], legs: float, others: float,
+                      arms: dict | None = None, arm: float = 0.0) -> np.ndarray:  # fmt: skip
     """A weight per joint velocity (the free flyer's six excluded): ``legs`` on the legs'
-    joints, ``others`` on every other joint."""
+    joints, ``arm`` on the joints of ``arms`` (:class:`ArmChain` s, if given), ``others`` on
+    every other joint."""
     w = np.full(model.nv - 6, others)
-    for chain in chains.values():
+    groups = [(c, legs) for c in chains.values()] + [(a, arm) for a in (arms or {}).values()]
+    for chain, weight in groups:
         for j in chain.joints:
             i = model.joints[j].idx_v - 6
-            w[i : i + model.joints[j].nv] = legs
+            w[i : i + model.joints[j].nv] = weight
     return w
 
 
@@ -171,7 +174,7 @@ class ArmChain:
         for j in range(2, model.njoints):  # tree order: a parent before its children
             p = data.oMi[j].translation
             if (j not in leg and not subtree[j] & leg and sign * p[1] > abs(hip[1]) * 0.5
-                    and p[2] > hip[2] + 0.2 * hip[2]):  # fmt: skip
+                    and p[2] > 1.2 * hip[2]):  # fmt: skip
                 root = j
                 break
         if root is None:

@@ -148,6 +148,7 @@ PANELS = (
     ("shoulder_flexion", "shoulder flexion (arm swing; no norm)", "deg"),
 )
 SIDE_COLOURS = {"left": "tab:red", "right": "tab:green"}  # a gait lab's colours
+CAPTION = 11  # the report's grid slot (row-major, three a row) that holds the caption
 
 
 def _adult(key: str, scale: float = 1.0) -> tuple[tuple[float, float], str]:
@@ -238,7 +239,8 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     grid = fig.add_gridspec(6, 3, height_ratios=(1, 1, 1, 1, 1, 1.4))
     stance = analysis.summary["stance"] * 100.0
     for i, (name, label, unit) in enumerate(PANELS):
-        ax = fig.add_subplot(grid[(i + (i >= 11)) // 3, (i + (i >= 11)) % 3])
+        slot = i + (i >= CAPTION)  # the panels flow around the caption's slot
+        ax = fig.add_subplot(grid[slot // 3, slot % 3])
         if name in n.units:
             mean, sd = n.curve(name, analysis.dimensionless_speed)
             ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
@@ -251,12 +253,12 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
             ax.axvline(stance, color="0.3", lw=0.8, ls=":")
         ax.axhline(0.0, color="0.5", lw=0.5)
         ax.set(title=label, ylabel=unit, xlim=(0, 100))
-        if i >= 11:
+        if slot >= 12:  # the bottom row
             ax.set_xlabel("% gait cycle")
         ax.grid(alpha=0.3)
         if i == 0 and ax.get_legend_handles_labels()[0]:
             ax.legend(loc="upper right", fontsize=8)
-    ax = fig.add_subplot(grid[3, 2])
+    ax = fig.add_subplot(grid[CAPTION // 3, CAPTION % 3])
     ax.axis("off")
     ax.text(0.0, 1.0, "grey: Schwartz et al. 2008, mean +- 1 SD at the same\n"
             "dimensionless speed (J Biomech 41:1639, CC-BY-SA 4.0);\n"

@@ -259,11 +259,8 @@ class GaitController(Effect):
         # the cycle's angles only regularise them
         chains = leg_chains(h)
         gains = self.gains
-        self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture)
-        for arm in arm_chains(h, chains).values():
-            for j in arm.joints:
-                i = model.joints[j].idx_v - 6
-                self.w_posture[i : i + model.joints[j].nv] = gains.w_arm_posture
+        self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture,
+                                           arm_chains(h, chains), gains.w_arm_posture)  # fmt: skip
         stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
         self.ankle = {s: a for s, a in stops.items() if a is not None}
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
