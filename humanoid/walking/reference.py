@@ -441,7 +441,10 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
     paths = {}
     for s in SIDES:
         shift = 0.5 if s == "left" else 0.0
-        i_off = int(round(((off - shift) % 1.0) * frames)) % frames
+        # the free path's first swing frame (rounding could pick the last stance frame, where
+        # pass 1 held the foot on its footstep: the bend then missed the free path's jump at
+        # foot off, 9 cm across on the g1, and the swing started at 3 m/s)
+        i_off = math.ceil(((off - shift) % 1.0) * frames - 1e-9) % frames
         i_on = int(round(((1.0 - shift) % 1.0) * frames)) % frames
         start, _ = stance_target(s, off - 1e-9, 0)
         end, _ = stance_target(s, 0.0, 1)

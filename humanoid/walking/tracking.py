@@ -487,7 +487,8 @@ class GaitController(Effect):
         kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
         kd = np.array([g.com_kd, g.com_kd, g.com_z_kd])
         ddc_des = ddc_r + kp * (c_r - c) + kd * (dc_r - dc)
-        support = [p[:2] for p, n in zip(points, near, strict=True) if n]
+        # (the points that may carry load: a swing foot skimming the floor carries none)
+        support = [points[i][:2] for i in loaded]
         if support:
             gz = float(np.linalg.norm(model.gravity.linear)) + ddc_des[2]
             cop = c[:2] - ddc_des[:2] * c[2] / gz
