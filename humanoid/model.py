@@ -21,6 +21,9 @@ What loading does, in order:
 6. Adds, where the model has none, a ``{side}_sole`` frame at the centre of each sole and four
    sole contact points ``{side}_heel_inner|heel_outer|toe_inner|toe_outer``, from the
    bounding box of the foot's geometry (collision geometry first, visual otherwise).
+7. Reads the named postures of an SRDF (its ``group_state`` s: example-robot-data's own SRDF
+   for its robots, such as Talos's ``half_sitting``, or one the caller gives) into
+   :attr:`Humanoid.postures`; :meth:`Humanoid.reference_configuration` stands the body in one.
 """
 
 from __future__ import annotations
@@ -73,6 +76,10 @@ class Humanoid:
         recipe: What loads this body again on any machine (:func:`load_recipe`): the URDF
             text (and the path it came from), or an example-robot-data robot's name, with the
             loading options. Saved runs carry it.
+        postures: Named configurations of this model from an SRDF's group states (the root at
+            the origin; joints the SRDF does not name at their upright value).
+        reference_posture: The posture a robot starts from (example-robot-data's, e.g.
+            ``half_sitting``), or None: :meth:`reference_configuration`.
     """
 
     model: pin.Model
@@ -86,6 +93,8 @@ class Humanoid:
     fusion: Fusion | None
     euler_model: pin.Model
     recipe: dict = field(default_factory=dict)
+    postures: dict = field(default_factory=dict)
+    reference_posture: str | None = None
     _quaternions: np.ndarray | None = field(default=None, repr=False)
 
     @property
@@ -116,8 +125,29 @@ class Humanoid:
 
         The pelvis is above the world origin and the lowest sole contact point on z = 0.
         """
+        return self._on_floor(_upright(self.model))
+
+    def reference_configuration(self, name: str | None = None) -> np.ndarray:
+        """A named posture (:attr:`postures`; default :attr:`reference_posture`) standing on the
+        floor as :meth:`standing_configuration` does; that one if the body has no posture.
+
+        Raises:
+            ModelError: ``name`` is not one of the body's postures.
+        """
+        name = name or self.reference_posture
+        if name is None:
+            return self.standing_configuration()
+        if name not in self.postures:
+            raise ModelError(
+                f"{self.source} has no posture {name!r}; it has: "
+                f"{', '.join(sorted(self.postures)) or 'none (load it with an SRDF)'}"
+            )
+        return self._on_floor(self.postures[name].copy())
+
+    def _on_floor(self, q: np.ndarray) -> np.ndarray:
+        """q with its root above the origin and the lowest sole contact point on z = 0."""
         m = self.model
-        q = _upright(m)
+        q[:3] = 0.0
         data = m.createData()
         pin.framesForwardKinematics(m, data, q)
         names = [n for side in SIDES for n in self.contact_points[side]]
@@ -248,13 +278,26 @@ def example_robot_path(name: str) -> tuple[Path, Path]:
     return root / sub, (root / "../..").resolve()
 
 
+def example_robot_srdf(name: str) -> tuple[Path | None, str | None]:
+    """An example-robot-data robot's SRDF path and the posture it starts from (its loader's
+    ``ref_posture``), or (None, None) when it ships no SRDF."""
+    from example_robot_data.robots_loader import ROBOTS
+
+    cls = ROBOTS[name]
+    if not getattr(cls, "srdf_filename", ""):
+        return None, None
+    urdf, _ = example_robot_path(name)
+    path = urdf.parents[len(Path(cls.urdf_subpath).parts)] / cls.srdf_subpath / cls.srdf_filename
+    return (path, getattr(cls, "ref_posture", None)) if path.is_file() else (None, None)
+
+
 def load_example(
-    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error"
+    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error", srdf=None
 ) -> Humanoid:
     """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) as :func:`load`
     does (the robot's, even where a file of that name is in the working directory)."""
     path, package_dir = example_robot_path(name)  # raises, listing the valid names
-    return _load(path, name, ball_joints, feet, [package_dir], massless)
+    return _load(path, name, ball_joints, feet, [package_dir], massless, srdf)
 
 
 def load_recipe(recipe: dict) -> Humanoid:
@@ -265,7 +308,7 @@ def load_recipe(recipe: dict) -> Humanoid:
     """
     if not isinstance(recipe, dict) or not ({"urdf", "example"} & recipe.keys()):
         raise ModelError("not a body recipe: needs 'urdf' (the URDF text) or 'example' (a name)")
-    options = {k: recipe[k] for k in ("ball_joints", "massless") if k in recipe}
+    options = {k: recipe[k] for k in ("ball_joints", "massless", "srdf") if k in recipe}
     feet = recipe.get("feet")
     if feet is not None:
         options["feet"] = tuple(feet)
@@ -287,7 +330,12 @@ def load_recipe(recipe: dict) -> Humanoid:
 
 
 def load(
-    source, ball_joints: str = "quaternion", feet=None, package_dirs=(), massless: str = "error"
+    source,
+    ball_joints: str = "quaternion",
+    feet=None,
+    package_dirs=(),
+    massless: str = "error",
+    srdf=None,
 ) -> Humanoid:
     """Load a humanoid URDF with a free-flyer root.
 
@@ -304,6 +352,8 @@ def load(
             singular). ``"error"`` raises a :class:`ModelError` naming them; ``"merge"`` locks
             them at their upright position, merging their links into their parents (exact:
             they carry no mass), as the hinge triplets' massless links are merged.
+        srdf: An SRDF (path or text) whose group states become the body's
+            :attr:`~Humanoid.postures`; an example-robot-data robot's own by default.
 
     Returns:
         The :class:`Humanoid`.
@@ -314,10 +364,10 @@ def load(
             identified.
     """
     source, example, package_dirs = _named(source, package_dirs)
-    return _load(source, example, ball_joints, feet, package_dirs, massless)
+    return _load(source, example, ball_joints, feet, package_dirs, massless, srdf)
 
 
-def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoid:
+def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None) -> Humanoid:
     """:func:`load` of a path or URDF text; ``example``: the example-robot-data robot it is
     (its recipe names it), or None."""
     for name, registry, value in (("ball_joints", BALL_JOINTS, ball_joints),
@@ -333,6 +383,13 @@ def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoi
     recipe |= {"ball_joints": ball_joints, "massless": massless}
     if feet is not None:
         recipe["feet"] = list(feet)
+    reference = None
+    if srdf is not None:
+        srdf, _ = _read(srdf, "SRDF")
+        recipe["srdf"] = srdf
+    elif example:
+        path_srdf, reference = example_robot_srdf(example)
+        srdf = path_srdf.read_text(encoding="utf-8") if path_srdf else None
     declared = _validate(text, label, path, dirs)
     try:
         model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
@@ -350,6 +407,7 @@ def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoi
         fusion, geoms = fuse_ball_joints(model, geoms)
         model = fusion.model
     soles, contacts = _add_sole_frames(model, geoms, foot_frames)
+    postures = _srdf_postures(srdf, euler_model, fusion, label) if srdf else {}
     return Humanoid(
         model=model,
         data=model.createData(),
@@ -362,7 +420,39 @@ def _load(source, example, ball_joints, feet, package_dirs, massless) -> Humanoi
         fusion=fusion,
         euler_model=euler_model,
         recipe=recipe,
+        postures=postures,
+        reference_posture=reference if reference in postures else None,
     )
+
+
+def _srdf_postures(text: str, euler_model: pin.Model, fusion, label: str) -> dict:
+    """The group states of an SRDF as configurations of the loaded model: each names joint
+    values of the URDF (hinges, as the Euler model has them; the root and joints the model
+    does not have, such as merged massless ones, are skipped), turned into the fused model's
+    q."""
+    try:
+        root = etree.fromstring(text.encode("utf-8"))
+    except etree.XMLSyntaxError as exc:
+        raise ModelError(f"{label}: the SRDF is not well-formed XML: {exc}") from None
+    postures = {}
+    for state in root.iter("group_state"):
+        q = _upright(euler_model)
+        for joint in state.iter("joint"):
+            name = joint.get("name", "")
+            if not euler_model.existJointName(name):
+                continue
+            jm = euler_model.joints[euler_model.getJointId(name)]
+            if jm.nq != 1 or jm.idx_q < 7:
+                continue
+            try:
+                q[jm.idx_q] = float(joint.get("value", ""))
+            except ValueError:
+                raise ModelError(
+                    f"{label}: SRDF posture {state.get('name')!r}: joint {name!r} has value "
+                    f"{joint.get('value')!r}, not one number"
+                ) from None
+        postures[state.get("name", "")] = fusion.to_quaternion(q)[0] if fusion else q
+    return postures
 
 
 def _named(source, package_dirs):
@@ -425,9 +515,11 @@ def child_link(model: pin.Model, joint: int) -> str:
     )
 
 
-def _read(source) -> tuple[str, Path | None]:
+def _read(source, kind: str = "URDF") -> tuple[str, Path | None]:
     if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
         path = Path(source)
+        if not path.is_file() and kind != "URDF":
+            raise ModelError(f"{kind} file not found: {path}")
         if not path.is_file():
             from .data import body_names
 
@@ -439,10 +531,10 @@ def _read(source) -> tuple[str, Path | None]:
         try:
             return path.read_text(encoding="utf-8"), path.resolve()
         except (OSError, UnicodeDecodeError) as exc:
-            raise ModelError(f"cannot read URDF file {path}: {exc}") from None
+            raise ModelError(f"cannot read {kind} file {path}: {exc}") from None
     if isinstance(source, str):
         return source, None
-    raise ModelError(f"expected a URDF path or URDF text, got {type(source).__name__}")
+    raise ModelError(f"expected a {kind} path or {kind} text, got {type(source).__name__}")
 
 
 def _package_dirs(path: Path | None, extra) -> list[str]:

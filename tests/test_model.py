@@ -263,3 +263,45 @@ def test_a_humanoid_without_foot_geometry_loads_and_says_how_to_add_contacts():
                      effects=hm.scene.Effects(contacts=(hm.scene.Contact("left"),)))  # fmt: skip
     with pytest.raises(hm.ModelError, match=r"left_heel_inner.*frames .*feet=\(left, right\)"):
         hm.simulate(scene, quiet=True)
+
+
+def test_a_robot_stands_in_its_srdf_posture():
+    """example-robot-data's Talos starts from its SRDF's half_sitting (knees at 0.859395 rad, the
+    value in talos.srdf), soles flat on the floor; the body's own postures come from an SRDF
+    the caller gives (by hinge name, through the fused ball joints too); a body with none
+    stands upright; a posture it does not have is an error naming the ones it has."""
+    talos = hm.load("talos")
+    assert talos.reference_posture == "half_sitting"
+    q = talos.reference_configuration()
+    m, d = talos.model, talos.model.createData()
+    knee = m.joints[m.getJointId("leg_left_4_joint")].idx_q
+    assert q[knee] == pytest.approx(0.859395, abs=1e-9)
+    pin.framesForwardKinematics(m, d, q)
+    for side in ("left", "right"):
+        z = [d.oMf[m.getFrameId(n)].translation[2] for n in talos.contact_points[side]]
+        # on the floor, flat to the SRDF's own rounding (its hip, knee and ankle pitches sum
+        # to -0.0004 rad: the heels 0.23 mm up)
+        assert min(z) == pytest.approx(0.0, abs=1e-9) and max(z) < 3e-4, z
+    assert q[2] < talos.standing_configuration()[2] - 0.03  # half sitting: the pelvis lower
+    with pytest.raises(hm.ModelError, match="no posture 'crouch'.*half_sitting"):
+        talos.reference_configuration("crouch")
+
+    male = hm.load("adult_male")
+    assert male.postures == {} and male.reference_posture is None
+    assert np.array_equal(male.reference_configuration(), male.standing_configuration())
+    srdf = ('<robot name="b"><group_state name="lunge" group="all">'
+            '<joint name="right_knee" value="0.5"/><joint name="left_hip_flexion" value="0.3"/>'
+            '<joint name="no_such_joint" value="1"/></group_state></robot>')  # fmt: skip
+    h = hm.load("adult_male", srdf=srdf)
+    lunge = h.reference_configuration("lunge")
+    qe, _ = h.to_euler(lunge)
+    em = h.euler_model
+    for name, value in (("right_knee", 0.5), ("left_hip_flexion", 0.3)):
+        assert qe[em.joints[em.getJointId(name)].idx_q] == pytest.approx(value, abs=1e-9)
+    from humanoid.model import load_recipe
+
+    assert set(load_recipe(h.recipe).postures) == {"lunge"}  # a saved run keeps it
+    with pytest.raises(hm.ModelError, match="'right_knee' has value 'bent'"):
+        hm.load("adult_male", srdf=srdf.replace('"0.5"', '"bent"'))
+    with pytest.raises(hm.ModelError, match="SRDF file not found"):
+        hm.load("adult_male", srdf="missing.srdf")

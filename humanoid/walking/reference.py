@@ -130,7 +130,7 @@ class _Fitter:
         self.model = h.model
         self.data = h.model.createData()
         self.chains = leg_chains(h)
-        self.q0 = h.standing_configuration()
+        self.q0 = h.reference_configuration()  # a robot's own, e.g. half sitting
         v_hat = gait["dimensionless_speed"]
         self.v_hat = v_hat
         self.arms = arm_chains(h, self.chains)
