@@ -208,9 +208,10 @@ class GaitRecorder:
         ]  # fmt: skip
 
     def record(self, mass: float, dt: float) -> GaitRecord:
-        rows = np.array(self.rows, dtype=float).reshape(len(self.rows), -1)
-        out = {k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")}
         width = 3 + 2 + 2 + 2 + len(_MOMENTS)
+        # (a run that failed at its first step recorded nothing)
+        rows = np.array(self.rows, dtype=float).reshape(len(self.rows), 1 + 2 * width)
+        out = {k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")}
         for i, s in enumerate(SIDES):
             c = 1 + i * width
             out["force"][s] = rows[:, c : c + 3]

@@ -7,6 +7,10 @@ import numpy as np
 
 __all__ = ["WarmQP", "pyramid_rows", "range_damper"]
 
+# ProxQP's default inner cap (1500) let one infeasible tick of a Talos walk take 1.4 million
+# iterations (11 s) before the controller could fall back; a walk's solves take at most 62 in all
+MAX_INNER = 100
+
 
 class WarmQP:
     """ProxQP (dense), kept between ticks while the problem's dimensions stay the same and
@@ -18,7 +22,8 @@ class WarmQP:
     infeasibility on near-degenerate single-support problems.
 
     Args:
-        eps_abs: ProxQP's absolute tolerance. max_iter: its iteration cap.
+        eps_abs: ProxQP's absolute tolerance. max_iter: its iteration cap (outer; each outer
+            iteration's inner ones are capped at ``MAX_INNER``).
         primal, dual: at the iteration cap, a point with residuals below these is accepted (the
             constraints are what the physics needs; the dual residual only measures the
             optimality of the weights).
@@ -42,6 +47,7 @@ class WarmQP:
             qp.settings.eps_abs = self.eps_abs
             qp.settings.eps_rel = 0.0
             qp.settings.max_iter = self.max_iter
+            qp.settings.max_iter_in = MAX_INNER
             qp.settings.eps_primal_inf = 1e-30
             qp.settings.eps_dual_inf = 1e-30
             guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
