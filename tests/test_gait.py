@@ -63,10 +63,10 @@ def _assert_a_persons_walk(h, walk, a, slip: float, speed: float) -> None:
     assert 10.0 <= s["knee_loading"] <= 25.0, s["knee_loading"]
     assert 0.03 <= s["com_vertical"] <= 0.05, s["com_vertical"]
     assert s["com_lateral"] < 0.05, s["com_lateral"]
-    # the swing knee: the cycle's own swing (55-70 degrees; 68 male, 54 female measured), not
+    # the swing knee: the cycle's own swing (55-70 degrees; 67 male, 65 female measured), not
     # the 90 degrees of a straight swing path
     assert s["knee_swing"] < 75.0, s["knee_swing"]
-    # the arms swing opposite the legs, about the cycle's 30 degrees (36.6 male, 38.7 female
+    # the arms swing opposite the legs, about the cycle's 30 degrees (36.6 male, 36.1 female
     # measured: they overshoot it a little); the pelvis tilts and turns
     assert 20.0 <= s["shoulder_flexion"] <= 45.0, s["shoulder_flexion"]
     assert s["arm_leg_correlation"] < -0.6, s["arm_leg_correlation"]
@@ -74,6 +74,26 @@ def _assert_a_persons_walk(h, walk, a, slip: float, speed: float) -> None:
     ranges = JointRanges(h)
     excess = max(ranges.excess(q).max() for q in walk.record.q[::20])
     assert excess < 2e-3, excess  # [rad]: the plant's range rows hold to their stabilisation
+
+
+def test_the_g1_walks_ten_steps_through_the_same_pipeline():
+    """example-robot-data's Unitree g1 (33 kg, 0.69 m legs) through the same fitted cycle,
+    controller and ground as the bodies, at 0.6 m/s (its Froude free speed, 1.2 m/s, is beyond
+    this controller yet; 0.7 fell at 4.8 s): ten heel strikes without a fall, heel to toe in
+    every stance with slides under 2 mm, the speed it was asked, joints in their ranges."""
+    h = hm.load("g1")
+    walk = walk_on_ground(h, speed=0.6, steps=10)
+    assert walk.completed, walk.trajectory.metadata["message"]
+    a = analyse(h, walk)
+    assert sum(len(a.events[s]["strike"]) for s in SIDES) >= 10
+    stances = [f for s in SIDES for f in a.feet[s]]
+    assert len(stances) >= 8
+    for f in stances:
+        assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
+        assert f["slip"] < 2e-3, f
+    assert 0.55 <= a.summary["speed"] <= 0.70, a.summary["speed"]
+    ranges = JointRanges(h)
+    assert max(ranges.excess(q).max() for q in walk.record.q[::20]) < 2e-3
 
 
 def test_the_male_body_walks_twenty_steps_heel_to_toe(male, male_walk):

@@ -9,6 +9,7 @@ import pinocchio as pin
 import pytest
 
 import humanoid as hm
+from humanoid.walking import clinical
 from humanoid.walking.clinical import ANGLES, LegChain, arm_chains, clinical_angles, leg_chains
 from humanoid.walking.norms import ADULT, choose_gait, free_speed, norms
 
@@ -100,6 +101,22 @@ def test_the_arms_are_found_and_their_swing_reads_as_shoulder_flexion(name, shou
     for j in (arm.elbow, arm.hand):
         d.oMi[j].translation = s + turn @ (d.oMi[j].translation - s)
     np.testing.assert_allclose(arm.angles(d), [math.degrees(0.3), 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "name, torso",
+    [("adult_male", "thorax"), ("human", "middle_thorax"), ("talos", "torso_2_link"),
+     ("g1", "waist_pitch_joint")],
+)  # fmt: skip
+def test_the_trunk_is_found_by_name_or_from_where_the_arms_hang(name, torso):
+    """The torso frame the walk keeps upright: by name where the model has one, else (the g1:
+    no torso name known) the frame of the joint both arms hang from, its waist. Without it the
+    g1's whole upper body hung on a 3e-3 posture weight and its walk fell within 2-3 s."""
+    h = hm.load(name)
+    m = h.model
+    f = clinical.torso_frame(m, arm_chains(h).values())
+    assert m.frames[f].name == torso
+    assert clinical.torso_frame(m) is None if name == "g1" else clinical.torso_frame(m) == f
 
 
 def test_a_body_without_arms_has_no_arm_chains(tmp_path):

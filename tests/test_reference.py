@@ -270,6 +270,39 @@ def test_the_tracking_controller_and_the_ground_agree(male):
     assert np.allclose((ahead[1] - behind[1]) / dt, middle[2], atol=1e-2)
 
 
+def test_a_double_support_splits_the_load_as_the_plan_does(male):
+    """The load-share row is zero exactly when the leading foot carries the plan's share w of
+    the vertical load (the smooth step the planned centre of pressure takes from the trailing
+    foot to the leading one), whatever the points' horizontal forces; outside a double support
+    (a foot in swing, or the leading foot past its foot flat) there is no row."""
+    from humanoid.walking.plan import smooth_step
+
+    h, c = male
+    scene = Scene(name="share", body=h.source, ball_joints=h.ball_joints, duration=0.01,
+                  integrator="semi_implicit_euler",
+                  effects=Effects(ground=GroundSpec(bodies="feet")))  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    ctl = GaitController(h, sim.model, c, sim.ground, scene.dt)
+    flat = c.gait["opposite_foot_off"]
+    side_of = ["right", "right", "left", "left", "left"]  # two leading points, three trailing
+    loaded = [0, 1, 2, 3, 4]
+    rng = np.random.default_rng(3)
+    for psi in (0.0, 0.3 * flat, 0.8 * flat):
+        steps = {"right": (1, psi), "left": (0, 0.5 + psi)}
+        row = ctl.load_share(steps, {"right": 1, "left": 3}, side_of, loaded)
+        w = float(smooth_step(psi / flat))
+        f = rng.normal(size=(5, 3))  # horizontal forces do not matter
+        f[:2, 2] = w * np.array([0.3, 0.7])  # the leading foot's share, over its points
+        f[2:, 2] = (1 - w) * np.array([0.2, 0.5, 0.3])
+        assert row @ f.ravel() == pytest.approx(0.0, abs=1e-12)
+        f[0, 2] += 0.1  # more on the leading foot than the plan says
+        assert abs(row @ f.ravel()) > 1e-3
+    assert ctl.load_share({"right": (1, 0.1), "left": (0, 0.6)}, {"right": 1, "left": 0},
+                          side_of, loaded) is None  # fmt: skip
+    assert ctl.load_share({"right": (1, 1.2 * flat), "left": (0, 0.5 + 1.2 * flat)},
+                          {"right": 2, "left": 3}, side_of, loaded) is None  # fmt: skip
+
+
 def test_the_centre_of_mass_target_is_one_the_feet_can_carry():
     """closest_in_hull: a centre of pressure inside the soles stays; outside, it goes to the
     nearest point of their hull (an edge, a corner); two points are a segment, one a point."""

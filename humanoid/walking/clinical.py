@@ -46,11 +46,17 @@ ANGLES = (
 TORSO_NAMES = ("thorax", "middle_thorax", "torso_2_link", "torso")
 
 
-def torso_frame(model) -> int | None:
-    """The torso's frame (the first of :data:`TORSO_NAMES` the model has), or None."""
+def torso_frame(model, arms=()) -> int | None:
+    """The torso's frame: the first of :data:`TORSO_NAMES` the model has, else the frame of the
+    joint the ``arms`` (:class:`ArmChain` s) hang from (the g1's waist: any humanoid's trunk),
+    else None."""
     for name in TORSO_NAMES:
         if model.existFrame(name):
             return model.getFrameId(name)
+    for arm in arms:
+        parent = model.parents[arm.joints[0]]
+        if parent > 1:  # not the pelvis
+            return model.getFrameId(model.names[parent], pin.FrameType.JOINT)
     return None
 
 
@@ -190,7 +196,7 @@ class ArmChain:
         above = [j for j in joints if j < self.elbow and j in model.supports[self.elbow]]
         self.shoulder = max(above or [root], key=lambda j: pos[j][2])
         self.joints = joints
-        self.torso = torso_frame(model)
+        self.torso = torso_frame(model, [self])
         self.trunk0 = self.trunk(data).copy()  # the trunk's axes standing (any convention)
         self.zero = np.zeros(2)
         self.zero = self.angles(data)

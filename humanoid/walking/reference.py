@@ -149,7 +149,7 @@ class _Fitter:
         for s, pts in self.corners.items():
             order = np.argsort(pts[:, 0])
             self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
-        self.thorax = torso_frame(self.model)
+        self.thorax = torso_frame(self.model, self.arms.values())
         self.ranges = JointRanges(h)
         self.com_target = None  # phi -> the centre of mass's target (NaN: free)
         # the legs carry the centre of mass where it must go, not a swing of the arms
