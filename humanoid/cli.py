@@ -504,6 +504,13 @@ def summary(h) -> str:
             ", ".join(h.contact_points["left"] + h.contact_points["right"])
             or "none (the feet have no geometry)"
         ),
+        "postures     "
+        + (
+            ", ".join(
+                n + (" (reference)" if n == h.reference_posture else "") for n in sorted(h.postures)
+            )  # fmt: skip
+            or "none (no SRDF)"
+        ),
         "",
         f"{'joint':<28} {'type':<28} {'nq':>2} {'nv':>2}  range [deg]",
     ]

@@ -62,6 +62,12 @@ def test_info_summarises_our_body(capsys):
     assert "left_sole, right_sole" in out
     assert "left_hip" in out and "JointModelSpherical" in out
     assert "left_thigh" in out and "14.16%" in out  # de Leva male thigh 0.1416
+    assert "postures     none (no SRDF)" in out
+
+
+def test_info_lists_a_robots_srdf_postures(capsys):
+    assert main(["info", "talos"]) == 0
+    assert "postures     half_sitting (reference)" in capsys.readouterr().out
 
 
 def test_info_prints_the_range_of_every_joint(capsys):
