@@ -401,6 +401,10 @@ def _walk_human(args) -> int:
 
         page = export_html(h, args.html, traj=walk.trajectory, title="walk")
         print(f"viewer       {page}")
+    if not walk.completed and args.speed is None and not pushes:
+        print(f"humanoid walk: it fell at its free speed ({cycle.gait['speed']:.2f} m/s, a "
+              "person's for its leg length); a robot may walk slower: try --speed 0.6",
+              file=sys.stderr)  # fmt: skip
     return 0 if walk.completed else 3
 
 
