@@ -518,9 +518,9 @@ def child_link(model: pin.Model, joint: int) -> str:
 def _read(source, kind: str = "URDF") -> tuple[str, Path | None]:
     if isinstance(source, Path) or (isinstance(source, str) and "<" not in source):
         path = Path(source)
-        if not path.is_file() and kind != "URDF":
-            raise ModelError(f"{kind} file not found: {path}")
         if not path.is_file():
+            if kind != "URDF":
+                raise ModelError(f"{kind} file not found: {path}")
             from .data import body_names
 
             raise ModelError(

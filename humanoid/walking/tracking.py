@@ -247,13 +247,15 @@ class GaitController(Effect):
         self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
         self.ranges = JointRanges(h)
         self.pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
-        self.torso = torso_frame(model, arm_chains(h, leg_chains(h)).values())
+        chains = leg_chains(h)
+        arms = arm_chains(h, chains)
+        self.torso = torso_frame(model, arms.values())
         g = self.cycle.gait
         self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
         # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
         self.anchors = {s: {} for s in SIDES}
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
-        self.lift = {}  # side -> (footstep it left, its pose at lift-off)
+        self.lift = {}  # side -> (footstep it left, its pose and velocity errors there, u0)
         self.last = None
         self.failures = 0
         self.relaxed = 0  # steps solved without the range dampers and floor rows
@@ -262,10 +264,9 @@ class GaitController(Effect):
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
         # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
         # the cycle's angles only regularise them
-        chains = leg_chains(h)
         gains = self.gains
         self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture,
-                                           arm_chains(h, chains), gains.w_arm_posture)  # fmt: skip
+                                           arms, gains.w_arm_posture)  # fmt: skip
         stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
         self.ankle = {s: a for s, a in stops.items() if a is not None}
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
