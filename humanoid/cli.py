@@ -89,6 +89,13 @@ def build_parser() -> argparse.ArgumentParser:
         "gait cycle fitted to the body, tracked on the rigid ground, heel to toe",
     )
     w.add_argument(
+        "--from-standing",
+        action="store_true",
+        help="(--gait human) start standing still and stop standing, the feet side by side "
+        "(the last of --steps brings them together; it stops from 0.8 m/s, not yet from a "
+        "person's free speed)",
+    )
+    w.add_argument(
         "--report",
         help="(--gait human) the gait report: angles, moments, powers "
         "and forces over the normative bands, and the table (PNG)",
@@ -317,7 +324,8 @@ def _walk(args) -> int:
     if args.gait == "human":
         return _walk_human(args)
     given = [o for o, v in (("--report", args.report), ("--push", args.push),
-                            ("--largest-push", args.largest_push)) if v]  # fmt: skip
+                            ("--largest-push", args.largest_push),
+                            ("--from-standing", args.from_standing)) if v]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait human")
     h = load_any(args, ball_joints="quaternion")
@@ -371,6 +379,8 @@ def _walk_human(args) -> int:
         raise HumanoidError(
             f"--push acts in the third stride: give --steps 8 or more, not {args.steps}"
         )
+    if args.from_standing and (pushes or args.steps < 3):
+        raise HumanoidError("--from-standing: give --steps 3 or more, and no --push")
     h = load_any(args, ball_joints="quaternion")
     cycle = fit_cycle(h, args.speed)
     if args.largest_push:
@@ -386,7 +396,7 @@ def _walk_human(args) -> int:
         return 0
     walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt, mu=args.mu,
                           pushes=[pelvis_push(h, cycle, f, d) for d, f in pushes],
-                          quiet=args.quiet)  # fmt: skip
+                          quiet=args.quiet, from_standing=args.from_standing)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata
@@ -401,7 +411,11 @@ def _walk_human(args) -> int:
 
         page = export_html(h, args.html, traj=walk.trajectory, title="walk")
         print(f"viewer       {page}")
-    if not walk.completed and args.speed is None and not pushes:
+    if not walk.completed and args.from_standing:
+        print(f"humanoid walk: it did not stop standing from {cycle.gait['speed']:.2f} m/s; "
+              "it stops from 0.8 m/s (--speed 0.8), not yet from a person's free speed",
+              file=sys.stderr)  # fmt: skip
+    elif not walk.completed and args.speed is None and not pushes:
         print(f"humanoid walk: it fell at its free speed ({cycle.gait['speed']:.2f} m/s, a "
               "person's for its leg length); a robot may walk slower: try --speed 0.6",
               file=sys.stderr)  # fmt: skip

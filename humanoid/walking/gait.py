@@ -46,6 +46,7 @@ from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, arm_chains, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import OTHER, GaitController, TrackingGains
+from .transitions import start_stop
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
@@ -259,7 +260,8 @@ def walk_duration(cycle: GaitCycle, steps: int, phase0: float = PHASE0) -> float
 
 
 def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None, gains=None,
-                   dt: float = 1e-3, mu: float = 0.8, pushes=(), quiet: bool = True):  # fmt: skip
+                   dt: float = 1e-3, mu: float = 0.8, pushes=(), quiet: bool = True,
+                   from_standing: bool = False):  # fmt: skip
     """Simulate ``h`` walking ``steps`` steps on the rigid ground (see the module docstring).
 
     Args:
@@ -268,24 +270,31 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
         gains: :class:`~humanoid.walking.tracking.TrackingGains`. dt: The step [s].
         mu: The floor's friction coefficient. pushes: :class:`~humanoid.scene.PushSpec` s
         (:func:`pelvis_push` makes one at a mid-stance). quiet: No progress bar.
+        from_standing: Start standing still in the reference posture and stop standing
+        (:mod:`~humanoid.walking.transitions`; the last of ``steps`` brings the feet together).
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
-    swing) and stops as failed at a fall; what it recorded up to then is kept.
+    swing), unless ``from_standing``, and stops as failed at a fall; what it recorded up to
+    then is kept.
     """
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
+    ends = start_stop(h, cycle, steps) if from_standing else None
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints,
-        duration=walk_duration(cycle, steps), dt=dt,
+        duration=ends.t_end if ends else walk_duration(cycle, steps), dt=dt,
         integrator="semi_implicit_euler", record_rate=100.0,
         effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu), pushes=tuple(pushes)),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
     ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=PHASE0,
-                         gains=gains or TrackingGains())  # fmt: skip
-    sim.q0, sim.v0, _ = ctl.player.state(0.0)
+                         gains=gains or TrackingGains(), transitions=ends)  # fmt: skip
+    if ends is None:
+        sim.q0, sim.v0, _ = ctl.player.state(0.0)
+    else:
+        sim.q0, sim.v0 = ends.q0.copy(), np.zeros(sim.model.nv)
     sim.controller = ctl
     z = pin.centerOfMass(sim.model, sim.model.createData(), sim.q0)[2]
     recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)

@@ -75,6 +75,7 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 OTHER = {"left": "right", "right": "left"}
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
+FLAT_REACH = 0.04  # [m] a foot kept flat (a start's, a stop's) loads its points this close
 REACH = 5e-3  # [m] a foot that should bear and does not touch aims this far into the floor
 LIFT = 0.03  # [m] the swing foot is raised this much above the cycle's path in mid-swing (the
 # cycle clears the floor by 1 cm there, as people do; the tracking is not that precise)
@@ -89,10 +90,14 @@ class CyclePlayer:
     and accelerations are its central differences on the configuration group.
     """
 
-    def __init__(self, model: pin.Model, cycle, phase0: float = 0.0) -> None:
+    def __init__(self, model: pin.Model, cycle, phase0: float = 0.0,
+                 hold: tuple[float, float] | None = None) -> None:  # fmt: skip
         self.model, self.cycle = model, cycle
         self.period, self.stride = cycle.period, cycle.stride
         self.phase0 = phase0
+        self.hold = hold  # (go, stop): the clock shows phase0 until go, and stands still after
+        # stop (None: it runs from t = 0, and before: the reference's velocity at t = 0 is a
+        # central difference; clamping it there gave the g1 half its starting speed, and a fall)
         qs = cycle.q.copy()
         qs[:, 0] -= self.stride * cycle.phase
         self.qc = qs[0].copy()
@@ -102,6 +107,9 @@ class CyclePlayer:
         )
 
     def phase(self, t: float) -> float:
+        if self.hold is not None:
+            go, stop = self.hold
+            t = min(max(t, go), stop) - go
         return self.phase0 + t / self.period
 
     def configuration(self, t: float) -> np.ndarray:
@@ -224,18 +232,25 @@ class GaitController(Effect):
         h: The humanoid. model: the plant's model (with its gravity). cycle: the fitted
         :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
         :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
-        phase0: the cycle's phase at t = 0.
+        phase0: the cycle's phase at t = 0. transitions: a
+        :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
+        stops standing (its phase0 then replaces ``phase0``).
     """
 
     name = "gait"
     velocity_dependent = True
 
-    def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None) -> None:
+    def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None,
+                 transitions=None) -> None:  # fmt: skip
         self.h, self.model, self.cycle = h, model, cycle
         self.data = model.createData()
         self.rdata = model.createData()
         self.ldata = model.createData()  # the landing poses' (not to clobber the reference's)
-        self.player = CyclePlayer(model, cycle, phase0)
+        self.ends = transitions
+        if transitions is None:
+            self.player = CyclePlayer(model, cycle, phase0)
+        else:
+            self.player = CyclePlayer(model, cycle, transitions.phase0, transitions.hold())
         self.ground = ground
         self.dt = dt
         self.gains = gains or TrackingGains()
@@ -254,6 +269,9 @@ class GaitController(Effect):
         self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
         # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
         self.anchors = {s: {} for s in SIDES}
+        if transitions is not None:  # the standing feet are footsteps 0
+            for s in SIDES:
+                self.anchors[s][0] = np.array(transitions.anchors[s], dtype=float)
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
         self.lift = {}  # side -> (footstep it left, its pose and velocity errors there, u0)
         self.last = None
@@ -284,6 +302,26 @@ class GaitController(Effect):
         k = math.floor(psi)
         return k, psi - k
 
+    def com_reference(self, t: float) -> tuple:
+        """The planned centre of mass (c, dc, ddc) at t, in the cycle's frame."""
+        piece = None if self.ends is None else self.ends.piece(t)
+        if piece is not None:
+            return piece.at(t)
+        return self.cycle.com.at(self.player.phase(t))
+
+    def flat_override(self, t: float, steps: dict) -> set:
+        """The sides a start or stop keeps flat and bearing whatever the cycle's clock says:
+        both feet before the first step and after the last, the braking foot once flat."""
+        ends = self.ends
+        if ends is None:
+            return set()
+        if t < ends.t_go or t >= ends.t_stop:
+            return set(SIDES)
+        side, k = ends.brake
+        if t >= ends.stop_from and steps[side][0] >= k:
+            return {side}
+        return set()
+
     def contact_kind(self, psi: float) -> int:
         if psi >= self.off:
             return 0
@@ -296,7 +334,14 @@ class GaitController(Effect):
 
     def body_anchor(self, t: float) -> np.ndarray:
         """The anchor of the pelvis and CoM: the stance foot's; across a double support,
-        from the trailing foot's to the leading foot's."""
+        from the trailing foot's to the leading foot's (starting, the right foot's until the
+        first step lands; stopping, the braking foot's from its foot flat)."""
+        ends = self.ends
+        if ends is not None:
+            if t <= ends.time(0.5):  # before the first step lands
+                return self.anchor(*ends.start_anchor)
+            if t >= ends.stop_from:
+                return self.anchor(*ends.brake)
         steps = {s: self.side_phase(s, t) for s in SIDES}
         lead = min(SIDES, key=lambda s: steps[s][1])  # the foot that landed last
         trail = OTHER[lead]
@@ -409,7 +454,7 @@ class GaitController(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        c_r, dc_r, ddc_r = self.cycle.com.at(self.player.phase(t))
+        c_r, dc_r, ddc_r = self.com_reference(t)
         c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
         A = self.body_anchor(t)
@@ -421,6 +466,13 @@ class GaitController(Effect):
         err = xi - xi_r
         steps = {s: self.side_phase(s, t) for s in SIDES}
         kinds = {s: self.contact_kind(steps[s][1]) for s in SIDES}
+        flat = self.flat_override(t, steps)
+        for s in flat:
+            kinds[s] = 2
+        if flat:  # a foot kept flat that touches settles its whole sole onto the floor (its
+            # toes 1.2 cm up, it stood on its heel for 0.3 s while the body ran over it)
+            near = [n or (s in flat and s in touching and d < FLAT_REACH)
+                    for n, s, d in zip(near, side_of, phi, strict=True)]  # fmt: skip
         for s in SIDES:  # the trailing foot stays down (on its toes) until the other one lands
             if (kinds[s] == 0 and self.down.get(s, False) and OTHER[s] not in touching
                     and steps[s][1] < self.off + g.late_lift):  # fmt: skip
@@ -428,7 +480,7 @@ class GaitController(Effect):
             self.down[s] = kinds[s] != 0
             # a flat foot lets its heel rise when its ankle is about to reach its dorsiflexion
             # stop, as a person's does: else the stop halts the shank and the knee vaults
-            if kinds[s] == 2 and s in self.ankle:
+            if kinds[s] == 2 and s in self.ankle and s not in flat:
                 iq, bound, sign = self.ankle[s]
                 if sign * (bound - q[iq]) < g.heel_rise_margin:
                     kinds[s] = 3
@@ -443,6 +495,12 @@ class GaitController(Effect):
                         shift *= g.max_shift / norm
                     self.shift[s] = shift
                 self.anchors[s][k + 1] = base + np.array([*self.shift[s], 0.0])
+                if self.ends is not None:  # a stop's shorter steps
+                    back = {
+                        self.ends.closing: self.ends.setback,
+                        self.ends.brake: self.ends.shorten,
+                    }.get((s, k + 1), 0.0)
+                    self.anchors[s][k + 1][:2] -= (_rot(base) @ [back, 0.0, 0.0])[:2]
         rows, rhs, weights = [], [], []
 
         def task(J, a, w):  # w: one weight, or one per row
@@ -484,6 +542,8 @@ class GaitController(Effect):
                 a_ref = np.concatenate([Rz @ af_r[:3], Rz @ af_r[3:]])
                 if s not in bearing:
                     M_ref.translation[2] -= REACH
+                if s in flat:  # kept flat (a start or a stop), pointing its anchor's way
+                    M_ref.rotation = Rz
             a_lin = (
                 a_ref[:3]
                 + g.foot_kp * (M_ref.translation - M_f.translation)
@@ -529,8 +589,14 @@ class GaitController(Effect):
             a_des = g.trunk_kp * (R @ pin.log3(R.T @ R_A)) - g.trunk_kd * vel
             task(J, a_des - acc, g.w_trunk)
         # joints: the cycle's angles
+        v_post = v_r[6:]
+        if self.ends is not None:  # starting and stopping: lean to the standing posture
+            w = self.ends.standing_weight(t)
+            if w > 0.0:
+                q_r = pin.interpolate(model, q_r, self.ends.standing, w)
+                v_post = (1.0 - w) * v_post
         e = pin.difference(model, q, q_r)[6:]
-        task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_r[6:] - v[6:]), self.w_posture)
+        task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_post - v[6:]), self.w_posture)
 
         for cm, cd in zip(cms, cds, strict=True):
             cm.calc(model, data, cd)
