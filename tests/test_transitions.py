@@ -76,8 +76,10 @@ def test_the_plan_leaves_standing_still_and_ends_standing_still(male, slow_cycle
     assert np.allclose(ends.start.c[0, :2] + anchor[:2], c0[:2], atol=1e-3)
     assert np.abs(ends.start.dc[0, :2]).max() < 1e-6
     assert np.abs(ends.stop.dc[-1]).max() < 1e-6
-    assert ends.setback == pytest.approx(slow_cycle.gait["step_length"], rel=1e-6)
-    assert 0.0 <= ends.shorten < 0.5 * slow_cycle.gait["step_length"]
+    step = slow_cycle.gait["step_length"]
+    assert ends.moved[ends.closing] == pytest.approx(step, rel=1e-6)
+    braking = [m for key, m in ends.moved.items() if key != ends.closing]
+    assert braking and all(0.0 <= m < 0.5 * step for m in braking), ends.moved
     assert ends.closing[0] != ends.brake[0]
     assert ends.t_go < ends.stop.t[0] < ends.t_stop < ends.t_end
     with pytest.raises(HumanoidError, match="at least 3 steps"):

@@ -496,10 +496,7 @@ class GaitController(Effect):
                     self.shift[s] = shift
                 self.anchors[s][k + 1] = base + np.array([*self.shift[s], 0.0])
                 if self.ends is not None:  # a stop's shorter steps
-                    back = {
-                        self.ends.closing: self.ends.setback,
-                        self.ends.brake: self.ends.shorten,
-                    }.get((s, k + 1), 0.0)
+                    back = self.ends.moved.get((s, k + 1), 0.0)
                     self.anchors[s][k + 1][:2] -= (_rot(base) @ [back, 0.0, 0.0])[:2]
         rows, rhs, weights = [], [], []
 

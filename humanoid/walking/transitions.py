@@ -161,8 +161,8 @@ class StartStop:
         anchors: each side's footstep 0 placement (x, y, yaw) relative to the cycle's.
         brake: (side, footstep) of the last stance that ends standing: its foot stays flat.
         closing: (side, footstep) of the closing foot, landing beside the braking one.
-        setback: [m] how far the closing footstep is moved back (a step length).
-        shorten: [m] how far the braking footstep is moved back (the closing one with it).
+        moved: (side, footstep) -> how far it is moved back [m] from where the footstep before
+            it puts it: the braking steps a little each, the closing one a step length.
         start, stop: the centre of mass's plans over the start and the stop.
         standing: the reference posture's configuration (the joints' target while standing).
         steps: heel strikes, the closing one included. period: the cycle's [s].
@@ -179,8 +179,7 @@ class StartStop:
     anchors: dict
     brake: tuple
     closing: tuple
-    setback: float
-    shorten: float
+    moved: dict
     start: ComPiece
     stop: ComPiece
     standing: np.ndarray
@@ -306,9 +305,10 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     t_from = time(p_b - BRAKE + flat)  # braking starts at a double support's end
     t = np.arange(t_from, t_end + 0.5 * SAMPLE, SAMPLE)
     t[-1] = t_end
-    # B's footstep in the cycle's frame, moved back by ``short`` (the braking body is behind
-    # the cycle's at B's heel strike: a full step, and the leg did not reach the floor: the
-    # foot hovered 2 cm up for 0.2 s); C lands beside it
+    # the braking steps (those landing after the plan leaves the cycle, B the last), each
+    # moved back by how far the braking body is behind the cycle's at its heel strike (a full
+    # step, and the leg did not reach the floor: the foot hovered 2 cm up for 0.2 s, the
+    # trailing toe bounced); C lands beside B
     middle = {sd: float(np.mean(h.sole_points(sd)[:, 0])) for sd in SIDES}
     x_b0, y_b = _footstep(cycle, b_side) + [cycle.stride * k_b, 0.0]
     x_c, y_c = _footstep(cycle, c_side) + [cycle.stride * k_c, 0.0]
@@ -316,13 +316,25 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     c_a, dc_a, _ = cycle.com.at(clock(t_from))
     edges = {sd: (float(h.sole_points(sd)[:, 0].min()), float(h.sole_points(sd)[:, 0].max()))
              for sd in SIDES}  # fmt: skip
+    braking = {}  # (side, footstep) -> its landing phase
+    for ph in strike[:-1]:
+        if ph > clock(t_from):
+            sd = "left" if round(2 * ph) % 2 else "right"
+            braking[(sd, int(round(ph + (0.5 if sd == "left" else 0.0))))] = ph
 
-    def support_x(ti, short) -> tuple[float, float]:
-        """The x range [m] the loaded parts of the soles span at ti, in the cycle's frame, as
-        the controller loads them (the heel's quarter from heel strike, the sole from foot
-        flat, the toe's quarter from heel off), less MARGIN each end."""
+    def footstep(sd, k, back) -> float:
+        """The x of a side's footstep k, the braking ones moved back by ``back`` [m]."""
+        x = _footstep(cycle, sd)[0] + cycle.stride * k
+        if (sd, k) == (c_side, k_c):
+            return x - (x_c - x_b0) - back[(b_side, k_b)]
+        return x - back.get((sd, k), 0.0)
+
+    def stance(ti) -> dict:
+        """Each bearing side's (footstep, contact kind) at ti, as the controller has them
+        (the heel from heel strike, the sole from foot flat, the toe from heel off; the
+        braking foot flat once flat, both feet flat once stopped)."""
         phase = clock(min(ti, t_stop))
-        spans = []
+        out = {}
         for sd in SIDES:
             psi = phase + (0.5 if sd == "left" else 0.0)
             k = math.floor(psi)
@@ -332,41 +344,54 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
                 k, kind = k_b, 2
             if ti >= t_stop:
                 kind = 2
-            if kind == 0:
-                continue
-            x = _footstep(cycle, sd)[0] + cycle.stride * k
-            if (sd, k) in ((b_side, k_b), (c_side, k_c)):
-                x -= short + (x_c - x_b0 if sd == c_side else 0.0)
+            if kind:
+                out[sd] = (k, kind, psi)
+        return out
+
+    def support_x(ti, back) -> tuple[float, float]:
+        """The x range [m] the loaded parts of the soles span at ti, in the cycle's frame,
+        less MARGIN each end."""
+        spans = []
+        for sd, (k, kind, _) in stance(ti).items():
+            x = footstep(sd, k, back)
             heel, toe = x + edges[sd][0], x + edges[sd][1]
             quarter = 0.25 * (toe - heel)
             spans.append({1: (heel, heel + quarter), 2: (heel, toe), 3: (toe - quarter, toe)}[kind])
         return min(a for a, _ in spans) + MARGIN, max(b for _, b in spans) - MARGIN
 
-    short = 0.0
-    for _ in range(SHORTEN_ITERATIONS):  # B where the braking body meets it as in the cycle
-        # (a fixed point: 6.5 cm, then 9.7, 11.3, ... 12.7 for the male body)
-        x_b = x_b0 - short
+    def lead_back(ti, back) -> float:
+        """How far the footstep that landed last is moved back at ti [m]."""
+        on = stance(ti)
+        sd = min(on, key=lambda x: on[x][2])
+        return back.get((sd, on[sd][0]), 0.0)
+
+    back = dict.fromkeys(braking, 0.0)
+    for _ in range(SHORTEN_ITERATIONS):  # each braking step where the body meets it as in the
+        # cycle (a fixed point: for B, 6.5 cm, then 9.7, 11.3, ... 12.7 for the male body)
+        x_b = footstep(b_side, k_b, back)
         on_b = np.array([x_b + middle[b_side], y_b])
         rest_point = np.array([x_b + 0.5 * (middle[b_side] + middle[c_side]),
                                0.5 * (y_b + y_c)])  # fmt: skip
         p = []
         for ti in t:
-            if ti < t_land_b:
-                p.append(zmp(clock(ti)))
-            elif ti < t_land_b + flat * T:
-                p.append(zmp(clock(ti)) - [short, 0.0])
+            if ti < t_land_b + flat * T:
+                p.append(zmp(clock(ti)) - [lead_back(ti, back), 0.0])
             else:
                 u = float(smooth_step((ti - t_land_c) / (flat * T))) if ti > t_land_c else 0.0
                 p.append(on_b + u * (rest_point - on_b))
         lo = np.full((len(t), 2), -np.inf)
         hi = np.full((len(t), 2), np.inf)
         for i, ti in enumerate(t):
-            lo[i, 0], hi[i, 0] = support_x(ti, short)
+            lo[i, 0], hi[i, 0] = support_x(ti, back)
         xy = pendulum_path(np.array(p), omega2, SAMPLE, (c_a[:2], dc_a[:2]),
                            (rest_point, np.zeros(2)), bounds=(lo, hi), smooth=SMOOTH)  # fmt: skip
-        lag = cycle.com.at(p_b)[0][0] - np.interp(t_land_b, t, xy[:, 0])
-        short, before = max(0.0, float(lag)), short
-        if abs(short - before) < 1e-3:
+        before = dict(back)
+        behind = 0.0
+        for key, ph in sorted(braking.items(), key=lambda kv: kv[1]):
+            lag = cycle.com.at(ph)[0][0] - np.interp(time(ph), t, xy[:, 0])
+            behind = max(behind, float(lag))  # never a step longer than the one before's
+            back[key] = behind
+        if max(abs(back[key] - before[key]) for key in back) < 1e-3:
             break
     t_lean = t_land_c
     w = smooth_step((t - t_lean) / (t_stop + LEAN - t_lean))
@@ -375,13 +400,18 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     # the stance leg could not reach the floor (the foot hovered, toes up, its heel loaded)
     grid = np.linspace(clock(t_from) - 0.5, clock(t_end) + 0.5, 2000)
     x_grid, z_grid = np.array([cycle.com.at(ph)[0][[0, 2]] for ph in grid]).T
-    x_eff = xy[:, 0] + np.where(t >= t_land_b, short, 0.0)
+    x_eff = xy[:, 0] + np.array([lead_back(ti, back) for ti in t])
     z_cyc = np.interp(x_eff, x_grid, z_grid)
     z = (1 - w) * z_cyc + w * c_stand[2]
+    # the controller moves each footstep back by its own share (the anchors chain)
+    order = sorted(braking.items(), key=lambda kv: kv[1])
+    moved = {key: back[key] - (back[order[i - 1][0]] if i else 0.0)
+             for i, (key, _) in enumerate(order)}  # fmt: skip
+    moved[(c_side, k_c)] = float(x_c - x_b0)
     stop = piece(t, xy, z, b_side, k_b)
     return StartStop(
         q0=q0, phase0=phase0, t_go=go, t_stop=t_stop, t_end=t_end, anchors=anchors,
-        brake=(b_side, k_b), closing=(c_side, k_c), setback=float(x_c - x_b0), shorten=short,
+        brake=(b_side, k_b), closing=(c_side, k_c), moved=moved,
         start=start, stop=stop,
         standing=q0, steps=steps, period=T, stop_from=t_land_b + flat * T,
         lean_from=t_lean,
