@@ -96,6 +96,12 @@ def build_parser() -> argparse.ArgumentParser:
         "person's free speed)",
     )
     w.add_argument(
+        "--radius",
+        type=float,
+        help="(--gait human) walk along a circle of this radius [m], positive turning left "
+        "(at least 0.5; a 2 m circle walks at 0.8 m/s, not yet at a person's free speed)",
+    )
+    w.add_argument(
         "--report",
         help="(--gait human) the gait report: angles, moments, powers "
         "and forces over the normative bands, and the table (PNG)",
@@ -325,7 +331,8 @@ def _walk(args) -> int:
         return _walk_human(args)
     given = [o for o, v in (("--report", args.report), ("--push", args.push),
                             ("--largest-push", args.largest_push),
-                            ("--from-standing", args.from_standing)) if v]  # fmt: skip
+                            ("--from-standing", args.from_standing),
+                            ("--radius", args.radius is not None)) if v]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait human")
     h = load_any(args, ball_joints="quaternion")
@@ -379,8 +386,8 @@ def _walk_human(args) -> int:
         raise HumanoidError(
             f"--push acts in the third stride: give --steps 8 or more, not {args.steps}"
         )
-    if args.from_standing and (pushes or args.steps < 3):
-        raise HumanoidError("--from-standing: give --steps 3 or more, and no --push")
+    if args.from_standing and (pushes or args.steps < 3 or args.radius is not None):
+        raise HumanoidError("--from-standing: give --steps 3 or more, and no --push or --radius")
     h = load_any(args, ball_joints="quaternion")
     cycle = fit_cycle(h, args.speed)
     if args.largest_push:
@@ -396,7 +403,8 @@ def _walk_human(args) -> int:
         return 0
     walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt, mu=args.mu,
                           pushes=[pelvis_push(h, cycle, f, d) for d, f in pushes],
-                          quiet=args.quiet, from_standing=args.from_standing)  # fmt: skip
+                          quiet=args.quiet, from_standing=args.from_standing,
+                          radius=args.radius)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata

@@ -359,6 +359,7 @@ def test_feet_option_names_the_soles_and_bad_names_are_one_line(capsys):
     (["--gait", "human", "--push", "left:0.1"], "--push acts in the third stride"),
     (["--from-standing"], "--from-standing: only with --gait human"),
     (["--gait", "human", "--from-standing"], "--from-standing: give --steps 3 or more"),
+    (["--radius", "2"], "--radius: only with --gait human"),
 ])  # fmt: skip
 def test_walk_options_are_checked_in_their_own_words(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) if "choice" in message else contextlib.nullcontext():

@@ -261,7 +261,7 @@ def walk_duration(cycle: GaitCycle, steps: int, phase0: float = PHASE0) -> float
 
 def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None, gains=None,
                    dt: float = 1e-3, mu: float = 0.8, pushes=(), quiet: bool = True,
-                   from_standing: bool = False):  # fmt: skip
+                   from_standing: bool = False, radius: float | None = None):  # fmt: skip
     """Simulate ``h`` walking ``steps`` steps on the rigid ground (see the module docstring).
 
     Args:
@@ -272,6 +272,8 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
         (:func:`pelvis_push` makes one at a mid-stance). quiet: No progress bar.
         from_standing: Start standing still in the reference posture and stop standing
         (:mod:`~humanoid.walking.transitions`; the last of ``steps`` brings the feet together).
+        radius: Walk along a circle of this radius [m] (positive turns left; default straight
+        ahead).
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
     swing), unless ``from_standing``, and stops as failed at a fall; what it recorded up to
@@ -279,6 +281,10 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     """
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
+    if radius is not None and not (math.isfinite(radius) and abs(radius) >= 0.5):
+        raise HumanoidError(f"a curve's radius must be finite and at least 0.5 m, got {radius}")
+    if radius is not None and from_standing:
+        raise HumanoidError("a walk from standing along a curve is not supported yet")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
     ends = start_stop(h, cycle, steps) if from_standing else None
     scene = Scene(
@@ -290,7 +296,8 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
     ctl = GaitController(h, sim.model, cycle, sim.ground, dt, phase0=PHASE0,
-                         gains=gains or TrackingGains(), transitions=ends)  # fmt: skip
+                         gains=gains or TrackingGains(), transitions=ends,
+                         radius=radius)  # fmt: skip
     if ends is None:
         sim.q0, sim.v0, _ = ctl.player.state(0.0)
     else:

@@ -47,6 +47,14 @@ motion xi = c + c'/omega (the capture point) is compared with the cycle's, and t
 is moved by that error (Hof 2008's "constant offset" control). Each footstep then re-anchors
 the reference: the cycle is followed relative to the footholds the body actually has, not to a
 fixed place in the world, so its errors never accumulate.
+
+**Curves** (``radius``): each footstep's anchor is the one before's turned about the circle's
+centre by the arc between them (:func:`bend`), so every point of the straight cycle lands on
+the circle, facing along it; the pelvis, trunk and centre of mass take the anchor bent to
+where the centre of mass is, and the centre of mass runs on a circle inside the feet's by
+v^2 / (R omega^2) with the centripetal acceleration in its plan (the pressure centre that
+turns it is then the straight walk's). The swing foot's feed-forward carries the turn of its
+anchor.
 """
 
 from __future__ import annotations
@@ -67,7 +75,7 @@ from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_f
 from .plan import smooth_step
 from .qp import WarmQP, pyramid_rows, range_damper
 
-__all__ = ["CyclePlayer", "GaitController", "TrackingGains"]
+__all__ = ["CyclePlayer", "GaitController", "TrackingGains", "bend"]
 
 # The walk itself, and its analysis: :mod:`humanoid.walking.gait` (``humanoid walk --gait human``).
 
@@ -225,6 +233,28 @@ def _rot(anchor: np.ndarray) -> np.ndarray:
     return pin.utils.rotate("z", float(anchor[2]))
 
 
+def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The anchor a after b: p -> a(b(p))."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2]])
+
+
+def bend(anchor: np.ndarray, x: float, radius: float | None, ahead: float) -> np.ndarray:
+    """The anchor of the cycle's points ``ahead`` [m] (along x) of a footstep at x that
+    ``anchor`` places, when the walk follows a circle of ``radius`` [m] (positive: turning
+    left; None: straight): the footstep's anchor turned about the circle's centre (x, radius)
+    by ahead / radius, less the ``ahead`` that the arc has already covered. Every cycle point
+    (x + ahead, y) then lands on the circle of radius ``radius - y`` at arc length ``ahead``,
+    facing along it."""
+    if radius is None:
+        return anchor
+    theta = ahead / radius
+    c, s = math.cos(theta), math.sin(theta)
+    # the rotation by theta about (x, radius), then the shift back by ``ahead``
+    turn = np.array([x - (c * x - s * radius), radius - (s * x + c * radius), theta])
+    return _compose(_compose(anchor, turn), np.array([-ahead, 0.0, 0.0]))
+
+
 class GaitController(Effect):
     """Joint torques that walk a body along its fitted gait cycle (see the module docstring).
 
@@ -235,14 +265,17 @@ class GaitController(Effect):
         phase0: the cycle's phase at t = 0. transitions: a
         :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
         stops standing (its phase0 then replaces ``phase0``).
+        radius: the walk follows a circle of this radius [m] (positive: turning left; None: a
+        straight line).
     """
 
     name = "gait"
     velocity_dependent = True
 
     def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None,
-                 transitions=None) -> None:  # fmt: skip
+                 transitions=None, radius: float | None = None) -> None:  # fmt: skip
         self.h, self.model, self.cycle = h, model, cycle
+        self.radius = radius
         self.data = model.createData()
         self.rdata = model.createData()
         self.ldata = model.createData()  # the landing poses' (not to clobber the reference's)
@@ -267,6 +300,14 @@ class GaitController(Effect):
         self.torso = torso_frame(model, arms.values())
         g = self.cycle.gait
         self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
+        # each footstep's x along the cycle's straight line, from its flat stance (footstep 0
+        # of the right foot at phase [0, off), of the left at [0.5, 0.5 + off))
+        self.step_x0 = {}
+        for s in SIDES:
+            shift = 0.5 if s == "left" else 0.0
+            k = np.floor(cycle.phase + shift)
+            flat = cycle.contact[s] == 2
+            self.step_x0[s] = float(np.mean(cycle.feet[s][flat, 0] - cycle.stride * k[flat]))
         # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
         self.anchors = {s: {} for s in SIDES}
         if transitions is not None:  # the standing feet are footsteps 0
@@ -332,10 +373,15 @@ class GaitController(Effect):
     def anchor(self, side: str, k: int) -> np.ndarray:
         return self.anchors[side].get(k, np.zeros(3))
 
-    def body_anchor(self, t: float) -> np.ndarray:
-        """The anchor of the pelvis and CoM: the stance foot's; across a double support,
-        from the trailing foot's to the leading foot's (starting, the right foot's until the
-        first step lands; stopping, the braking foot's from its foot flat)."""
+    def step_x(self, side: str, k: int) -> float:
+        """The x of a side's footstep k on the cycle's straight line [m]."""
+        return self.step_x0[side] + self.cycle.stride * k
+
+    def body_anchor(self, t: float, x: float = 0.0) -> np.ndarray:
+        """The anchor of the pelvis and of the centre of mass (at x on the cycle's line): the
+        stance foot's (bent along a curve to x); across a double support, from the trailing
+        foot's to the leading foot's (starting, the right foot's until the first step lands;
+        stopping, the braking foot's from its foot flat)."""
         ends = self.ends
         if ends is not None:
             if t <= ends.time(0.5):  # before the first step lands
@@ -345,13 +391,18 @@ class GaitController(Effect):
         steps = {s: self.side_phase(s, t) for s in SIDES}
         lead = min(SIDES, key=lambda s: steps[s][1])  # the foot that landed last
         trail = OTHER[lead]
-        k_lead, psi = steps[lead]
-        a_lead = self.anchor(lead, k_lead)
+
+        def placed(side):
+            k = steps[side][0]
+            x_k = self.step_x(side, k)
+            return bend(self.anchor(side, k), x_k, self.radius, x - x_k)
+
+        psi = steps[lead][1]
+        a_lead = placed(lead)
         if psi >= self.flat:
             return a_lead
-        k_trail = steps[trail][0]
         w = float(smooth_step(psi / self.flat))
-        return (1 - w) * self.anchor(trail, k_trail) + w * a_lead
+        return (1 - w) * placed(trail) + w * a_lead
 
     def landing(self, side: str, k: int) -> pin.SE3:
         """The pose of a side's sole at its heel strike on footstep k, anchored."""
@@ -403,13 +454,23 @@ class GaitController(Effect):
         down = np.array([step[0], step[1], -REACH])  # the anchor's shift, and the reach
         reach = np.array([0.0, 0.0, -REACH])
         p = _apply(a, M_r.translation) + (1 - s5) * e_p + D * h1 * e_v + s5 * reach + b * up
-        v = Rz @ v_r[:3] + ds5 * down - ds5 * e_p + D * dh1 * e_v + db * up
-        acc = Rz @ a_r[:3] + dds5 * down - dds5 * e_p + D * ddh1 * e_v + ddb * up
-        E = pin.exp3((1 - s5) * e_R) @ Rz  # R = E R_r: w = E w_r - s5' e_R
+        # the anchor turns too (a curve's footsteps differ in yaw): Rz(theta) p_r turns at
+        # theta' = s5' dtheta about z; the cycle's point p_r is metres from the origin, so its
+        # turn is most of the foot's speed (left out, the feed-forward was off by 2 m/s and
+        # every curve fell after a few metres)
+        turn = np.array([0.0, 0.0, step[2]])
+        Rp, Rv = Rz @ M_r.translation, Rz @ v_r[:3]
+        v = Rv + ds5 * down - ds5 * e_p + D * dh1 * e_v + db * up + ds5 * np.cross(turn, Rp)
+        acc = (Rz @ a_r[:3] + dds5 * down - dds5 * e_p + D * ddh1 * e_v + ddb * up
+               + dds5 * np.cross(turn, Rp) + 2 * ds5 * np.cross(turn, Rv)
+               + ds5**2 * np.cross(turn, np.cross(turn, Rp)))  # fmt: skip
+        E = pin.exp3((1 - s5) * e_R) @ Rz  # R = E R_r: w = E w_r - s5' e_R (+ the anchor's turn)
         R = E @ M_r.rotation
         w_r = E @ v_r[3:]
-        w = w_r - ds5 * e_R
-        dw = E @ a_r[3:] - dds5 * e_R - ds5 * np.cross(e_R, w_r)
+        spin = pin.exp3((1 - s5) * e_R) @ turn
+        w = w_r - ds5 * e_R + ds5 * spin
+        dw = (E @ a_r[3:] - dds5 * e_R + ds5 * np.cross(spin - e_R, w_r) + dds5 * spin
+              - ds5**2 * np.cross(e_R, spin))  # fmt: skip
         return pin.SE3(R, p), np.concatenate([v, w]), np.concatenate([acc, dw])
 
     def load_share(self, steps, kinds, side_of, loaded) -> np.ndarray | None:
@@ -457,8 +518,13 @@ class GaitController(Effect):
         c_r, dc_r, ddc_r = self.com_reference(t)
         c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
-        A = self.body_anchor(t)
+        A = self.body_anchor(t, float(c_r[0]))
         R_A = _rot(A)
+        if self.radius is not None:  # along a curve, the centre of mass turns with it, on a
+            # circle inside the feet's by v^2 / (R omega^2): the pressure centre that turns it
+            # is then the straight walk's, between the feet (a person leans into a turn)
+            ddc_r = ddc_r + np.array([0.0, dc_r[0] ** 2 / self.radius, 0.0])
+            c_r = c_r + np.array([0.0, dc_r[0] ** 2 / (self.radius * self.omega**2), 0.0])
         c_r, dc_r, ddc_r = _apply(A, c_r), R_A @ dc_r, R_A @ ddc_r
         # balance: the capture point's error moves the swing foot's landing
         xi = c[:2] + dc[:2] / self.omega
@@ -487,7 +553,10 @@ class GaitController(Effect):
         for s in SIDES:
             k, psi = steps[s]
             if kinds[s] == 0:  # swing: land the next footstep k + 1 corrected
-                base = self.anchor(OTHER[s], steps[OTHER[s]][0])
+                k_other = steps[OTHER[s]][0]
+                x_other = self.step_x(OTHER[s], k_other)
+                base = bend(self.anchor(OTHER[s], k_other), x_other, self.radius,
+                            self.step_x(s, k + 1) - x_other)  # fmt: skip
                 if psi < 0.85 + 0.15 * self.off:  # frozen in the last part of the swing
                     shift = g.placement * err
                     norm = np.linalg.norm(shift)
