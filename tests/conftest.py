@@ -97,3 +97,17 @@ def landing_run(duration: float):
         controller=Controller("posture", frequency=8.0),
     )
     return hm.simulate(scene, quiet=True)
+
+
+def assert_heel_to_toe(analysis, strikes: int, stances: int, slip: float = 2e-3) -> None:
+    """A walk's gait analysis: at least ``strikes`` heel strikes and ``stances`` analysed
+    stances, every one heel strike, foot flat, heel off and toe off, its loaded points sliding
+    under ``slip`` [m]."""
+    from humanoid.model import SIDES
+
+    assert sum(len(analysis.events[s]["strike"]) for s in SIDES) >= strikes, analysis.events
+    feet = [f for s in SIDES for f in analysis.feet[s]]
+    assert len(feet) >= stances, feet
+    for f in feet:
+        assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
+        assert f["slip"] < slip, f

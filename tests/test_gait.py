@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import assert_heel_to_toe
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
@@ -85,12 +86,7 @@ def test_the_g1_walks_ten_steps_through_the_same_pipeline():
     walk = walk_on_ground(h, speed=0.6, steps=10)
     assert walk.completed, walk.trajectory.metadata["message"]
     a = analyse(h, walk)
-    assert sum(len(a.events[s]["strike"]) for s in SIDES) >= 10
-    stances = [f for s in SIDES for f in a.feet[s]]
-    assert len(stances) >= 8
-    for f in stances:
-        assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
-        assert f["slip"] < 2e-3, f
+    assert_heel_to_toe(a, strikes=10, stances=8)
     assert 0.55 <= a.summary["speed"] <= 0.70, a.summary["speed"]
     ranges = JointRanges(h)
     assert max(ranges.excess(q).max() for q in walk.record.q[::20]) < 2e-3

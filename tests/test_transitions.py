@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import assert_heel_to_toe
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
@@ -101,11 +102,7 @@ def test_the_body_starts_from_standing_and_stops_standing(male, slow_cycle):
     assert np.abs(rec.v[0]).max() == 0.0
     a = analyse(male, walk)
     assert sum(len(a.events[s]["strike"]) for s in SIDES) == 7
-    stances = [f for s in SIDES for f in a.feet[s]]
-    assert len(stances) >= 5
-    for f in stances:
-        assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
-        assert f["slip"] < 2e-3, f
+    assert_heel_to_toe(a, strikes=7, stances=5)
     data = male.model.createData()
     pin.centerOfMass(male.model, data, rec.q[-1], rec.v[-1])
     assert np.linalg.norm(data.vcom[0]) < 0.01, data.vcom[0]
@@ -130,12 +127,7 @@ def test_the_body_walks_a_curve_of_two_metres_radius(male, slow_cycle):
     assert walk.completed, walk.trajectory.metadata["message"]
     assert walk.relaxed == 0
     a = analyse(male, walk)
-    assert sum(len(a.events[s]["strike"]) for s in SIDES) >= 10
-    stances = [f for s in SIDES for f in a.feet[s]]
-    assert len(stances) >= 8
-    for f in stances:
-        assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
-        assert f["slip"] < 2e-3, f
+    assert_heel_to_toe(a, strikes=10, stances=8)
     rec, data = walk.record, male.model.createData()
     c = np.array([pin.centerOfMass(male.model, data, q)[:2] for q in rec.q[::50]])
     # the circle through the centre of mass's path (algebraic least squares)

@@ -659,7 +659,7 @@ class GaitController(Effect):
         if self.ends is not None:  # starting and stopping: lean to the standing posture
             w = self.ends.standing_weight(t)
             if w > 0.0:
-                q_r = pin.interpolate(model, q_r, self.ends.standing, w)
+                q_r = pin.interpolate(model, q_r, self.ends.q0, w)
                 v_post = (1.0 - w) * v_post
         e = pin.difference(model, q, q_r)[6:]
         task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_post - v[6:]), self.w_posture)

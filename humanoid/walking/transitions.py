@@ -16,16 +16,21 @@ leading one.
 - **The feet.** The body stands with its feet side by side where its reference posture puts
   them; the footsteps of the cycle are carried onto them (the controller's anchors), so the
   first swing takes the left foot from beside the right one to a full step ahead. The braking
-  foot stays flat to the end; the closing foot lands beside it (its footstep moved back by a
-  step length).
+  steps are shortened, each by how far the braking body is behind the cycle's at its heel
+  strike (else the leg cannot reach the floor); the last braking foot stays flat to the end;
+  the closing foot lands beside it (its footstep moved back by a step length).
 - **The centre of mass.** Over the start and over the stop, its path across and along is the
   one whose zero-moment point is nearest (least squares) the cycle's plan -- the standing
   feet's middle before the first step, each stance foot's rolling centre of pressure, the
   middle of the feet once stopped -- among the paths that leave standing still (or the steady
   cycle's centre of mass, position and velocity) and reach the steady cycle's centre of mass
-  at the first step's landing (or the feet's middle, at rest). Its height moves between the
-  standing height and the cycle's along a smooth step. The posture the controller's joints
-  lean to moves the same way between the reference posture and the cycle's.
+  at the second right heel strike (or the feet's middle, at rest). Over the stop the
+  zero-moment point is kept inside the parts of the soles that bear load, and the
+  accelerations are spread over the braking steps (:func:`pendulum_path`, a QP). Its height
+  moves between the standing height and the cycle's along a smooth step (over the stop, the
+  cycle's height where the centre of mass is relative to the footsteps, not when). The
+  posture the controller's joints lean to moves the same way between the reference posture
+  and the cycle's.
 """
 
 from __future__ import annotations
@@ -51,11 +56,12 @@ MERGE = 1.0  # [cycle] the start's plan joins the steady cycle's here
 LEAN = 0.3  # [s] the centre of mass rises to its standing height this long after the clock stops
 SHORTEN_ITERATIONS = 20
 MARGIN = 0.01  # [m] the planned zero-moment point stays this far inside the support
-BRAKE = (
-    1.5  # [cycle] the stop's plan leaves the steady cycle this long before the braking foot lands
-)
-SMOOTH = 10.0  # weight of the accelerations in the stop's plan (1: the braking all fell in the last
-# stance and the body stopping from 1.0 m/s fell; 10: it stops)
+# [cycle] the stop's plan leaves the steady cycle this long before the braking foot lands
+BRAKE = 1.5
+# weight of the accelerations in the stop's plan (at 1 the braking all fell in the last stance
+# and the body stopping from 1.0 m/s fell; at 10 it stops; at 100 and BRAKE 2.5, 5 of 9 stops
+# from 1.0-1.4 m/s, no better than now)
+SMOOTH = 10.0
 
 
 def pendulum_path(p: np.ndarray, omega2: float, dt: float, start: tuple, end: tuple,
@@ -154,7 +160,8 @@ class StartStop:
     """A walk's start from standing and stop standing (see the module docstring).
 
     Attributes:
-        q0: the standing configuration the walk starts from (at rest).
+        q0: the standing configuration the walk starts from (at rest), and the joints' target
+            while standing.
         phase0: the cycle's phase while the weight shifts (the left foot's foot off).
         t_go: when the cycle's clock starts [s]. t_stop: when it stops again. t_end: the walk's
             end (standing still since ``t_stop``).
@@ -164,7 +171,6 @@ class StartStop:
         moved: (side, footstep) -> how far it is moved back [m] from where the footstep before
             it puts it: the braking steps a little each, the closing one a step length.
         start, stop: the centre of mass's plans over the start and the stop.
-        standing: the reference posture's configuration (the joints' target while standing).
         steps: heel strikes, the closing one included. period: the cycle's [s].
         stop_from: when the braking foot is flat [s]. lean_from: when the closing foot lands
             and the centre of mass's height and the joints start leaning to standing again
@@ -182,7 +188,6 @@ class StartStop:
     moved: dict
     start: ComPiece
     stop: ComPiece
-    standing: np.ndarray
     steps: int
     period: float
     stop_from: float
@@ -413,6 +418,6 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
         q0=q0, phase0=phase0, t_go=go, t_stop=t_stop, t_end=t_end, anchors=anchors,
         brake=(b_side, k_b), closing=(c_side, k_c), moved=moved,
         start=start, stop=stop,
-        standing=q0, steps=steps, period=T, stop_from=t_land_b + flat * T,
+        steps=steps, period=T, stop_from=t_land_b + flat * T,
         lean_from=t_lean,
     )  # fmt: skip
