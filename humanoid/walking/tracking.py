@@ -83,6 +83,7 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 OTHER = {"left": "right", "right": "left"}
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
+SOLE_DEPTH = 2e-3  # [m] points of a foot's geometry this far above its sole may bear load
 FLAT_REACH = 0.04  # [m] a foot kept flat (a start's, a stop's) loads its points this close
 REACH = 5e-3  # [m] a foot that should bear and does not touch aims this far into the floor
 LIFT = 0.03  # [m] the swing foot is raised this much above the cycle's path in mid-swing (the
@@ -580,8 +581,15 @@ class GaitController(Effect):
             ok = False
             if near[i]:
                 kind = kinds[side]
-                x = self.data.oMf[self.sole[side]].actInv(points[i])[0] - self.sole_middle[side]
-                ok = kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
+                x, _, z = self.data.oMf[self.sole[side]].actInv(points[i])
+                x -= self.sole_middle[side]
+                # only the sole bears load: a point of the foot's geometry above it (the back
+                # of a heel) that nears the floor as the foot pitches is the plant's to stop;
+                # made to stick, the erd human's heel pulled its back edge onto the floor and
+                # flipped the foot 46 degrees toes up at every heel strike
+                ok = z < SOLE_DEPTH and (
+                    kind == 2 or (kind == 1 and x < 0) or (kind == 3 and x > 0)
+                )
             (loaded if ok else free).append(i)
             if ok:
                 bearing.add(side)
