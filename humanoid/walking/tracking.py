@@ -223,6 +223,24 @@ def ankle_stop(h, chain) -> tuple[int, float, float] | None:
     return (iq, bound, sign) if np.isfinite(bound) else None
 
 
+def footstep_phase(side: str, phase: float) -> tuple[int, float]:
+    """(footstep index, phase within it, 0 at its heel strike) of a side at the cycle's phase
+    (the right heel strikes at whole phases, the left at halves)."""
+    psi = phase + (0.5 if side == "left" else 0.0)
+    k = math.floor(psi)
+    return k, psi - k
+
+
+def contact_kind(gait: dict, psi: float) -> int:
+    """A foot's contact phase at its phase psi within its footstep (see :func:`footstep_phase`):
+    0 swing (from foot off), 1 heel (to the other foot's off), 2 flat (to heel off), 3 toe."""
+    if psi >= gait["foot_off"]:
+        return 0
+    if psi < gait["opposite_foot_off"]:
+        return 1
+    return 2 if psi < gait["heel_off"] else 3
+
+
 def _apply(anchor: np.ndarray, p: np.ndarray) -> np.ndarray:
     """A point moved by an anchor (x, y, yaw: a rotation about z then a shift)."""
     c, s = math.cos(anchor[2]), math.sin(anchor[2])
@@ -340,9 +358,7 @@ class GaitController(Effect):
     # -- the cycle's timing ----------------------------------------------------------------
     def side_phase(self, side: str, t: float) -> tuple[int, float]:
         """(footstep index, phase within it) of a side at t (0 at its heel strike)."""
-        psi = self.player.phase(t) + (0.5 if side == "left" else 0.0)
-        k = math.floor(psi)
-        return k, psi - k
+        return footstep_phase(side, self.player.phase(t))
 
     def com_reference(self, t: float) -> tuple:
         """The planned centre of mass (c, dc, ddc) at t, in the cycle's frame."""
@@ -365,11 +381,7 @@ class GaitController(Effect):
         return set()
 
     def contact_kind(self, psi: float) -> int:
-        if psi >= self.off:
-            return 0
-        if psi < self.flat:
-            return 1
-        return 2 if psi < self.heel_off else 3
+        return contact_kind(self.cycle.gait, psi)
 
     def anchor(self, side: str, k: int) -> np.ndarray:
         return self.anchors[side].get(k, np.zeros(3))

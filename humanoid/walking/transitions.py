@@ -46,6 +46,7 @@ from ..errors import HumanoidError
 from ..model import SIDES
 from .plan import smooth_step
 from .qp import WarmQP
+from .tracking import contact_kind, footstep_phase
 
 __all__ = ["ComPiece", "StartStop", "pendulum_path", "start_stop"]
 
@@ -300,11 +301,14 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     # (the other) beside it at the steps-th; planned in B's frame from the step before B's
     # landing (the body starts braking over the foot before)
     strike = [0.5 * (i + 1) for i in range(steps)]  # the heel strikes' phases (left first)
+
+    def striking(phase) -> tuple[str, int]:
+        """(side, footstep) of the heel strike at ``phase`` (a whole or half number)."""
+        side = "left" if round(2 * phase) % 2 else "right"
+        return side, footstep_phase(side, phase + 0.25)[0]
+
     p_b = strike[-2]
-    b_side = "left" if round(2 * p_b) % 2 else "right"
-    c_side = "right" if b_side == "left" else "left"
-    k_b = int(round(p_b + (0.5 if b_side == "left" else 0.0)))
-    k_c = int(round(strike[-1] + (0.5 if c_side == "left" else 0.0)))
+    (b_side, k_b), (c_side, k_c) = striking(p_b), striking(strike[-1])
     t_stop = time(strike[-1] + flat)
     t_end = t_stop + rest
     t_from = time(p_b - BRAKE + flat)  # braking starts at a double support's end
@@ -315,21 +319,19 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     # step, and the leg did not reach the floor: the foot hovered 2 cm up for 0.2 s, the
     # trailing toe bounced); C lands beside B
     middle = {sd: float(np.mean(h.sole_points(sd)[:, 0])) for sd in SIDES}
-    x_b0, y_b = _footstep(cycle, b_side) + [cycle.stride * k_b, 0.0]
-    x_c, y_c = _footstep(cycle, c_side) + [cycle.stride * k_c, 0.0]
+    step0 = {sd: _footstep(cycle, sd) for sd in SIDES}
+    x_b0, y_b = step0[b_side] + [cycle.stride * k_b, 0.0]
+    x_c, y_c = step0[c_side] + [cycle.stride * k_c, 0.0]
     t_land_b, t_land_c = time(p_b), time(strike[-1])
     c_a, dc_a, _ = cycle.com.at(clock(t_from))
     edges = {sd: (float(h.sole_points(sd)[:, 0].min()), float(h.sole_points(sd)[:, 0].max()))
              for sd in SIDES}  # fmt: skip
-    braking = {}  # (side, footstep) -> its landing phase
-    for ph in strike[:-1]:
-        if ph > clock(t_from):
-            sd = "left" if round(2 * ph) % 2 else "right"
-            braking[(sd, int(round(ph + (0.5 if sd == "left" else 0.0))))] = ph
+    # (side, footstep) -> its landing phase
+    braking = {striking(ph): ph for ph in strike[:-1] if ph > clock(t_from)}
 
     def footstep(sd, k, back) -> float:
         """The x of a side's footstep k, the braking ones moved back by ``back`` [m]."""
-        x = _footstep(cycle, sd)[0] + cycle.stride * k
+        x = step0[sd][0] + cycle.stride * k
         if (sd, k) == (c_side, k_c):
             return x - (x_c - x_b0) - back[(b_side, k_b)]
         return x - back.get((sd, k), 0.0)
@@ -341,10 +343,8 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
         phase = clock(min(ti, t_stop))
         out = {}
         for sd in SIDES:
-            psi = phase + (0.5 if sd == "left" else 0.0)
-            k = math.floor(psi)
-            psi -= k
-            kind = 0 if psi >= off else 1 if psi < flat else 2 if psi < g["heel_off"] else 3
+            k, psi = footstep_phase(sd, phase)
+            kind = contact_kind(g, psi)
             if sd == b_side and ti >= t_land_b + flat * T:  # the braking foot stays flat
                 k, kind = k_b, 2
             if ti >= t_stop:
@@ -353,20 +353,22 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
                 out[sd] = (k, kind, psi)
         return out
 
-    def support_x(ti, back) -> tuple[float, float]:
-        """The x range [m] the loaded parts of the soles span at ti, in the cycle's frame,
-        less MARGIN each end."""
+    bearing = [stance(ti) for ti in t]  # (it does not depend on how far steps move back)
+
+    def support_x(on, back) -> tuple[float, float]:
+        """The x range [m] the loaded parts of the soles ``on`` (a :func:`stance`) span, in the
+        cycle's frame, less MARGIN each end."""
         spans = []
-        for sd, (k, kind, _) in stance(ti).items():
+        for sd, (k, kind, _) in on.items():
             x = footstep(sd, k, back)
             heel, toe = x + edges[sd][0], x + edges[sd][1]
             quarter = 0.25 * (toe - heel)
             spans.append({1: (heel, heel + quarter), 2: (heel, toe), 3: (toe - quarter, toe)}[kind])
         return min(a for a, _ in spans) + MARGIN, max(b for _, b in spans) - MARGIN
 
-    def lead_back(ti, back) -> float:
-        """How far the footstep that landed last is moved back at ti [m]."""
-        on = stance(ti)
+    def lead_back(on, back) -> float:
+        """How far the footstep that landed last among ``on`` (a :func:`stance`) is moved
+        back [m]."""
         sd = min(on, key=lambda x: on[x][2])
         return back.get((sd, on[sd][0]), 0.0)
 
@@ -378,16 +380,16 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
         rest_point = np.array([x_b + 0.5 * (middle[b_side] + middle[c_side]),
                                0.5 * (y_b + y_c)])  # fmt: skip
         p = []
-        for ti in t:
+        for ti, on in zip(t, bearing, strict=True):
             if ti < t_land_b + flat * T:
-                p.append(zmp(clock(ti)) - [lead_back(ti, back), 0.0])
+                p.append(zmp(clock(ti)) - [lead_back(on, back), 0.0])
             else:
                 u = float(smooth_step((ti - t_land_c) / (flat * T))) if ti > t_land_c else 0.0
                 p.append(on_b + u * (rest_point - on_b))
         lo = np.full((len(t), 2), -np.inf)
         hi = np.full((len(t), 2), np.inf)
-        for i, ti in enumerate(t):
-            lo[i, 0], hi[i, 0] = support_x(ti, back)
+        for i, on in enumerate(bearing):
+            lo[i, 0], hi[i, 0] = support_x(on, back)
         xy = pendulum_path(np.array(p), omega2, SAMPLE, (c_a[:2], dc_a[:2]),
                            (rest_point, np.zeros(2)), bounds=(lo, hi), smooth=SMOOTH)  # fmt: skip
         before = dict(back)
@@ -405,7 +407,7 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     # the stance leg could not reach the floor (the foot hovered, toes up, its heel loaded)
     grid = np.linspace(clock(t_from) - 0.5, clock(t_end) + 0.5, 2000)
     x_grid, z_grid = np.array([cycle.com.at(ph)[0][[0, 2]] for ph in grid]).T
-    x_eff = xy[:, 0] + np.array([lead_back(ti, back) for ti in t])
+    x_eff = xy[:, 0] + np.array([lead_back(on, back) for on in bearing])
     z_cyc = np.interp(x_eff, x_grid, z_grid)
     z = (1 - w) * z_cyc + w * c_stand[2]
     # the controller moves each footstep back by its own share (the anchors chain)
