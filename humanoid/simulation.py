@@ -188,6 +188,22 @@ class Simulation:
             self.ranges = JointRanges(h)
         return ContactSolver(self.model, ground, self.ranges, settings)
 
+    def legs(self) -> dict:
+        """Each side's leg: the joints from its hip down to its sole (the subtree of the root's
+        child on the way to the sole), or {} for a body without two soles."""
+        model, out = self.model, {}
+        for side in ("left", "right"):
+            try:
+                j = model.frames[self.h.sole_id(side)].parentJoint
+            except HumanoidError:
+                return {}
+            while j > 0 and model.parents[j] > 1:
+                j = model.parents[j]
+            if j <= 1:
+                return {}
+            out[side] = np.array(model.subtrees[j], dtype=int)
+        return out
+
     def ground_step_advance(self, t: float, q, v, dt: float):
         """One velocity-level step: v_free = v + dt a(q, v) without contacts, the contact
         impulses of the ground and of the joint ranges, v+ = v_free + M^-1 J^T lambda,
@@ -520,7 +536,8 @@ class Simulation:
         dt = scene.dt
         n_steps = self.n_steps
         every = max(1, int(round(1.0 / (scene.record_rate * dt))))
-        rec = Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None)
+        rec = Recorder(n_steps // every + 1, model, self.contacts, self.ground is not None,
+                       self.legs())  # fmt: skip
         t, q, v = 0.0, self.q0.copy(), self.v0.copy()
         x, xd = self.cmap.from_tangent(q, v) if self.coordinates else (q, v)
         status, message = "completed", ""

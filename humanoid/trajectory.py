@@ -152,7 +152,7 @@ class Progress:
 class Recorder:
     """Preallocated record arrays."""
 
-    def __init__(self, n: int, model, contacts, ground: bool = False) -> None:
+    def __init__(self, n: int, model, contacts, ground: bool = False, legs=None) -> None:
         self.n = 0
         self.velocity_residual = 0.0  # largest |J v| of the active constraints at the records
         self.t = np.zeros(n)
@@ -165,6 +165,13 @@ class Recorder:
         if ground:
             # total ground force and its moment about the world origin, world axes [N, N m]
             self.forces["ground"] = np.zeros((n, 6))
+            # the floor's force on each leg (the joints from its hip down) and its moment about
+            # the world origin, the impulses at their own points (an exact wrench: what inverse
+            # dynamics applies), and the joint ranges' moments in generalised coordinates
+            self.legs = legs or {}
+            for side in self.legs:
+                self.forces[f"ground_{side}"] = np.zeros((n, 6))
+            self.forces["joint_ranges"] = np.zeros((n, model.nv))
         for c in contacts:
             self.forces[c.side] = np.full((n, 6), np.nan)
             if c.spec.kind == "points":
@@ -186,6 +193,14 @@ class Recorder:
         found = getattr(sim, "ground_step", None)
         if found is not None and "ground" in self.forces:
             self.forces["ground"][i] = found.wrench / sim.scene.dt
+            for side, joints in self.legs.items():
+                mine = np.isin(found.joints, joints)
+                f, p = found.impulses[mine] / sim.scene.dt, found.points[mine]
+                self.forces[f"ground_{side}"][i] = np.concatenate(
+                    [f.sum(axis=0), np.cross(p, f).sum(axis=0)]
+                )
+            if found.limit_generalized is not None:
+                self.forces["joint_ranges"][i] = found.limit_generalized / sim.scene.dt
         constraints = sim.active_constraints()
         if constraints:
             sim.kinematics(q, v)

@@ -261,7 +261,8 @@ def walk_duration(cycle: GaitCycle, steps: int, phase0: float = PHASE0) -> float
 
 def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None, gains=None,
                    dt: float = 1e-3, mu: float = 0.8, pushes=(), quiet: bool = True,
-                   from_standing: bool = False, radius: float | None = None):  # fmt: skip
+                   from_standing: bool = False, radius: float | None = None,
+                   record_rate: float = 100.0):  # fmt: skip
     """Simulate ``h`` walking ``steps`` steps on the rigid ground (see the module docstring).
 
     Args:
@@ -273,7 +274,8 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
         from_standing: Start standing still in the reference posture and stop standing
         (:mod:`~humanoid.walking.transitions`; the last of ``steps`` brings the feet together).
         radius: Walk along a circle of this radius [m] (positive turns left; default straight
-        ahead).
+        ahead). record_rate: The trajectory's samples per second (``1 / dt``: every step, as
+        inverse dynamics needs to give back the controller's torques exactly).
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
     swing), unless ``from_standing``, and stops as failed at a fall; what it recorded up to
@@ -290,7 +292,7 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints,
         duration=ends.t_end if ends else walk_duration(cycle, steps), dt=dt,
-        integrator="semi_implicit_euler", record_rate=100.0,
+        integrator="semi_implicit_euler", record_rate=record_rate,
         effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu), pushes=tuple(pushes)),
     )  # fmt: skip

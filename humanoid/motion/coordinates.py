@@ -1,0 +1,544 @@
+"""Joint coordinates in and out: OpenSim's gait models' coordinates and the toolkit's bodies.
+
+A motion from OpenSim (an IK result ``.mot``) names the coordinates of the model it was solved
+on. OpenSim's world is Y up (X forward, Z right); ours is z up (x forward, y left), so a
+rotation about their axis ``a`` is one about ours ``C a`` (:data:`~humanoid.motion.loads.
+OPENSIM_TO_OURS`): their Z (right) is our -y, their X our x, their Y our z. A joint with three
+coordinates is a body-fixed sequence (rotation 1, then 2 about the turned axis, then 3: how
+OpenSim's CustomJoint composes them, Simbody's ``FunctionBased`` mobilizer), which becomes one
+quaternion of a ball joint here: no gimbal lock on the way in.
+
+The built-in maps (:data:`MAPS`), onto the toolkit's bodies (``humanoid build``):
+
+=========================  ======================  =========================================
+OpenSim coordinates        body joint              axes, ours (sequence) and sign
+=========================  ======================  =========================================
+pelvis_tilt, _list,        root (free flyer)       -y, x, z; the root at the model's hip
+_rotation; pelvis_tx,                              centres' midpoint (pelvis frame offset
+_ty, _tz                                           below), tx, ty, tz -> x, z, -y [m]
+hip_flexion_r, _adduction  right_hip (ball)        -y, x, z
+_r, _rotation_r
+hip_flexion_l, ...         left_hip (ball)         -y, -x, -z
+knee_angle_r / _l          right_knee / left_knee  gait2354/2392: -1 (their flexion is
+                                                   negative); Rajagopal: +1
+ankle_angle_r / _l         *_ankle_flexion         +1 (dorsiflexion; their axis is 10 and 6
+                                                   degrees off the lateral axis, ours on it)
+subtalar_angle_r / _l      *_ankle_inversion       +1 (inversion; their axis is oblique,
+                                                   ours the foot's long axis)
+lumbar_extension,          lumbar and thoracic     -y, x, z; split equally between the two
+_bending, _rotation        (balls)                 (each half the rotation), unless the
+                                                   file has thoracic_* (then lumbar only)
+arm_flex_r, arm_add_r,     right_shoulder (ball)   -y, x, z (left: -y, -x, -z); Rajagopal's
+arm_rot_r                                          names, read and written with every map
+elbow_flex_r / _l          *_elbow                 +1
+wrist_flex_r, wrist_dev_r  *_wrist_flexion,        +1, -1 (their hand is in the anatomical
+                           *_wrist_deviation       position, palm forward; ours palm in)
+=========================  ======================  =========================================
+
+Not mapped, listed in a warning: ``mtp_angle`` (the body's foot is one segment), ``pro_sup``
+(no forearm rotation), Rajagopal's knee ``_beta`` and anything else. The body's own extras are
+written with names of the same form and read back: ``thoracic_extension, _bending,
+_rotation`` and ``neck_extension, _bending, _rotation`` (-y, x, z). A body's coordinates written
+with a map and read back with it give back the configuration to rounding.
+
+A user map (TOML, :func:`read_map`) names the body's joints and the file's columns::
+
+    name = "my lab's model"
+    knee_sign_check = false            # optional
+    [root]
+    rotation = ["pelvis_tilt", "pelvis_list", "pelvis_rotation"]
+    rotation_axes = ["-y", "x", "z"]
+    translation = ["pelvis_tx", "pelvis_ty", "pelvis_tz"]
+    translation_axes = ["x", "z", "-y"]
+    offset = [-0.0707, 0.0, -0.0661]   # the body's root in the file's pelvis frame, ours [m]
+    [joints.right_knee]
+    columns = ["knee_angle_r"]
+    signs = [-1]
+    [joints.right_hip]
+    columns = ["hip_flexion_r", "hip_adduction_r", "hip_rotation_r"]
+    axes = ["-y", "x", "z"]
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError
+from .storage import MotionFileError, Table
+
+__all__ = [
+    "MAPS",
+    "CoordinateMap",
+    "JointMap",
+    "RootMap",
+    "UnmappedWarning",
+    "configurations",
+    "coordinates_table",
+    "guess_map",
+    "read_map",
+]
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+class UnmappedWarning(UserWarning):
+    """Columns of a motion file that no joint of the body takes."""
+
+
+def _axis(text: str) -> np.ndarray:
+    text = text.strip().lower()
+    sign = -1.0 if text.startswith("-") else 1.0
+    name = text.lstrip("+-")
+    if name not in _AXES:
+        raise HumanoidError(f"an axis is one of x, y, z with an optional sign, got {text!r}")
+    a = np.zeros(3)
+    a[_AXES[name]] = sign
+    return a
+
+
+@dataclass(frozen=True)
+class JointMap:
+    """Columns of a motion file that set joints of the body.
+
+    Attributes:
+        joints: The body's joint(s); several (a spine): the rotation is split equally.
+        columns: The file's coordinates, in the order of the sequence.
+        axes: For a ball joint, each column's rotation axis (``"x"``, ``"-y"``...: the body's
+            frame, x forward, y left, z up), a body-fixed sequence. For a one-axis joint,
+            ``signs`` instead. signs: The factor from the file's value to the joint's.
+    """
+
+    joints: tuple[str, ...]
+    columns: tuple[str, ...]
+    axes: tuple[str, ...] = ()
+    signs: tuple[float, ...] = ()
+
+    @property
+    def ball(self) -> bool:
+        return bool(self.axes)
+
+
+@dataclass(frozen=True)
+class RootMap:
+    """The free flyer's columns: its rotation (a body-fixed sequence, like a ball joint's)
+    and translation (each column along a signed axis of ours), and where the body's root is
+    in the file's pelvis frame (``offset``, our axes) [m]."""
+
+    rotation: tuple[str, ...]
+    rotation_axes: tuple[str, ...]
+    translation: tuple[str, ...]
+    translation_axes: tuple[str, ...]
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class CoordinateMap:
+    """A motion file's coordinates onto a body (see the module docstring)."""
+
+    name: str
+    root: RootMap
+    joints: tuple[JointMap, ...]
+    ignored: tuple[str, ...] = ()  # known columns the body has no joint for
+    extras: tuple[JointMap, ...] = field(default=())  # the body's own extra coordinates
+
+    def columns(self) -> set[str]:
+        out = set(self.root.rotation) | set(self.root.translation)
+        for j in self.joints + self.extras:
+            out |= set(j.columns)
+        return out
+
+
+def _side(s: str) -> str:
+    return "right" if s == "r" else "left"
+
+
+def _legs(knee_sign: float) -> list[JointMap]:
+    out = []
+    for s in "rl":
+        side = _side(s)
+        m = "" if s == "r" else "-"
+        out += [
+            JointMap(
+                (f"{side}_hip",),
+                (f"hip_flexion_{s}", f"hip_adduction_{s}", f"hip_rotation_{s}"),
+                ("-y", f"{m}x", f"{m}z"),
+            ),  # fmt: skip
+            JointMap((f"{side}_knee",), (f"knee_angle_{s}",), signs=(knee_sign,)),
+            JointMap((f"{side}_ankle_flexion",), (f"ankle_angle_{s}",), signs=(1.0,)),
+            JointMap((f"{side}_ankle_inversion",), (f"subtalar_angle_{s}",), signs=(1.0,)),
+        ]
+    return out
+
+
+def _arms() -> list[JointMap]:
+    out = []
+    for s in "rl":
+        side = _side(s)
+        m = "" if s == "r" else "-"
+        out += [
+            JointMap(
+                (f"{side}_shoulder",),
+                (f"arm_flex_{s}", f"arm_add_{s}", f"arm_rot_{s}"),
+                ("-y", f"{m}x", f"{m}z"),
+            ),  # fmt: skip
+            JointMap((f"{side}_elbow",), (f"elbow_flex_{s}",), signs=(1.0,)),
+            JointMap((f"{side}_wrist_flexion",), (f"wrist_flex_{s}",), signs=(1.0,)),
+            JointMap((f"{side}_wrist_deviation",), (f"wrist_dev_{s}",), signs=(-1.0,)),
+        ]
+    return out
+
+
+_BACK = ("lumbar_extension", "lumbar_bending", "lumbar_rotation")
+_THORACIC = ("thoracic_extension", "thoracic_bending", "thoracic_rotation")
+_NECK = ("neck_extension", "neck_bending", "neck_rotation")
+_SEQ = ("-y", "x", "z")  # OpenSim's Z, X, Y in our axes
+_ROOT_COLUMNS = dict(
+    rotation=("pelvis_tilt", "pelvis_list", "pelvis_rotation"), rotation_axes=_SEQ,
+    translation=("pelvis_tx", "pelvis_ty", "pelvis_tz"), translation_axes=("x", "z", "-y"),
+)  # fmt: skip
+_EXTRAS = (JointMap(("thoracic",), _THORACIC, _SEQ), JointMap(("neck",), _NECK, _SEQ))
+_IGNORED = ("mtp_angle_r", "mtp_angle_l", "pro_sup_r", "pro_sup_l", "knee_angle_r_beta",
+            "knee_angle_l_beta")  # fmt: skip
+
+
+def _map(name: str, knee_sign: float, hips: tuple[float, float, float]):
+    # hips: the hip centres' midpoint in the unscaled model's pelvis frame (theirs, Y up)
+    offset = tuple(float(x) for x in np.array([hips[0], -hips[2], hips[1]]))
+    return CoordinateMap(
+        name, RootMap(offset=offset, **_ROOT_COLUMNS),
+        tuple(_legs(knee_sign) + [JointMap(("lumbar", "thoracic"), _BACK, _SEQ)] + _arms()),
+        _IGNORED, _EXTRAS,
+    )  # fmt: skip
+
+
+# hip offsets from the models' .osim files (opensim-models: gait2354/gait2392 pelvis
+# (-0.0707, -0.0661, +-0.0835), Rajagopal2016 (-0.056276, -0.07849, +-0.07726))
+MAPS = {
+    "gait2392": _map("gait2392", -1.0, (-0.0707, -0.0661, 0.0)),
+    "gait2354": _map("gait2354", -1.0, (-0.0707, -0.0661, 0.0)),
+    "rajagopal": _map("rajagopal", 1.0, (-0.056276, -0.07849, 0.0)),
+}
+
+
+def coordinate_name(label: str) -> str:
+    """A column's coordinate name: OpenSim 4's state paths (``/jointset/hip_r/hip_flexion_r/
+    value``) by their coordinate; anything else as it is."""
+    parts = [p for p in label.split("/") if p]
+    if len(parts) >= 2 and parts[-1] == "value":
+        return parts[-2]
+    return label
+
+
+def guess_map(table: Table) -> CoordinateMap:
+    """The built-in map a file's columns fit: by its knees (gait2354/2392's bend negative,
+    Rajagopal's positive: the sign of the median), else Rajagopal's if it has arms, else
+    gait2392's."""
+    names = [coordinate_name(x) for x in table.labels]
+    knees = [table.data[:, i] for i, x in enumerate(names) if x in ("knee_angle_r", "knee_angle_l")]
+    if knees:
+        median = float(np.median(np.concatenate(knees)))
+        return MAPS["rajagopal" if median > 0.0 else "gait2392"]
+    if {"arm_flex_r", "arm_flex_l"} & set(names):
+        return MAPS["rajagopal"]
+    return MAPS["gait2392"]
+
+
+def read_map(path: str | Path) -> CoordinateMap:
+    """A user map from TOML (see the module docstring).
+
+    Raises:
+        HumanoidError: missing file, bad TOML, a joint without columns, axes and columns of
+            different lengths, an axis that is not one of x, y, z.
+    """
+    path = Path(path)
+    try:
+        spec = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise HumanoidError(f"map file not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+    unknown = set(spec) - {"name", "root", "joints", "ignored"}
+    if unknown:
+        raise HumanoidError(f"{path}: unknown keys {sorted(unknown)} (name, root, joints, ignored)")
+    root = spec.get("root")
+    if not isinstance(root, dict):
+        raise HumanoidError(f"{path}: a [root] table is required (rotation, translation ...)")
+    try:
+        root_map = RootMap(
+            tuple(root["rotation"]), tuple(root["rotation_axes"]), tuple(root["translation"]),
+            tuple(root["translation_axes"]), tuple(float(x) for x in root.get("offset", (0, 0, 0))),
+        )  # fmt: skip
+    except KeyError as exc:
+        raise HumanoidError(f"{path}: [root] needs {exc.args[0]!r}") from None
+    joints = []
+    for name, j in (spec.get("joints") or {}).items():
+        cols = tuple(j.get("columns", ()))
+        names = tuple(j["joints"]) if "joints" in j else (name,)
+        jm = JointMap(
+            names, cols, tuple(j.get("axes", ())), tuple(float(s) for s in j.get("signs", ()))
+        )
+        if not cols or len(jm.axes or jm.signs) != len(cols) or (jm.axes and jm.signs):
+            raise HumanoidError(
+                f"{path}: joints.{name}: give 'columns' and, one per column, 'axes' (a ball "
+                "joint) or 'signs' (a one-axis joint)"
+            )
+        joints.append(jm)
+    for jm in [*joints, JointMap(("root",), root_map.rotation, root_map.rotation_axes)]:
+        for a in jm.axes:
+            _axis(a)
+    return CoordinateMap(str(spec.get("name", path.stem)), root_map, tuple(joints),
+                         tuple(spec.get("ignored", ())))  # fmt: skip
+
+
+def _sequence(values: np.ndarray, axes) -> np.ndarray:
+    """The rotation of a body-fixed sequence: R = R(a1, v1) R(a2, v2) R(a3, v3)."""
+    R = np.eye(3)
+    for v, a in zip(values, axes, strict=True):
+        R = R @ pin.exp3(_axis(a) * float(v))
+    return R
+
+
+def _angles(R: np.ndarray, axes) -> np.ndarray:
+    """The angles of a body-fixed sequence of three distinct (signed) axes that give R."""
+    from scipy.spatial.transform import Rotation
+
+    vecs = [_axis(a) for a in axes]
+    letters = "".join("XYZ"[int(np.flatnonzero(v)[0])] for v in vecs)
+    if len(set(letters)) != 3:
+        raise HumanoidError(f"a rotation sequence needs three different axes, got {axes}")
+    signs = np.array([v.sum() for v in vecs])
+    return Rotation.from_matrix(R).as_euler(letters) * signs
+
+
+def _joint(model, name: str) -> int:
+    if not model.existJointName(name):
+        raise HumanoidError(
+            f"the map names joint {name!r}, which this body does not have: the built-in maps "
+            "are for the toolkit's bodies (humanoid build); give a map of your own (TOML)"
+        )
+    return model.getJointId(name)
+
+
+def _set_rotation(model, q, joint: int, R: np.ndarray) -> None:
+    j = model.joints[joint]
+    if j.nq == 4:  # a ball joint: its quaternion (x, y, z, w)
+        q[j.idx_q : j.idx_q + 4] = pin.Quaternion(R).coeffs()
+    else:
+        raise HumanoidError(f"joint {model.names[joint]!r} is not a ball joint ({j.shortname()})")
+
+
+def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor: bool = True,
+                   degrees: bool | None = None) -> tuple[np.ndarray, np.ndarray, list]:  # fmt: skip
+    """The body's configurations over a coordinate file's times.
+
+    Args:
+        h: The body. table: The coordinates (:func:`~humanoid.motion.storage.read_storage`).
+        cmap: The map (default :func:`guess_map`). floor: Move the motion up or down so that
+            its lowest sole point over the whole motion is on the floor (z = 0): the body is
+            not the model the motion was solved on, and its legs are not that model's length.
+        degrees: Whether the angles are in degrees (default: the file's ``inDegrees``, else
+            yes, as OpenSim writes coordinates).
+
+    Returns:
+        (time, q (n, nq), the file's columns no joint takes). Those are also warned about
+        (:class:`UnmappedWarning`), and joints no column sets stay at the body's standing
+        posture.
+
+    Raises:
+        HumanoidError: a mapped joint missing from the body; MotionFileError: a column the
+            map needs missing from the file (the root's rotation and translation are needed).
+    """
+    model = h.model
+    cmap = cmap or guess_map(table)
+    cols = {coordinate_name(x): table.data[:, i] for i, x in enumerate(table.labels)}
+    if len(cols) != len(table.labels):
+        raise MotionFileError(f"{table.source}: two columns name the same coordinate")
+    in_degrees = degrees if degrees is not None else (table.in_degrees is not False)
+    scale = math.pi / 180.0 if in_degrees else 1.0
+    for name in (*cmap.root.rotation, *cmap.root.translation):
+        if name not in cols:
+            raise MotionFileError(
+                f"{table.source or 'the motion'}: the {cmap.name} map needs column {name!r} (the "
+                f"pelvis); the file has {', '.join(sorted(cols)[:30])}"
+            )
+    for jm in cmap.joints:  # a map is for one kind of body: all of its joints, or none
+        for name in jm.joints:
+            _joint(model, name)
+    n = len(table.time)
+    q = np.tile(h.standing_configuration(), (n, 1))
+    used = set(cmap.root.rotation) | set(cmap.root.translation)
+    extras = {j.joints[0]: j for j in cmap.extras if all(c in cols for c in j.columns)}
+    for jm in (*cmap.joints, *extras.values()):
+        present = [c in cols for c in jm.columns]
+        if not any(present):
+            continue
+        if not all(present):
+            missing = [c for c, p in zip(jm.columns, present, strict=True) if not p]
+            raise MotionFileError(f"{table.source}: {jm.joints} needs {missing} too")
+        used |= set(jm.columns)
+        ids = [_joint(model, name) for name in jm.joints]
+        if "thoracic" in extras and len(ids) > 1 and "thoracic" in jm.joints:
+            ids = ids[:1]  # the file has the thoracic's own: lumbar_* is the lumbar's alone
+        values = np.column_stack([cols[c] for c in jm.columns]) * scale
+        if jm.ball:
+            for i in range(n):
+                R = _sequence(values[i], jm.axes)
+                if len(ids) > 1:  # split equally along the rotation
+                    R = pin.exp3(pin.log3(R) / len(ids))
+                for j in ids:
+                    _set_rotation(model, q[i], j, R)
+        else:
+            for j, s in zip(ids, jm.signs, strict=False):
+                q[:, model.joints[j].idx_q] = s * values[:, 0]
+    # the root: its rotation, and its position (the file's pelvis origin, moved to ours)
+    rot = np.column_stack([cols[c] for c in cmap.root.rotation]) * scale
+    axes_t = np.array([_axis(a) for a in cmap.root.translation_axes])
+    trans = np.column_stack([cols[c] for c in cmap.root.translation]) @ axes_t
+    offset = np.array(cmap.root.offset)
+    for i in range(n):
+        R = _sequence(rot[i], cmap.root.rotation_axes)
+        q[i, :3] = trans[i] + R @ offset
+        q[i, 3:7] = pin.Quaternion(R).coeffs()
+    if floor:
+        q[:, 2] -= _lowest_sole(h, q)
+    unmapped = [x for x in cols if x not in used and x not in cmap.ignored]
+    skipped = [x for x in cols if x not in used and x in cmap.ignored]
+    if unmapped or skipped:
+        warnings.warn(
+            f"{table.source or 'motion'}: columns the body has no joint for, left out: "
+            f"{', '.join(skipped + unmapped)}",
+            UnmappedWarning,
+            stacklevel=2,
+        )
+    return table.time.copy(), q, skipped + unmapped
+
+
+def _lowest_sole(h, q: np.ndarray) -> float:
+    """The lowest height any sole point reaches over the configurations."""
+    model = h.model
+    data = model.createData()
+    points = {s: h.sole_points(s) for s in ("left", "right")}
+    low = math.inf
+    for qi in q:
+        pin.framesForwardKinematics(model, data, qi)
+        for s, p in points.items():
+            M = data.oMf[h.sole_id(s)]
+            low = min(low, float((p @ M.rotation.T + M.translation)[:, 2].min()))
+    return low
+
+
+def coordinates_table(h, time, q, cmap: CoordinateMap | str = "rajagopal",
+                      degrees: bool = True, name: str = "Coordinates") -> Table:  # fmt: skip
+    """The body's configurations as a coordinate file of ``cmap``'s names (OpenSim's), plus
+    the body's own extras (``thoracic_*``, ``neck_*``): the inverse of :func:`configurations`
+    (with ``floor=False``)."""
+    model = h.model
+    cmap = MAPS[cmap] if isinstance(cmap, str) else cmap
+    q = np.asarray(q, dtype=float).reshape(len(time), model.nq)
+    scale = 180.0 / math.pi if degrees else 1.0
+    data = model.createData()
+    labels, cols = [], []
+    rot = np.zeros((len(q), 3))
+    trans = np.zeros((len(q), 3))
+    axes_t = np.array([_axis(a) for a in cmap.root.translation_axes])
+    offset = np.array(cmap.root.offset)
+    for i, qi in enumerate(q):
+        R = pin.Quaternion(qi[3:7]).normalized().toRotationMatrix()
+        rot[i] = _angles(R, cmap.root.rotation_axes)
+        trans[i] = axes_t @ (qi[:3] - R @ offset)
+    labels += [*cmap.root.rotation, *cmap.root.translation]
+    cols += [rot * scale, trans]
+    has = {j.joints[0] for j in cmap.extras if all(model.existJointName(n) for n in j.joints)}
+    for jm in (*cmap.joints, *[j for j in cmap.extras if j.joints[0] in has]):
+        if not all(model.existJointName(n) for n in jm.joints):
+            continue
+        ids = [model.getJointId(n) for n in jm.joints]
+        if "thoracic" in has and len(ids) > 1 and "thoracic" in jm.joints:
+            ids = ids[:1]
+        if jm.ball:
+            values = np.zeros((len(q), 3))
+            for i, qi in enumerate(q):
+                R = np.eye(3)
+                for j in ids:
+                    k = model.joints[j].idx_q
+                    R = R @ pin.Quaternion(qi[k : k + 4]).normalized().toRotationMatrix()
+                values[i] = _angles(R, jm.axes)
+            cols.append(values * scale)
+        else:
+            cols.append(np.column_stack([q[:, model.joints[ids[0]].idx_q] * jm.signs[0]])
+                        * scale)  # fmt: skip
+        labels += list(jm.columns)
+    del data
+    return Table(np.asarray(time, dtype=float), labels, np.hstack(cols), degrees, name)
+
+
+def _sequence_axes(values: np.ndarray, axes) -> np.ndarray:
+    """The rotation axes of a body-fixed sequence at ``values``, in the parent's frame, (3, 3)
+    one per row: the i-th turned by the rotations before it."""
+    R, out = np.eye(3), []
+    for v, a in zip(values, axes, strict=True):
+        out.append(R @ _axis(a))
+        R = R @ pin.exp3(_axis(a) * float(v))
+    return np.array(out)
+
+
+def generalized_forces_table(h, time, q, tau, cmap: CoordinateMap | str = "rajagopal",
+                             name: str = "Inverse Dynamics") -> Table:  # fmt: skip
+    """Generalised forces ``tau`` (n, nv: a joint's moment about its own axes, a ball joint's
+    in its child frame) as the forces of ``cmap``'s coordinates, named as OpenSim's inverse
+    dynamics names them (``hip_flexion_r_moment``, ``pelvis_tx_force``...): for a sequence of
+    rotations, the moment projected on each rotation's axis (the force that does the same
+    work through that coordinate); for a one-axis joint its moment times the map's sign; for
+    the root, the residual force along each translation axis and the residual moment about the
+    file's pelvis origin projected as for a ball joint."""
+    model = h.model
+    cmap = MAPS[cmap] if isinstance(cmap, str) else cmap
+    coords = coordinates_table(h, time, q, cmap, degrees=False)
+    cols = {x: coords.data[:, i] for i, x in enumerate(coords.labels)}
+    tau = np.asarray(tau, dtype=float).reshape(len(time), model.nv)
+    n = len(time)
+    labels, out = [], []
+    # the root: its spatial force in its own frame at its origin, to world axes about the
+    # file's pelvis origin
+    rot = np.column_stack([cols[c] for c in cmap.root.rotation])
+    axes_t = np.array([_axis(a) for a in cmap.root.translation_axes])
+    offset = np.array(cmap.root.offset)
+    forces, moments = np.zeros((n, 3)), np.zeros((n, 3))
+    for i in range(n):
+        R = pin.Quaternion(q[i, 3:7]).normalized().toRotationMatrix()
+        F, M = R @ tau[i, :3], R @ tau[i, 3:6]
+        M = M + np.cross(R @ offset, F)  # about the file's pelvis origin
+        forces[i] = axes_t @ F
+        moments[i] = _sequence_axes(rot[i], cmap.root.rotation_axes) @ M
+    labels += [f"{c}_moment" for c in cmap.root.rotation]
+    labels += [f"{c}_force" for c in cmap.root.translation]
+    out += [moments, forces]
+    has = {j.joints[0] for j in cmap.extras if all(model.existJointName(x) for x in j.joints)}
+    for jm in (*cmap.joints, *[j for j in cmap.extras if j.joints[0] in has]):
+        if not all(model.existJointName(x) for x in jm.joints):
+            continue
+        j = model.getJointId(jm.joints[0])
+        iv = model.joints[j].idx_v
+        if jm.ball:
+            values = np.column_stack([cols[c] for c in jm.columns])
+            Q = np.zeros((n, 3))
+            k = model.joints[j].idx_q
+            for i in range(n):
+                # the moment in the joint's frame on its parent (the sequence's frame)
+                M = (
+                    pin.Quaternion(q[i, k : k + 4]).normalized().toRotationMatrix()
+                    @ tau[i, iv : iv + 3]
+                )
+                Q[i] = _sequence_axes(values[i], jm.axes) @ M
+            out.append(Q)
+        else:
+            out.append(tau[:, iv : iv + 1] * jm.signs[0])
+        labels += [f"{c}_moment" for c in jm.columns]
+    return Table(np.asarray(time, dtype=float), labels, np.hstack(out), False, name)

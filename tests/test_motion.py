@@ -1,0 +1,471 @@
+"""Motion files, external loads and inverse dynamics (humanoid.motion)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import BODIES, get_model
+
+import humanoid as hm
+from humanoid.motion import MotionFileError, Table, read_storage, write_csv, write_storage
+from humanoid.motion.inverse_dynamics import inverse_dynamics, joint_labels, lowpass
+from humanoid.motion.loads import OPENSIM_TO_OURS, Load, read_loads, read_loads_xml, write_loads
+
+OPENSIM_IK = """Coordinates
+version=1
+nRows=3
+nColumns=4
+inDegrees=yes
+
+Units are S.I. units (second, meters, Newtons, ...)
+Angles are in degrees.
+
+endheader
+time	pelvis_tilt	knee_angle_r	pelvis_ty
+0.00000000	-2.50000000	-4.10000000	0.95000000
+0.01000000	-2.60000000	-4.30000000	0.95100000
+0.02000000	-2.70000000	-4.50000000	0.95200000
+"""
+
+
+def test_storage_reads_opensim_layout(tmp_path):
+    path = tmp_path / "ik.mot"
+    path.write_text(OPENSIM_IK)
+    t = read_storage(path)
+    assert t.in_degrees is True and t.name == "Coordinates"
+    assert t.labels == ["pelvis_tilt", "knee_angle_r", "pelvis_ty"]
+    np.testing.assert_array_equal(t.time, [0.0, 0.01, 0.02])
+    np.testing.assert_array_equal(t.column("knee_angle_r"), [-4.1, -4.3, -4.5])
+    assert t.rate == pytest.approx(100.0)
+
+
+def test_storage_opensim4_header_and_whitespace(tmp_path):
+    path = tmp_path / "a.sto"
+    path.write_text(
+        "version=1\nnRows=2\nnColumns=2\ninDegrees=no\nDataType=double\nversion=3\n"
+        "OpenSimVersion=4.5\nendheader\ntime a\n0 1.5\n0.5 2.5\n"
+    )
+    t = read_storage(path)
+    assert t.in_degrees is False and t.header["OpenSimVersion"] == "4.5"
+    np.testing.assert_array_equal(t.data[:, 0], [1.5, 2.5])
+
+
+def test_storage_round_trip_is_exact(tmp_path):
+    rng = np.random.default_rng(3)
+    t = Table(np.arange(5) * 0.01, ["a", "b", "c"], rng.normal(size=(5, 3)) * 1e3, False, "x")
+    back = read_storage(write_storage(tmp_path / "x.sto", t))
+    np.testing.assert_array_equal(back.data, t.data)
+    np.testing.assert_array_equal(back.time, t.time)
+    assert back.labels == t.labels and back.in_degrees is False
+    lines = write_csv(tmp_path / "x.csv", t).read_text().splitlines()
+    assert lines[0] == "time,a,b,c" and len(lines) == 6
+    np.testing.assert_array_equal(np.loadtxt(tmp_path / "x.csv", delimiter=",", skiprows=1)[:, 1:],
+                                  t.data)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("version=1\ntime\ta\n0\t1\n", "endheader"),
+        ("endheader\nt\ta\n0\t1\n", "first column must be 'time'"),
+        ("endheader\ntime\ta\n0\t1\t2\n", "3 values for 2 columns"),
+        ("endheader\ntime\ta\n0\tx\n", "not a number"),
+        ("endheader\ntime\ta\n0\t1\n0\t2\n", "time does not increase"),
+        ("endheader\ntime\ta\ta\n0\t1\t2\n", "repeated column labels"),
+    ],
+)
+def test_storage_errors_name_the_problem(tmp_path, text, message):
+    path = tmp_path / "bad.mot"
+    path.write_text(text)
+    with pytest.raises(MotionFileError, match=message):
+        read_storage(path)
+    with pytest.raises(MotionFileError, match="not found"):
+        read_storage(tmp_path / "missing.mot")
+    with pytest.raises(MotionFileError, match="no column 'b'"):
+        Table(np.zeros(1), ["a"], np.zeros((1, 1))).column("b")
+
+
+def test_opensim_axes_are_a_rotation():
+    R = OPENSIM_TO_OURS
+    np.testing.assert_allclose(R @ R.T, np.eye(3))
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    np.testing.assert_array_equal(R @ [0, 1, 0], [0, 0, 1])  # their up is ours
+    np.testing.assert_array_equal(R @ [0, 0, 1], [0, -1, 0])  # their right is our -y
+
+
+def test_load_from_wrench_is_exact_and_on_the_plane():
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(20, 6)) * [50, 50, 700, 30, 30, 5]
+    w[:, 2] = np.abs(w[:, 2]) + 10
+    w[3] = [0, 0, 0, 1, 2, 3]  # no force: a pure moment
+    load = Load.from_wrench("right", np.arange(20) * 0.01, w, height=0.02)
+    np.testing.assert_allclose(load.wrench, w, atol=1e-9)
+    on = np.abs(w[:, 2]) > 0
+    np.testing.assert_allclose(load.point[on, 2], 0.02)
+    np.testing.assert_allclose(load.torque[on, :2], 0.0, atol=1e-9)  # a free moment about z
+
+
+def test_loads_round_trip_through_opensim_files(tmp_path):
+    rng = np.random.default_rng(1)
+    t = np.arange(10) * 0.001
+    loads = [
+        Load(side, t, rng.normal(size=(10, 3)), rng.normal(size=(10, 3)), rng.normal(size=(10, 3)))
+        for side in ("right", "left")
+    ]
+    path = write_loads(tmp_path / "grf.mot", loads)
+    assert read_loads_xml(path.with_suffix(".xml")) == {"r_ground_": "right", "l_ground_": "left"}
+    back = read_loads(path)  # the .xml next to it names the sides
+    for a, b in zip(loads, back, strict=True):
+        assert a.body == b.body
+        for key in ("force", "point", "torque"):
+            np.testing.assert_allclose(getattr(b, key), getattr(a, key), atol=1e-15)
+    # in the file, OpenSim's axes: their vertical is our z
+    table = read_storage(path)
+    np.testing.assert_array_equal(table.column("r_ground_force_vy"), loads[0].force[:, 2])
+
+
+def test_loads_need_a_side(tmp_path):
+    t = Table(np.arange(2.0), [f"{p}ground_force_{w}{c}" for p in ("", "1_") for w in "vp"
+                               for c in "xyz"] + [f"{p}ground_torque_{c}" for p in ("", "1_")
+                                                  for c in "xyz"], np.zeros((2, 18)))  # fmt: skip
+    path = write_storage(tmp_path / "grf.mot", t)
+    with pytest.raises(MotionFileError, match="which foot bears the load 'ground_'"):
+        read_loads(path)
+    loads = read_loads(path, sides={"ground_": "right", "1_ground_": "left"})
+    assert [x.body for x in loads] == ["right", "left"]
+    with pytest.raises(MotionFileError, match="not an external loads file"):
+        read_loads(
+            write_storage(tmp_path / "q.mot", Table(np.arange(2.0), ["a"], np.zeros((2, 1))))
+        )
+
+
+def test_lowpass_has_no_lag():
+    rate, f = 100.0, 1.0
+    t = np.arange(400) / rate
+    x = np.sin(2 * np.pi * f * t) + 0.2 * np.sin(2 * np.pi * 30 * t)
+    y = lowpass(x, rate, 6.0)
+    inner = slice(50, -50)
+    # the 1 Hz wave passes with no phase shift, the 30 Hz one is gone
+    np.testing.assert_allclose(y[inner], np.sin(2 * np.pi * f * t)[inner], atol=0.01)
+    with pytest.raises(hm.HumanoidError, match="cutoff"):
+        lowpass(x, rate, 60.0)
+
+
+def test_joint_labels_cover_every_velocity():
+    h = get_model("male", "quaternion")
+    labels = joint_labels(h.model)
+    assert len(labels) == h.nv and len(set(labels)) == h.nv
+    assert labels[:6] == ["root_joint_fx", "root_joint_fy", "root_joint_fz", "root_joint_mx",
+                          "root_joint_my", "root_joint_mz"]  # fmt: skip
+    assert "right_knee" in labels and "right_hip_y" in labels
+
+
+def test_inverse_dynamics_of_free_fall_is_zero():
+    """A body falling freely (no loads) needs no joint moments and no residual: M a + b = 0
+    for a = the free-fall acceleration; the motion is the exact ballistic one, spinning."""
+    h = get_model("male", "quaternion")
+    model = h.model
+    q0 = h.standing_configuration()
+    v0 = np.zeros(model.nv)
+    v0[:3] = [1.0, 0.2, 3.0]  # the root's velocity, in its frame
+    dt, n = 1e-3, 200
+    data = model.createData()
+    qs, q, v = [q0], q0.copy(), v0.copy()
+    for _ in range(n - 1):  # semi-implicit Euler of the free body with zero torque
+        a = pin.aba(model, data, q, v, np.zeros(model.nv))
+        v = v + dt * a
+        q = pin.integrate(model, q, dt * v)
+        qs.append(q)
+    r = inverse_dynamics(h, np.arange(n) * dt, np.array(qs), cutoff=None, velocity="backward")
+    scale = h.mass * 9.81
+    assert np.abs(r.tau[1:-1]).max() < 1e-6 * scale
+    assert np.abs(r.residual_force[1:-1]).max() < 1e-6 * scale
+
+
+def test_inverse_dynamics_of_a_standing_body_is_its_weight():
+    """Standing still on both feet, the loads carrying the weight at the centre of mass's
+    ground point: the residual is zero; without the loads it is the weight, upwards."""
+    h = get_model("male", "quaternion")
+    q = h.standing_configuration()
+    n = 20
+    t = np.arange(n) * 0.01
+    c = pin.centerOfMass(h.model, h.model.createData(), q)
+    W = h.mass * 9.81
+    w = np.tile([0, 0, W / 2, c[1] * W / 2, -c[0] * W / 2, 0], (n, 1))
+    loads = [Load.from_wrench(s, t, w) for s in ("left", "right")]
+    r = inverse_dynamics(h, t, np.tile(q, (n, 1)), loads)
+    assert np.abs(r.residual_force).max() < 1e-6 * W
+    assert np.abs(r.residual_moment).max() < 1e-6 * W
+    bare = inverse_dynamics(h, t, np.tile(q, (n, 1)))
+    np.testing.assert_allclose(bare.residual_force, np.tile([0, 0, W], (n, 1)), rtol=1e-9)
+
+
+def test_inverse_dynamics_errors():
+    h = get_model("male", "quaternion")
+    q = np.tile(h.standing_configuration(), (5, 1))
+    t = np.arange(5) * 0.01
+    with pytest.raises(hm.ConfigurationError, match="must be"):
+        inverse_dynamics(h, t, q[:, :-1])
+    with pytest.raises(hm.HumanoidError, match="at least 3"):
+        inverse_dynamics(h, t[:2], q[:2])
+    with pytest.raises(hm.HumanoidError, match="does not have"):
+        inverse_dynamics(h, t, q, [Load("tail", t, np.zeros((5, 3)), np.zeros((5, 3)),
+                                        np.zeros((5, 3)))], cutoff=None)  # fmt: skip
+    with pytest.raises(hm.HumanoidError, match="too few"):
+        inverse_dynamics(h, t, q, cutoff=6.0)
+
+
+def test_inverse_dynamics_resamples_a_nonuniform_motion():
+    """Samples at uneven times are resampled onto a uniform grid (a still body: exact)."""
+    h = get_model("male", "quaternion")
+    q = h.standing_configuration()
+    t = np.array([0.0, 0.01, 0.025, 0.03, 0.04])
+    r = inverse_dynamics(h, t, np.tile(q, (5, 1)), cutoff=None, rate=100.0)
+    np.testing.assert_allclose(r.time, [0.0, 0.01, 0.02, 0.03, 0.04])
+    np.testing.assert_allclose(r.q, np.tile(q, (5, 1)), atol=1e-12)
+
+
+# -- round trips through OpenSim's files, on the project's own walk ------------------------
+
+
+@pytest.fixture(scope="module")
+def walk_1khz():
+    """Two steps of the male body's walk at 0.8 m/s, every simulation step recorded."""
+    from humanoid.walking.gait import walk_on_ground
+
+    h = hm.load(BODIES / "adult_male.urdf")
+    walk = walk_on_ground(h, speed=0.8, steps=2, record_rate=1000.0)
+    assert walk.trajectory.status == "completed"
+    return h, walk.trajectory
+
+
+def _export(tmp_path, h, tr, convention="rajagopal"):
+    """The walk written as OpenSim files and read back: (time, q, loads)."""
+    from humanoid.motion.coordinates import configurations, coordinates_table
+
+    coords = write_storage(tmp_path / "walk.mot", coordinates_table(h, tr.t, tr.q, convention))
+    loads = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]
+    grf = write_loads(tmp_path / "walk_grf.mot", loads)
+    table = read_storage(coords)
+    assert table.in_degrees is True and "knee_angle_r" in table.labels
+    t, q, unmapped = configurations(h, table, floor=False)
+    assert unmapped == []
+    return t, q, read_loads(grf)
+
+
+@pytest.mark.parametrize("convention", ["rajagopal", "gait2392"])
+def test_walk_round_trip_gives_back_the_controller_torques(tmp_path, walk_1khz, convention):
+    """The walk's coordinates and ground forces, through .mot files and back, at the
+    simulation's rate: inverse dynamics gives back the torques the controller applied (plus
+    the joint ranges' moments) to 1e-6 of their peak, and a root residual of the same order;
+    the velocity is the backward difference, as the semi-implicit Euler plant defines it."""
+    h, tr = walk_1khz
+    t, q, loads = _export(tmp_path, h, tr, convention)
+    np.testing.assert_allclose(t, tr.t)
+    worst = max(np.abs(pin.difference(h.model, a, b)).max() for a, b in zip(q, tr.q, strict=True))
+    assert worst < 1e-12
+    r = inverse_dynamics(h, t, q, loads, cutoff=None, velocity="backward")
+    truth = tr.tau + tr.forces["joint_ranges"]
+    peak = np.abs(truth[:, 6:]).max()
+    inner = slice(1, -1)  # (the last sample has no next one to take its acceleration from)
+    assert np.abs(r.tau[inner, 6:] - truth[inner, 6:]).max() < 1e-6 * peak
+    weight = h.mass * 9.81
+    assert np.abs(r.residual_force[inner]).max() < 1e-6 * weight
+    assert np.abs(r.residual_moment[inner]).max() < 1e-6 * peak
+
+
+def test_walk_at_100_hz_filtered_is_within_a_few_percent(walk_1khz):
+    """Every tenth sample (100 Hz, as a motion lab records) filtered at 6 Hz: the joint
+    moments against the controller's torques through the same filter, RMS under 3 % of their
+    peak (measured 1.6 %); the root residual's RMS under 5 % of body weight."""
+    h, tr = walk_1khz
+    loads = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]
+    r = inverse_dynamics(h, tr.t[::10], tr.q[::10], loads, cutoff=6.0)
+    truth = lowpass((tr.tau + tr.forces["joint_ranges"])[:, 6:], 1000.0, 6.0)[::10]
+    inner = slice(10, -10)  # (the filter's ends)
+    e = r.tau[inner, 6:] - truth[inner]
+    assert np.sqrt(np.mean(e**2)) < 0.03 * np.abs(truth).max()
+    weight = h.mass * 9.81
+    assert np.sqrt(np.mean(r.residual_force[inner] ** 2)) < 0.05 * weight
+
+
+# -- coordinates: OpenSim's gait models onto the body -------------------------------------
+
+
+def _random_configurations(h, n, seed):
+    rng = np.random.default_rng(seed)
+    model = h.model
+    out = []
+    for _ in range(n):
+        q = pin.integrate(model, h.standing_configuration(), rng.normal(size=model.nv) * 0.4)
+        for j in range(2, model.njoints):
+            if model.joints[j].nq == 1:
+                k = model.joints[j].idx_q
+                q[k] = np.clip(q[k], model.lowerPositionLimit[k], model.upperPositionLimit[k])
+        out.append(q)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", ["gait2392", "gait2354", "rajagopal"])
+def test_coordinates_round_trip(name):
+    from humanoid.motion.coordinates import MAPS, configurations, coordinates_table
+
+    h = get_model("male", "quaternion")
+    qs = _random_configurations(h, 15, 2)
+    table = coordinates_table(h, np.arange(15) * 0.01, qs, name)
+    assert table.in_degrees is True
+    _, back, unmapped = configurations(h, table, MAPS[name], floor=False)
+    assert unmapped == []
+    worst = max(np.abs(pin.difference(h.model, a, b)).max() for a, b in zip(qs, back, strict=True))
+    assert worst < 1e-12
+
+
+def _posture(h, **coords):
+    """The body's configuration for a one-row gait2392 file with these coordinates [deg]."""
+    from humanoid.motion.coordinates import MAPS, configurations
+
+    base = dict.fromkeys(["pelvis_tilt", "pelvis_list", "pelvis_rotation", "pelvis_tx",
+                          "pelvis_tz"], 0.0) | {"pelvis_ty": 0.95}  # fmt: skip
+    full = [c for jm in MAPS["gait2392"].joints for c in jm.columns]
+    cols = base | dict.fromkeys(full, 0.0) | coords
+    table = Table(np.zeros(1), list(cols), np.array([list(cols.values())]), True)
+    _, q, _ = configurations(h, table, MAPS["gait2392"], floor=False)
+    data = h.model.createData()
+    pin.framesForwardKinematics(h.model, data, q[0])
+    return q[0], data
+
+
+def test_coordinates_mean_what_opensim_means():
+    """Each coordinate moves the body as it moves OpenSim's model: hip flexion brings the knee
+    forward, gait2392's negative knee angle is flexion (the ankle goes back), ankle_angle
+    lifts the toes, hip adduction brings the knee in, pelvis_tx/ty are forward and up (their
+    Y is our z), a positive lumbar_extension leans the trunk back."""
+    h = get_model("male", "quaternion")
+    f = h.model.getFrameId
+
+    def pos(data, name):
+        return data.oMf[f(name)].translation
+
+    _, d0 = _posture(h)
+    _, d = _posture(h, hip_flexion_r=30.0)
+    assert pos(d, "right_knee")[0] > pos(d0, "right_knee")[0] + 0.15
+    q, d = _posture(h, knee_angle_r=-40.0)
+    assert q[h.model.joints[h.model.getJointId("right_knee")].idx_q] == pytest.approx(
+        np.radians(40.0)
+    )
+    assert pos(d, "right_ankle_flexion")[0] < pos(d0, "right_ankle_flexion")[0] - 0.2
+    _, d = _posture(h, ankle_angle_r=20.0)
+    toe = pos(d, "right_toe_inner")[2] - pos(d, "right_heel_inner")[2]
+    assert toe > 0.05
+    _, d = _posture(h, hip_adduction_r=15.0, hip_adduction_l=15.0)
+    assert pos(d, "right_knee")[1] > pos(d0, "right_knee")[1] + 0.05  # the right knee goes left
+    assert pos(d, "left_knee")[1] < pos(d0, "left_knee")[1] - 0.05
+    _, d = _posture(h, pelvis_tx=1.0, pelvis_ty=1.25, pelvis_tz=0.5)
+    np.testing.assert_allclose(pos(d, "pelvis") - pos(d0, "pelvis"), [1.0, -0.5, 0.3], atol=1e-12)
+    _, d = _posture(h, lumbar_extension=20.0)
+    assert pos(d, "head")[0] < pos(d0, "head")[0] - 0.1
+
+
+def test_guess_map_and_opensim4_labels():
+    from humanoid.motion.coordinates import coordinate_name, guess_map
+
+    assert coordinate_name("/jointset/hip_r/hip_flexion_r/value") == "hip_flexion_r"
+    assert coordinate_name("knee_angle_r") == "knee_angle_r"
+    bent = Table(np.arange(2.0), ["knee_angle_r"], np.array([[-30.0], [-5.0]]))
+    assert guess_map(bent).name == "gait2392"
+    assert guess_map(Table(np.arange(2.0), ["knee_angle_r"], np.array([[30.0], [5.0]]))).name == (
+        "rajagopal"
+    )
+
+
+def test_unmapped_columns_are_listed(tmp_path):
+    from humanoid.motion.coordinates import MAPS, UnmappedWarning, configurations
+
+    h = get_model("male", "quaternion")
+    cols = ["pelvis_tilt", "pelvis_list", "pelvis_rotation", "pelvis_tx", "pelvis_ty",
+            "pelvis_tz", "mtp_angle_r", "tail_wag"]  # fmt: skip
+    table = Table(np.arange(2.0), cols, np.zeros((2, len(cols))), True, source="x.mot")
+    with pytest.warns(UnmappedWarning, match="mtp_angle_r, tail_wag"):
+        _, _, unmapped = configurations(h, table, MAPS["gait2392"])
+    assert unmapped == ["mtp_angle_r", "tail_wag"]
+    with pytest.raises(MotionFileError, match="needs column 'pelvis_tz'"):
+        configurations(h, Table(np.arange(2.0), cols[:5], np.zeros((2, 5))), MAPS["gait2392"])
+    other = get_model("human", "quaternion")  # example-robot-data's: other joint names
+    hips = cols + ["hip_flexion_r", "hip_adduction_r", "hip_rotation_r"]
+    with pytest.raises(hm.HumanoidError, match="does not have"):
+        configurations(other, Table(np.arange(2.0), hips, np.zeros((2, 11))), MAPS["gait2392"])
+
+
+def test_user_map_in_toml(tmp_path):
+    from humanoid.motion.coordinates import configurations, read_map
+
+    path = tmp_path / "lab.toml"
+    path.write_text(
+        'name = "lab"\n[root]\nrotation = ["rz", "rx", "ry"]\nrotation_axes = ["z", "x", "y"]\n'
+        'translation = ["x", "y", "z"]\ntranslation_axes = ["x", "y", "z"]\n'
+        '[joints.right_knee]\ncolumns = ["rknee"]\nsigns = [1]\n'
+        '[joints.left_hip]\ncolumns = ["lh1", "lh2", "lh3"]\naxes = ["-y", "-x", "-z"]\n'
+    )
+    cmap = read_map(path)
+    h = get_model("male", "quaternion")
+    cols = ["rz", "rx", "ry", "x", "y", "z", "rknee", "lh1", "lh2", "lh3"]
+    row = [90.0, 0, 0, 1.0, 2.0, 0.9, 30.0, 10.0, 0, 0]
+    _, q, _ = configurations(h, Table(np.zeros(1), cols, np.array([row]), True), cmap,
+                             floor=False)  # fmt: skip
+    np.testing.assert_allclose(q[0, :3], [1.0, 2.0, 0.9])
+    np.testing.assert_allclose(q[0, 3:7], [0, 0, np.sin(np.pi / 4), np.cos(np.pi / 4)], atol=1e-12)
+    knee = h.model.joints[h.model.getJointId("right_knee")].idx_q
+    assert q[0, knee] == pytest.approx(np.radians(30.0))
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[root]\nrotation = ["a"]\n')
+    with pytest.raises(hm.HumanoidError, match=r"\[root\] needs"):
+        read_map(bad)
+    bad.write_text('[root]\nrotation=[]\nrotation_axes=[]\ntranslation=[]\ntranslation_axes=[]\n'
+                   '[joints.right_knee]\ncolumns = ["a", "b"]\nsigns = [1]\n')  # fmt: skip
+    with pytest.raises(hm.HumanoidError, match="one per column"):
+        read_map(bad)
+    with pytest.raises(hm.HumanoidError, match="not found"):
+        read_map(tmp_path / "none.toml")
+
+
+def test_floor_puts_the_lowest_sole_point_on_the_floor():
+    from humanoid.motion.coordinates import MAPS, configurations, coordinates_table
+
+    h = get_model("male", "quaternion")
+    qs = _random_configurations(h, 5, 4)
+    qs[:, 2] += 0.3
+    table = coordinates_table(h, np.arange(5) * 0.01, qs, "rajagopal")
+    _, q, _ = configurations(h, table, MAPS["rajagopal"])
+    data = h.model.createData()
+    low = np.inf
+    for qi in q:
+        pin.framesForwardKinematics(h.model, data, qi)
+        for s in ("left", "right"):
+            M = data.oMf[h.sole_id(s)]
+            low = min(low, (h.sole_points(s) @ M.rotation.T + M.translation)[:, 2].min())
+    assert low == pytest.approx(0.0, abs=1e-12)
+
+
+def test_generalized_forces_do_the_same_work():
+    """The coordinates' generalised forces times the coordinates' rates is the power of the
+    body's own joint moments, for every joint (virtual work: the same forces, other
+    coordinates)."""
+    from humanoid.motion.coordinates import coordinates_table, generalized_forces_table
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    rng = np.random.default_rng(5)
+    q0 = _random_configurations(h, 1, 6)[0]
+    v = rng.normal(size=model.nv)
+    tau = rng.normal(size=model.nv) * 10
+    dt = 1e-6
+    q1 = pin.integrate(model, q0, v * dt)
+    qs = np.array([pin.integrate(model, q0, -v * dt), q0, q1])
+    coords = coordinates_table(h, np.arange(3) * dt, qs, "rajagopal", degrees=False)
+    rates = (coords.data[2] - coords.data[0]) / (2 * dt)
+    forces = generalized_forces_table(h, np.zeros(1), q0[None], tau[None], "rajagopal")
+    labels = [x.removesuffix("_moment").removesuffix("_force") for x in forces.labels]
+    assert labels == coords.labels
+    power = float(forces.data[0] @ rates)
+    assert power == pytest.approx(float(tau @ v), rel=1e-6)
