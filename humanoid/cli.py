@@ -126,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("forward", "backward", "left", "right"),
         help="(--gait human) search the largest such push the walk survives (a walk per try)",
     )
+    w.add_argument("--mot", help="(--gait human) also write the walk as OpenSim reads it: "
+                   "coordinates (this .mot, Rajagopal's names) and ground forces (<stem>_grf.mot "
+                   "and its .xml)")  # fmt: skip
+    w.add_argument("--record-rate", type=float, default=100.0,
+                   help="(--gait human) samples per second recorded (1000 at --dt 0.001: "
+                   "every step, for inverse dynamics that gives back the torques)")  # fmt: skip
     _model_options(w, ball_joints=False)
 
     v = command("view", help="show a model or a run in the browser (live, or as HTML)")
@@ -143,6 +149,42 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     _model_options(x)
 
+    d = command("id", help="inverse dynamics of a motion (OpenSim .mot/.sto, or a run .npz)")
+    d.add_argument("motion", help="joint coordinates (.mot/.sto, OpenSim's gait models' names) "
+                   "or a run (.npz: its own ground forces are the loads)")  # fmt: skip
+    _subject_options(d)
+    d.add_argument("--loads", help="external loads (.mot, OpenSim's layout: "
+                   "<prefix>force_vx..., <prefix>force_px..., <prefix>torque_x...)")  # fmt: skip
+    d.add_argument("--loads-xml", help="the loads' ExternalLoads .xml (which foot each is on; "
+                   "default: the .xml of the same name next to them)")  # fmt: skip
+    d.add_argument(
+        "--loads-side",
+        action="append",
+        default=[],
+        metavar="PREFIX=SIDE",
+        help="the foot (left, right) of a load column prefix (repeatable)",
+    )
+    d.add_argument("--map", help="the coordinates' model: gait2392, gait2354, rajagopal, or a "
+                   "TOML map of your own (default: told from the file)")  # fmt: skip
+    d.add_argument(
+        "--cutoff",
+        type=float,
+        default=6.0,
+        help="low-pass cutoff [Hz] for the motion and the loads (0: none)",
+    )
+    d.add_argument("--velocity", choices=("central", "backward"), default="central",
+                   help="velocities from central differences, or backward ones (how a "
+                   "semi-implicit Euler simulation defines them: its run, recorded at every "
+                   "step, gives back its torques exactly)")  # fmt: skip
+    d.add_argument("--rate", type=float, help="resample to this rate [Hz] (default: the "
+                   "motion's own)")  # fmt: skip
+    d.add_argument("--no-floor", action="store_true", help="keep the motion's height as it is "
+                   "(default: its lowest sole point is put on the floor)")  # fmt: skip
+    d.add_argument(
+        "-o", "--output", default="id.sto", help="generalised forces to write (.sto, or .csv)"
+    )
+    d.add_argument("--figure", help="figure (PNG); default: next to the output")
+
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
             "that scenes and options accept")  # fmt: skip
 
@@ -151,6 +193,15 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
     return p
+
+
+def _subject_options(parser) -> None:
+    """The body of a motion command: a person's (height, mass, sex) or a model."""
+    parser.add_argument("--height", type=float, help="the subject's stature [m] (with --mass, "
+                        "--sex: the body is built for them)")  # fmt: skip
+    parser.add_argument("--mass", type=float, help="the subject's mass [kg]")
+    parser.add_argument("--sex", choices=("male", "female"), help="the subject's sex")
+    parser.add_argument("--model", help=BODY_HELP + " (default: adult_male, or a run's own)")
 
 
 def _model_options(parser, ball_joints: bool = True) -> None:
@@ -170,9 +221,10 @@ def _model_options(parser, ball_joints: bool = True) -> None:
 OUTPUTS = {  # the options of each command that name a file or folder to write
     "build": ("output",),
     "simulate": ("output",),
-    "walk": ("output", "html", "figure"),
+    "walk": ("output", "html", "figure", "mot"),
     "view": ("html",),
     "export": ("mjcf",),
+    "id": ("output", "figure"),
     "bench": ("output",),
 }
 
@@ -240,6 +292,10 @@ def _dispatch(args) -> int:
         return 0
     if args.command == "variants":
         return _variants(args)
+    if args.command == "id":
+        from .motion.commands import run_id
+
+        return run_id(args)
     if args.command == "bench":
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark
@@ -332,7 +388,8 @@ def _walk(args) -> int:
     given = [o for o, v in (("--report", args.report), ("--push", args.push),
                             ("--largest-push", args.largest_push),
                             ("--from-standing", args.from_standing),
-                            ("--radius", args.radius is not None)) if v]  # fmt: skip
+                            ("--radius", args.radius is not None), ("--mot", args.mot),
+                            ("--record-rate", args.record_rate != 100.0)) if v]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait human")
     h = load_any(args, ball_joints="quaternion")
@@ -388,6 +445,11 @@ def _walk_human(args) -> int:
         )
     if args.from_standing and (pushes or args.steps < 3 or args.radius is not None):
         raise HumanoidError("--from-standing: give --steps 3 or more, and no --push or --radius")
+    if not (math.isfinite(args.record_rate) and 0.0 < args.record_rate * args.dt <= 1.0 + 1e-9):
+        raise HumanoidError(
+            f"--record-rate must be positive and at most 1/dt = {1.0 / args.dt:g} Hz, got "
+            f"{args.record_rate:g}"
+        )
     h = load_any(args, ball_joints="quaternion")
     cycle = fit_cycle(h, args.speed)
     if args.largest_push:
@@ -404,7 +466,7 @@ def _walk_human(args) -> int:
     walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt, mu=args.mu,
                           pushes=[pelvis_push(h, cycle, f, d) for d, f in pushes],
                           quiet=args.quiet, from_standing=args.from_standing,
-                          radius=args.radius)  # fmt: skip
+                          radius=args.radius, record_rate=args.record_rate)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata
@@ -412,6 +474,11 @@ def _walk_human(args) -> int:
     print(f"real time    {walk.real_time_factor:.2f} x ({walk.wall_time:.0f} s of wall time)")
     print(format_gait_table(analysis))
     print(f"\nsaved        {path}")
+    if args.mot:
+        from .motion.export import write_opensim
+
+        for written in write_opensim(h, walk.trajectory, args.mot):
+            print(f"opensim      {written}")
     if args.report:
         print(f"report       {plot_gait_report(analysis, args.report)}")
     if args.html:

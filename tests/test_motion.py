@@ -469,3 +469,41 @@ def test_generalized_forces_do_the_same_work():
     assert labels == coords.labels
     power = float(forces.data[0] @ rates)
     assert power == pytest.approx(float(tau @ v), rel=1e-6)
+
+
+def test_cli_id_on_a_run_and_on_opensim_files(tmp_path, walk_1khz, capsys):
+    """``humanoid id`` on a saved run (its own ground forces) and on the same walk as OpenSim
+    files: the same moments either way, written under OpenSim's names, with a figure."""
+    from humanoid.cli import main
+    from humanoid.motion.coordinates import coordinates_table
+
+    h, tr = walk_1khz
+    run = tr.save(tmp_path / "walk.npz")
+    assert main(["id", str(run), "-o", str(tmp_path / "a.sto"), "--map", "gait2392"]) == 0
+    out = capsys.readouterr().out
+    assert "root residual force" in out and "loads        left (run), right (run)" in out
+    a = read_storage(tmp_path / "a.sto")
+    assert a.labels[:6] == ["pelvis_tilt_moment", "pelvis_list_moment", "pelvis_rotation_moment",
+                            "pelvis_tx_force", "pelvis_ty_force", "pelvis_tz_force"]  # fmt: skip
+    assert "knee_angle_r_moment" in a.labels and (tmp_path / "a.png").stat().st_size > 10_000
+    write_storage(tmp_path / "walk.mot", coordinates_table(h, tr.t, tr.q, "gait2392"))
+    loads = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]
+    write_loads(tmp_path / "grf.mot", loads)
+    args = ["id", str(tmp_path / "walk.mot"), "--loads", str(tmp_path / "grf.mot"), "--no-floor",
+            "--model", str(BODIES / "adult_male.urdf"), "-o", str(tmp_path / "b.csv")]  # fmt: skip
+    assert main(args) == 0
+    b = np.loadtxt(tmp_path / "b.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(b[:, 1:], a.data, atol=1e-6 * np.abs(a.data).max())
+
+
+def test_cli_id_errors(tmp_path, capsys):
+    from humanoid.cli import main
+
+    path = tmp_path / "m.mot"
+    path.write_text(OPENSIM_IK)
+    assert main(["id", str(path), "--height", "1.8"]) == 2
+    assert "go together" in capsys.readouterr().err
+    assert main(["id", str(path), "--map", "nonsense"]) == 2
+    assert "gait2392" in capsys.readouterr().err
+    assert main(["id", str(tmp_path / "none.mot")]) == 2
+    assert "not found" in capsys.readouterr().err

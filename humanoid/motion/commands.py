@@ -1,0 +1,187 @@
+"""The motion commands of the command line: ``humanoid id`` (and the helpers they share).
+
+Kept out of :mod:`humanoid.cli` so that the parser stays light: this module loads scipy and
+matplotlib only when a command runs.
+"""
+
+from __future__ import annotations
+
+import time as clock
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import HumanoidError
+
+__all__ = ["moments_figure", "read_motion", "run_id", "subject_body"]
+
+# the moments drawn and summarised (OpenSim's coordinates; their signs are the map's)
+_FLEXION = ("hip_flexion", "knee_angle", "ankle_angle")
+
+
+def subject_body(args):
+    """The body of the command: built from ``--height --mass --sex`` if given, else
+    ``--model`` (a URDF, a shipped body, an example-robot-data robot)."""
+    from ..anthropometry import BodyParameters
+    from ..body import build_urdf
+    from ..model import load
+
+    given = [x is not None for x in (args.height, args.mass, args.sex)]
+    if any(given):
+        if not all(given):
+            raise HumanoidError("--height, --mass and --sex go together (a person's body)")
+        if args.model is not None:
+            raise HumanoidError("give either --model or --height/--mass/--sex, not both")
+        params = BodyParameters(args.height, args.mass, args.sex)
+        return load(build_urdf(params)), f"{args.sex}, {args.height} m, {args.mass} kg"
+    name = args.model or "adult_male"
+    return load(name), name
+
+
+def _map(args, table=None):
+    from .coordinates import MAPS, guess_map, read_map
+
+    if args.map is None:
+        return guess_map(table) if table is not None else MAPS["rajagopal"]
+    if args.map in MAPS:
+        return MAPS[args.map]
+    if Path(args.map).suffix.lower() == ".toml":
+        return read_map(args.map)
+    raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)} or a TOML file of your own")
+
+
+def _sides(pairs) -> dict | None:
+    if not pairs:
+        return None
+    out = {}
+    for text in pairs:
+        prefix, sep, side = text.partition("=")
+        if not sep or side not in ("left", "right"):
+            raise HumanoidError(f"--loads-side expects PREFIX=left or PREFIX=right, got {text!r}")
+        out[prefix] = side
+    return out
+
+
+def read_motion(args):
+    """(body, its description, time, q, loads, map, what was left out) of the command's
+    motion: a run (.npz: its configurations and its ground forces per foot) or an OpenSim
+    coordinate file (.mot/.sto) with optional ``--loads``."""
+    import warnings
+
+    from ..trajectory import Trajectory
+    from .coordinates import UnmappedWarning, configurations
+    from .loads import Load, read_loads
+    from .storage import read_storage
+
+    path = Path(args.motion)
+    if path.suffix.lower() == ".npz":
+        run = Trajectory.load(path)
+        if args.model is None and args.height is None:
+            args.model = run.metadata.get("model")
+        h, what = subject_body(args)
+        if run.q.shape[1] != h.nq:
+            raise HumanoidError(
+                f"{path}: its configurations have {run.q.shape[1]} entries, the body "
+                f"{what} {h.nq}: give the body the run was made with (--model)"
+            )
+        loads = [Load.from_wrench(s, run.t, run.forces[f"ground_{s}"])
+                 for s in ("left", "right") if f"ground_{s}" in run.forces]  # fmt: skip
+        if args.loads:
+            loads += read_loads(args.loads, _sides(args.loads_side), args.loads_xml)
+        return h, what, run.t, run.q, loads, _map(args), []
+    h, what = subject_body(args)
+    table = read_storage(path)
+    cmap = _map(args, table)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnmappedWarning)
+        t, q, left_out = configurations(h, table, cmap, floor=not args.no_floor)
+    del caught  # listed in the summary instead
+    loads = read_loads(args.loads, _sides(args.loads_side), args.loads_xml) if args.loads else []
+    return h, what, t, q, loads, cmap, left_out
+
+
+def moments_figure(path, table, mass: float, title: str = "") -> Path:
+    """Hip, knee and ankle moments (N m/kg, both sides) and the root residuals over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    for ax, coord in zip(axes.flat[:3], _FLEXION, strict=True):
+        for side, colour in (("r", "tab:red"), ("l", "tab:blue")):
+            label = f"{coord}_{side}_moment"
+            if label in table:
+                ax.plot(table.time, table.column(label) / mass, colour,
+                        label="right" if side == "r" else "left")  # fmt: skip
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_title(f"{coord}_moment")
+        ax.set_ylabel("N m/kg")
+        ax.legend(loc="best", fontsize=8)
+    ax = axes.flat[3]
+    weight = mass * 9.81
+    for c, colour in zip("xyz", ("tab:orange", "tab:green", "tab:purple"), strict=True):
+        label = f"pelvis_t{c}_force"
+        if label in table:
+            ax.plot(table.time, table.column(label) / weight * 100.0, colour, label=label)
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_title("root residual force (OpenSim's axes)")
+    ax.set_ylabel("% body weight")
+    ax.legend(loc="best", fontsize=8)
+    for ax in axes[1]:
+        ax.set_xlabel("time [s]")
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def run_id(args) -> int:
+    """``humanoid id``: inverse dynamics of a motion, written as OpenSim names it."""
+    from .coordinates import generalized_forces_table
+    from .inverse_dynamics import inverse_dynamics
+    from .storage import write_csv, write_storage
+
+    cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
+    import scipy.signal  # noqa: F401 - imported before the clock starts: the timing is the ID's
+
+    h, what, t, q, loads, cmap, left_out = read_motion(args)
+    start = clock.perf_counter()
+    r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
+    elapsed = clock.perf_counter() - start
+    table = generalized_forces_table(h, r.time, r.q, r.tau, cmap)
+    table.name = "Inverse Dynamics"
+    out = Path(args.output)
+    written = write_csv(out, table) if out.suffix.lower() == ".csv" else write_storage(out, table)
+    figure = Path(args.figure) if args.figure else out.with_suffix(".png")
+    moments_figure(figure, table, h.mass, f"{Path(args.motion).name}: {what}")
+    weight = h.mass * 9.81
+    n = len(r.time)
+    print(f"body         {what} ({h.mass:.1f} kg), map {cmap.name}")
+    print(f"motion       {n} frames at {1.0 / (r.time[1] - r.time[0]):.1f} Hz, "
+          f"{r.time[0]:.3f}-{r.time[-1]:.3f} s, "
+          f"filter {'none' if cutoff is None else f'{cutoff:g} Hz'}")  # fmt: skip
+    names = ", ".join(f"{x.body} ({x.name or 'run'})" for x in loads) or "none"
+    print(f"loads        {names}")
+    if left_out:
+        print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
+    for coord in _FLEXION:
+        peaks = []
+        for side in "rl":
+            label = f"{coord}_{side}_moment"
+            if label in table:
+                x = table.column(label) / h.mass
+                peaks.append(f"{side} {x.min():+.2f}/{x.max():+.2f}")
+        if peaks:
+            print(f"{coord + '_moment':26s} N m/kg min/max: {', '.join(peaks)}")
+    rf = np.linalg.norm(r.residual_force, axis=1)
+    rm = np.linalg.norm(r.residual_moment, axis=1)
+    print(f"root residual force   RMS {np.sqrt(np.mean(rf**2)):.1f} N "
+          f"({np.sqrt(np.mean(rf**2)) / weight * 100:.1f} % BW), max {rf.max():.1f} N")  # fmt: skip
+    print(f"root residual moment  RMS {np.sqrt(np.mean(rm**2)):.1f} N m, max {rm.max():.1f} N m")
+    print(f"time         {elapsed * 1e3:.1f} ms ({elapsed / n * 1e6:.0f} us per frame)")
+    print(f"wrote        {written}")
+    print(f"figure       {figure}")
+    return 0
