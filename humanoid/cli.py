@@ -149,6 +149,32 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     _model_options(x)
 
+    k = command("ik", help="inverse kinematics of markers (.trc, .c3d) or keypoints (.npy/.npz)")
+    k.add_argument("markers", help="marker trajectories (.trc, .c3d) or pose keypoints "
+                   "(.npy (frames, k, 3), or .npz with 'points' and 'time') [m]")  # fmt: skip
+    _subject_options(k)
+    k.add_argument("--marker-set", help="where the markers are on the body (TOML); default: "
+                   "the toolkit's set (joint centres, gait2354's landmarks)")  # fmt: skip
+    k.add_argument("--register", action="store_true", help="place the technical (cluster) "
+                   "markers where the anatomical ones' fit finds them, then fit all")  # fmt: skip
+    k.add_argument("--static", help="a static trial (.trc, .c3d) to register the technical "
+                   "markers on (implies --register)")  # fmt: skip
+    k.add_argument(
+        "--layout",
+        choices=("coco17", "h36m17", "smpl24"),
+        help="the keypoints' order (for .npy/.npz)",
+    )
+    k.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when the file has "
+                   "no time (default 30)")  # fmt: skip
+    k.add_argument("--y-up", action="store_true", help="keypoints with Y up (z up otherwise)")
+    k.add_argument("--map", help="the coordinates' names: rajagopal (default), gait2392, "
+                   "gait2354")  # fmt: skip
+    k.add_argument("-o", "--output", default="ik.mot", help="coordinates to write (.mot, .csv)")
+    k.add_argument("--figure", help="residuals figure (PNG); default: next to the output")
+    k.add_argument("--html", help="also write the fitted motion's viewer (one HTML file)")
+    k.add_argument("--save-markers", help="write the marker set as used (TOML)")
+    k.add_argument("--quiet", action="store_true", help="no progress bar")
+
     d = command("id", help="inverse dynamics of a motion (OpenSim .mot/.sto, or a run .npz)")
     d.add_argument("motion", help="joint coordinates (.mot/.sto, OpenSim's gait models' names) "
                    "or a run (.npz: its own ground forces are the loads)")  # fmt: skip
@@ -225,6 +251,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "view": ("html",),
     "export": ("mjcf",),
     "id": ("output", "figure"),
+    "ik": ("output", "figure", "html", "save_markers"),
     "bench": ("output",),
 }
 
@@ -296,6 +323,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_id
 
         return run_id(args)
+    if args.command == "ik":
+        from .motion.commands import run_ik
+
+        return run_ik(args)
     if args.command == "bench":
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark

@@ -507,3 +507,191 @@ def test_cli_id_errors(tmp_path, capsys):
     assert "gait2392" in capsys.readouterr().err
     assert main(["id", str(tmp_path / "none.mot")]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+# -- markers, keypoints and inverse kinematics ---------------------------------------------
+
+
+def _spine(model, q):
+    """The lumbar and thoracic rotations composed (markers see the two only together)."""
+    R = np.eye(3)
+    for name in ("lumbar", "thoracic"):
+        k = model.joints[model.getJointId(name)].idx_q
+        R = R @ pin.Quaternion(q[k : k + 4]).toRotationMatrix()
+    return R
+
+
+def test_ik_gives_back_a_known_motion(walk_1khz):
+    """Markers computed from the walk (the default set, every marker) give back its
+    configurations through inverse kinematics: every joint to 0.1 degree (the spine's two
+    joints as their composed rotation: how the twist is shared between them is not seen by
+    markers), the root to 0.1 mm, the markers to 0.5 mm."""
+    from humanoid.motion.ik import inverse_kinematics
+    from humanoid.motion.markers import MarkerTrajectories, default_markers, marker_positions
+
+    h, tr = walk_1khz
+    model = h.model
+    q = tr.q[::20]
+    markers = default_markers(h)
+    seen = MarkerTrajectories(tr.t[::20], list(markers), marker_positions(h, q, markers))
+    r = inverse_kinematics(h, seen, markers)
+    assert r.converged.all()
+    assert np.nanmax(r.residuals) < 5e-4  # (the pull towards standing: 0.15 mm)
+    spine = {model.joints[model.getJointId(n)].idx_v + i for n in ("lumbar", "thoracic")
+             for i in range(3)}  # fmt: skip
+    others = [i for i in range(6, model.nv) if i not in spine]
+    for a, b in zip(q, r.q, strict=True):
+        d = pin.difference(model, a, b)
+        assert np.degrees(np.abs(d[others]).max()) < 0.1
+        assert np.abs(d[:3]).max() < 1e-4
+        R = _spine(model, a).T @ _spine(model, b)
+        assert np.degrees(np.linalg.norm(pin.log3(R))) < 0.1
+
+
+def test_ik_keeps_joints_in_range_and_skips_missing_markers():
+    """Markers that ask a knee to bend backwards leave it at its range's end; a marker missing
+    (NaN) in a frame counts for nothing there and its residual is NaN."""
+    from humanoid.motion.ik import inverse_kinematics
+    from humanoid.motion.markers import MarkerTrajectories, default_markers, marker_positions
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    markers = default_markers(h)
+    q = h.standing_configuration()
+    knee = model.joints[model.getJointId("right_knee")].idx_q
+    bent = q.copy()
+    bent[knee] = -0.4  # hyperextended, beyond the range (lower bound 0)
+    pos = marker_positions(h, np.array([q, bent]), markers)
+    pos[1, list(markers).index("R.Heel")] = np.nan
+    r = inverse_kinematics(h, MarkerTrajectories(np.arange(2.0), list(markers), pos), markers)
+    lo = model.lowerPositionLimit[knee]
+    assert r.q[1, knee] >= lo - 1e-12
+    assert r.q[1, knee] == pytest.approx(lo, abs=1e-6)
+    assert np.isnan(r.residuals[1, r.names.index("R.Heel")])
+    assert np.isfinite(r.residuals[0, r.names.index("R.Heel")])
+
+
+def test_ik_registers_technical_markers():
+    """A cluster marker the lab put 4 cm from where the set says: with registration the fit
+    finds where it is (to 1 mm) and the posture comes back; without, the marker's misfit shows
+    in its residual."""
+    from humanoid.motion.ik import inverse_kinematics
+    from humanoid.motion.markers import (
+        Marker,
+        MarkerTrajectories,
+        default_markers,
+        marker_positions,
+    )
+
+    h = get_model("male", "quaternion")
+    markers = default_markers(h)
+    qs = _random_configurations(h, 6, 8)
+    name = "R.Thigh.Front"
+    m = markers[name]
+    assert not m.anatomical
+    moved = dict(markers)
+    moved[name] = Marker(m.frame, tuple(np.array(m.offset) + [0.0, 0.04, 0.0]), 1.0, False)
+    seen = MarkerTrajectories(np.arange(6.0), list(markers), marker_positions(h, qs, moved))
+    plain = inverse_kinematics(h, seen, markers)
+    assert plain.marker_rms()[name] > 0.005
+    fit = inverse_kinematics(h, seen, markers, register=True)
+    np.testing.assert_allclose(fit.marker_set[name].offset, moved[name].offset, atol=1e-3)
+    assert fit.marker_rms()[name] < 1e-3
+
+
+def test_marker_set_toml_round_trip(tmp_path):
+    from humanoid.motion.markers import default_markers, read_markers, write_markers
+
+    h = get_model("male", "quaternion")
+    markers = default_markers(h)
+    assert len(markers) >= 60 and markers["R.ASIS"].frame == "pelvis"
+    assert read_markers(write_markers(tmp_path / "m.toml", markers)) == markers
+    (tmp_path / "bad.toml").write_text('[markers.a]\noffset = [1, 2]\nframe = "pelvis"\n')
+    with pytest.raises(hm.HumanoidError, match="3 finite numbers"):
+        read_markers(tmp_path / "bad.toml")
+    with pytest.raises(hm.HumanoidError, match="toolkit's bodies"):
+        default_markers(get_model("talos", "quaternion"))
+
+
+def test_trc_round_trip_and_opensim_layout(tmp_path):
+    from humanoid.motion.markers import MarkerTrajectories, read_trc, write_trc
+
+    rng = np.random.default_rng(9)
+    pos = rng.normal(size=(4, 3, 3))
+    pos[2, 1] = np.nan
+    m = MarkerTrajectories(np.arange(4) / 60.0, ["A", "B.x", "C"], pos)
+    back = read_trc(write_trc(tmp_path / "m.trc", m))
+    assert back.names == m.names and back.rate == pytest.approx(60.0)
+    np.testing.assert_allclose(back.positions, pos, atol=1e-12)
+    # OpenSim's layout: padded values, trailing tabs, Y up in millimetres, a blank field
+    (tmp_path / "o.trc").write_text(
+        "PathFileType\t4\t(X/Y/Z)\to.trc\n"
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame"
+        "\tOrigNumFrames\n60.00\t60.00\t       2\t2\tmm\t60.00\t1\t       2\n"
+        "Frame#\tTime\tR.ASIS\t\t\tTop.Head\t\t\t\n\t\tX1\tY1\tZ1\tX2\tY2\tZ2\t\n\n"
+        "1\t0.000000\t617.2\t1055.3\t170.8\t\t\t\t\n2\t0.016667\t618.0\t1055.0\t171.0\t1.0\t1800.0\t-2.0\t\n"
+    )  # fmt: skip
+    o = read_trc(tmp_path / "o.trc")
+    np.testing.assert_allclose(o.positions[0, 0], [0.6172, -0.1708, 1.0553])
+    assert np.isnan(o.positions[0, 1]).all()
+    with pytest.raises(MotionFileError, match="not a TRC"):
+        read_trc(write_storage(tmp_path / "x.mot", Table(np.arange(2.0), ["a"], np.zeros((2, 1)))))
+
+
+def test_keypoints_layouts():
+    from humanoid.motion.markers import KEYPOINT_LAYOUTS, default_markers, keypoints
+
+    h = get_model("male", "quaternion")
+    markers = default_markers(h)
+    for layout, names in KEYPOINT_LAYOUTS.items():
+        assert all(n is None or n in markers for n in names), layout
+    pts = np.zeros((2, 17, 3))
+    k = keypoints(np.arange(2.0), pts, "coco17")
+    assert k.names[0] == "head" and "right_ankle" in k.names and len(k.names) == 13
+    with pytest.raises(hm.HumanoidError, match=r"\(frames, 24, 3\)"):
+        keypoints(np.arange(2.0), pts, "smpl24")
+    with pytest.raises(hm.HumanoidError, match="unknown keypoint layout"):
+        keypoints(np.arange(2.0), pts, "openpose")
+
+
+def test_cli_ik_from_trc_and_from_keypoints(tmp_path, walk_1khz, capsys):
+    """``humanoid ik`` on the walk's markers as a TRC file gives back its coordinates (0.1
+    degree, the spine aside), and on its joint centres as Human3.6M keypoints gives back the
+    knees' flexion (joint centres fix it: 0.5 degree)."""
+    from humanoid.cli import main
+    from humanoid.motion.coordinates import coordinates_table
+    from humanoid.motion.markers import (
+        KEYPOINT_LAYOUTS,
+        MarkerTrajectories,
+        default_markers,
+        marker_positions,
+        write_trc,
+    )
+
+    h, tr = walk_1khz
+    q, t = tr.q[::50], tr.t[::50]
+    markers = default_markers(h)
+    seen = MarkerTrajectories(t, list(markers), marker_positions(h, q, markers))
+    write_trc(tmp_path / "walk.trc", seen)
+    body = ["--model", str(BODIES / "adult_male.urdf")]
+    out = tmp_path / "ik.mot"
+    assert main(["ik", str(tmp_path / "walk.trc"), *body, "-o", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "markers      64 of 64 in the set" in text
+    got = read_storage(out)
+    want = coordinates_table(h, t, q, "rajagopal")
+    for c in ("hip_flexion_r", "knee_angle_l", "ankle_angle_r", "arm_flex_l", "elbow_flex_r"):
+        np.testing.assert_allclose(got.column(c), want.column(c), atol=0.1)
+    # keypoints: Human3.6M's 17 joint centres (2 of them, spine and thorax, not the body's)
+    names = KEYPOINT_LAYOUTS["h36m17"]
+    centres = marker_positions(h, q, markers, [n or "pelvis" for n in names])
+    np.savez(tmp_path / "kp.npz", points=centres, time=t)
+    out = tmp_path / "kp.csv"
+    args = ["ik", str(tmp_path / "kp.npz"), "--layout", "h36m17", *body, "-o", str(out), "--quiet"]
+    assert main(args) == 0
+    got = np.loadtxt(out, delimiter=",", skiprows=1)
+    labels = out.read_text().splitlines()[0].split(",")
+    for c in ("knee_angle_r", "knee_angle_l"):
+        np.testing.assert_allclose(got[:, labels.index(c)], want.column(c), atol=0.5)
+    assert main(["ik", str(tmp_path / "kp.npz"), *body]) == 2
+    assert "--layout" in capsys.readouterr().err

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import HumanoidError
 
-__all__ = ["moments_figure", "read_motion", "run_id", "subject_body"]
+__all__ = ["moments_figure", "read_motion", "residual_figure", "run_id", "run_ik", "subject_body"]
 
 # the moments drawn and summarised (OpenSim's coordinates; their signs are the map's)
 _FLEXION = ("hip_flexion", "knee_angle", "ankle_angle")
@@ -185,3 +185,121 @@ def run_id(args) -> int:
     print(f"wrote        {written}")
     print(f"figure       {figure}")
     return 0
+
+
+def _markers_file(path, args):
+    """Marker trajectories: a TRC or C3D file, or keypoints (.npy (frames, k, 3) or .npz with
+    ``points`` and optional ``time``) in ``--layout`` at ``--rate``."""
+    from .markers import keypoints, read_c3d, read_trc
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".trc":
+        return read_trc(path)
+    if suffix == ".c3d":
+        return read_c3d(path)
+    if suffix in (".npy", ".npz"):
+        if args.layout is None:
+            raise HumanoidError(f"{path}: keypoints need --layout (coco17, h36m17, smpl24)")
+        try:
+            loaded = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise HumanoidError(f"cannot read {path}: {exc}") from None
+        if suffix == ".npz":
+            if "points" not in loaded.files:
+                raise HumanoidError(f"{path}: no 'points' array (frames, k, 3)")
+            points = loaded["points"]
+            time = loaded["time"] if "time" in loaded.files else None
+        else:
+            points, time = loaded, None
+        if time is None:
+            time = np.arange(len(points)) / (args.rate or 30.0)
+        return keypoints(time, points, args.layout, y_up=args.y_up, source=str(path))
+    raise HumanoidError(f"{path}: markers are .trc, .c3d, or keypoints in .npy/.npz")
+
+
+def run_ik(args) -> int:
+    """``humanoid ik``: inverse kinematics of markers or keypoints, written as coordinates."""
+    import sys
+
+    from tqdm import tqdm
+
+    from .coordinates import MAPS, coordinates_table
+    from .ik import inverse_kinematics
+    from .markers import default_markers, read_markers, write_markers
+    from .storage import write_csv, write_storage
+
+    markers = _markers_file(args.markers, args)
+    h, what = subject_body(args)
+    marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+    if args.map not in (None, *MAPS):
+        raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)}")
+    bar = tqdm(total=len(markers.time) * (2 if args.register and not args.static else 1),
+               unit="frame",
+               disable=args.quiet or not sys.stderr.isatty())  # fmt: skip
+    start = clock.perf_counter()
+    try:
+        static = _markers_file(args.static, args) if args.static else None
+        r = inverse_kinematics(h, markers, marker_set, register=args.register or static is not None,
+                               static=static, progress=lambda i: bar.update(1))  # fmt: skip
+    finally:
+        bar.close()
+    elapsed = clock.perf_counter() - start
+    table = coordinates_table(h, r.time, r.q, args.map or "rajagopal")
+    out = Path(args.output)
+    written = write_csv(out, table) if out.suffix.lower() == ".csv" else write_storage(out, table)
+    unused = [n for n in markers.names if n not in marker_set]
+    rms = r.marker_rms()
+    frame = r.frame_rms()
+    print(f"body         {what} ({h.mass:.1f} kg)")
+    print(f"markers      {len(r.names)} of {len(markers.names)} in the set, {len(r.time)} frames"
+          f" at {markers.rate:.1f} Hz" + (", registered" if args.register or args.static else "")
+          + (f" on {Path(args.static).name}" if args.static else ""))  # fmt: skip
+    if unused:
+        print(f"not in set   {', '.join(unused)}")
+    print(f"residual     RMS per frame: mean {np.nanmean(frame) * 1e3:.1f} mm, "
+          f"max {np.nanmax(frame) * 1e3:.1f} mm")  # fmt: skip
+    worst = sorted(rms.items(), key=lambda kv: -kv[1])[:5]
+    print("worst        " + ", ".join(f"{n} {v * 1e3:.1f} mm" for n, v in worst))
+    if not r.converged.all():
+        print(f"not converged in {int((~r.converged).sum())} frames (their best fit is kept)")
+    print(f"time         {elapsed:.2f} s ({elapsed / len(r.time) * 1e3:.1f} ms per frame)")
+    print(f"wrote        {written}")
+    if args.save_markers:
+        print(f"marker set   {write_markers(args.save_markers, r.marker_set)}")
+    figure = Path(args.figure) if args.figure else out.with_suffix(".png")
+    residual_figure(figure, r, f"{Path(args.markers).name}: {what}")
+    print(f"figure       {figure}")
+    if args.html:
+        from ..trajectory import Trajectory
+        from ..viewer import export_html
+
+        n = len(r.time)
+        zeros = np.zeros((n, h.nv))
+        traj = Trajectory(r.time, r.q, zeros, zeros, {}, np.zeros(n), np.zeros(n),
+                          {"model": h.source, "status": "completed"})  # fmt: skip
+        print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse kinematics')}")
+    return 0
+
+
+def residual_figure(path, r, title: str = "") -> Path:
+    """Each frame's RMS marker residual, and each marker's RMS (the worst 20)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.5), gridspec_kw={"width_ratios": [3, 2]})
+    a.plot(r.time, r.frame_rms() * 1e3, "k")
+    a.set_xlabel("time [s]")
+    a.set_ylabel("RMS marker residual [mm]")
+    rms = sorted(r.marker_rms().items(), key=lambda kv: -kv[1])[:20]
+    b.barh([n for n, _ in rms][::-1], [v * 1e3 for _, v in rms][::-1], color="tab:blue")
+    b.set_xlabel("RMS residual [mm]")
+    b.tick_params(axis="y", labelsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,240 @@
+"""Inverse kinematics: the body's configurations that best fit measured markers or keypoints.
+
+Each frame solves ``min_q sum_i w_i |p_i(q) - m_i|^2`` over the markers seen in that frame
+(``w_i`` the marker set's weights; a marker missing in a frame, NaN, counts for nothing there)
+by damped Gauss-Newton on the configuration's Lie group: the step ``dq`` solves
+``(J' W J + lambda I) dq = J' W r`` (Pinocchio's frame Jacobians; a marker's Jacobian is its
+frame's, moved to the marker), the configuration moves by ``q (+) dq``, and joints with a
+range are kept inside it (each step is cut back to the range, the joint then held at its bound
+for the rest of the frame's iterations). A small pull towards the standing posture
+(``regularization``) settles what the markers cannot see (a spine of two joints seen only at
+its ends, a hand without markers). Frames are solved in order, each from the one before; the
+first from the standing posture moved onto the markers' centroid.
+
+The residual of every marker in every frame is kept (:class:`IKResult`): a person is not the
+body, so a marker that does not fit says where.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError
+from .markers import Marker, MarkerTrajectories
+
+__all__ = ["IKResult", "inverse_kinematics", "register_markers"]
+
+
+@dataclass
+class IKResult:
+    """Attributes:
+    time: (n,) [s]. q: (n, nq). names: the markers used, in the order of ``residuals``.
+    residuals: (n, m) distance between each model marker and the measured one [m] (NaN
+        where the marker was missing). iterations: per frame. converged: per frame.
+    """
+
+    time: np.ndarray
+    q: np.ndarray
+    names: list[str]
+    residuals: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    marker_set: dict | None = None
+
+    def marker_rms(self) -> dict[str, float]:
+        """Each marker's RMS residual over the frames it was seen in [m]."""
+        seen = np.isfinite(self.residuals).any(axis=0)
+        return {n: float(np.sqrt(np.nanmean(self.residuals[:, i] ** 2)))
+                for i, n in enumerate(self.names) if seen[i]}  # fmt: skip
+
+    def frame_rms(self) -> np.ndarray:
+        """Each frame's RMS residual over its seen markers, weighted equally [m]."""
+        return np.sqrt(np.nanmean(self.residuals**2, axis=1))
+
+
+def _ranges(model):
+    """(index in v, index in q, lower, upper) of the one-coordinate joints with finite ranges."""
+    out = []
+    for j in range(1, model.njoints):
+        joint = model.joints[j]
+        if joint.nq == 1 and joint.nv == 1:
+            lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
+                out.append((joint.idx_v, joint.idx_q, float(lo), float(hi)))
+    return out
+
+
+def _bounded_step(A, b, q, ranges) -> np.ndarray:
+    """The step minimising 1/2 dq'A dq - b'dq with every ranged joint kept in its range: the
+    unconstrained one if it stays inside, else ProxQP's box-constrained solve."""
+    dq = np.linalg.solve(A, b)
+    if not ranges:
+        return dq
+    iv = np.array([r[0] for r in ranges])
+    x = q[[r[1] for r in ranges]]
+    lo = np.array([r[2] for r in ranges]) - x
+    hi = np.array([r[3] for r in ranges]) - x
+    if np.all(dq[iv] >= lo - 1e-12) and np.all(dq[iv] <= hi + 1e-12):
+        return dq
+    import proxsuite
+
+    C = np.zeros((len(iv), len(b)))
+    C[np.arange(len(iv)), iv] = 1.0
+    res = proxsuite.proxqp.dense.solve(A, -b, None, None, C, np.minimum(lo, 0.0),
+                                       np.maximum(hi, 0.0), eps_abs=1e-10)  # fmt: skip
+    return np.asarray(res.x)
+
+
+def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Marker], *,
+                       register: bool = False, static: MarkerTrajectories | None = None,
+                       iterations: int = 50, tolerance: float = 1e-6,
+                       damping: float = 1e-6,
+                       regularization: float = 1e-6, q0: np.ndarray | None = None,
+                       progress=None) -> IKResult:  # fmt: skip
+    """Fit the body to measured markers (see the module docstring).
+
+    Args:
+        h: The body. markers: Measured trajectories (our axes, metres). marker_set: Where the
+            markers are on the body; only the names both have are used.
+        register: If the set has technical markers (:class:`~humanoid.motion.markers.Marker`
+            ``anatomical=False``), first fit the anatomical ones alone, put each technical
+            marker at its mean place on its frame over that fit (OpenSim's scaling moves
+            model markers onto a static trial's the same way), then fit all.
+        static: Register on this trial (a person standing still, as labs record one before
+            walking) instead of on the motion itself.
+        iterations: Gauss-Newton iterations per frame at most. tolerance: a frame stops when
+            its step is smaller than this [rad or m]. damping: Levenberg's lambda.
+        regularization: The pull towards the standing posture, per unit of marker weight.
+        q0: The first frame's starting configuration (default: see the module docstring).
+        progress: Called with the frame index after each frame (a progress bar).
+
+    Raises:
+        HumanoidError: no marker in common, a marker on a frame the body does not have, a frame
+            with fewer than 3 markers seen in total for the first frame.
+    """
+    names = [n for n in markers.names if n in marker_set]
+    technical = [n for n in names if not marker_set[n].anatomical]
+    if register and technical and len(technical) < len(names):
+        first = {n: (Marker(m.frame, m.offset, 0.0, False) if n in technical else m)
+                 for n, m in marker_set.items()}  # fmt: skip
+        source = static if static is not None else markers
+        technical = [n for n in technical if n in source.names]
+        fit = _solve(h, source, first, iterations, tolerance, damping, regularization, q0,
+                     progress if static is None else None)  # fmt: skip
+        marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical)
+        if static is None:
+            q0 = fit.q[0]
+    result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, q0,
+                    progress)  # fmt: skip
+    result.marker_set = marker_set
+    return result
+
+
+def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: dict,
+                     names) -> dict[str, Marker]:  # fmt: skip
+    """The markers ``names`` moved to their mean place on their frames over the fitted
+    configurations ``q`` (one per frame of ``markers``; frames where a marker is missing do not
+    count)."""
+    model = h.model
+    data = model.createData()
+    sums = {n: np.zeros(3) for n in names}
+    counts = dict.fromkeys(names, 0)
+    cols = {n: markers.names.index(n) for n in names}
+    for i, qi in enumerate(q):
+        pin.framesForwardKinematics(model, data, qi)
+        for n in names:
+            p = markers.positions[i, cols[n]]
+            if np.all(np.isfinite(p)):
+                sums[n] += data.oMf[model.getFrameId(marker_set[n].frame)].actInv(p)
+                counts[n] += 1
+    out = {}
+    for n in names:
+        m = marker_set[n]
+        offset = sums[n] / counts[n] if counts[n] else np.array(m.offset)
+        out[n] = Marker(m.frame, tuple(float(x) for x in offset), m.weight, m.anatomical)
+    return out
+
+
+def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, q0,
+           progress) -> IKResult:  # fmt: skip
+    model = h.model
+    data = model.createData()
+    names = [n for n in markers.names if n in marker_set]
+    if not names:
+        raise HumanoidError(
+            f"no marker of {markers.source or 'the trajectories'} is in the marker set "
+            f"(the file's: {', '.join(markers.names[:10])}; the set's: "
+            f"{', '.join(list(marker_set)[:10])})"
+        )
+    for n in names:
+        if not model.existFrame(marker_set[n].frame):
+            raise HumanoidError(f"marker {n!r} is on frame {marker_set[n].frame!r}, which "
+                                f"{h.source} does not have")  # fmt: skip
+    cols = [markers.names.index(n) for n in names]
+    meas = markers.positions[:, cols]
+    frames = [model.getFrameId(marker_set[n].frame) for n in names]
+    offsets = np.array([marker_set[n].offset for n in names])
+    weights = np.array([marker_set[n].weight for n in names])
+    ranges = _ranges(model)
+    standing = h.standing_configuration()
+    n, m = len(markers.time), len(names)
+    out_q = np.zeros((n, model.nq))
+    residuals = np.full((n, m), np.nan)
+    iters = np.zeros(n, dtype=int)
+    converged = np.zeros(n, dtype=bool)
+    q = None if q0 is None else np.asarray(q0, dtype=float).copy()
+    eye = np.eye(model.nv)
+    for i in range(n):
+        seen = np.all(np.isfinite(meas[i]), axis=1) & (weights > 0)
+        if q is None:
+            if seen.sum() < 3:
+                raise HumanoidError(
+                    f"frame {i} ({markers.time[i]:.3f} s): fewer than 3 markers seen"
+                )
+            q = standing.copy()
+            pin.framesForwardKinematics(model, data, q)
+            model_pts = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
+            q[:3] += (meas[i, seen] - model_pts[seen]).mean(axis=0)
+        w = np.where(seen, weights, 0.0)
+        w3 = np.repeat(w, 3)
+        reg = regularization * max(float(w.sum()), 1.0)
+        for it in range(iterations):
+            pin.computeJointJacobians(model, data, q)
+            pin.updateFramePlacements(model, data)
+            J = np.zeros((3 * m, model.nv))
+            r = np.zeros(3 * m)
+            for k in range(m):
+                if not seen[k]:
+                    continue
+                M = data.oMf[frames[k]]
+                p = M.act(offsets[k])
+                Jf = pin.getFrameJacobian(model, data, frames[k], pin.LOCAL_WORLD_ALIGNED)
+                J[3 * k : 3 * k + 3] = Jf[:3] - pin.skew(p - M.translation) @ Jf[3:]
+                r[3 * k : 3 * k + 3] = meas[i, k] - p
+            e = pin.difference(model, q, standing)
+            A = J.T @ (w3[:, None] * J) + (damping + reg) * eye
+            b = J.T @ (w3 * r) + reg * e
+            dq = _bounded_step(A, b, q, ranges)
+            q_new = pin.integrate(model, q, dq)
+            for _, iq, lo, hi in ranges:  # (rounding)
+                q_new[iq] = min(max(q_new[iq], lo), hi)
+            step = float(np.abs(dq).max())
+            q = q_new
+            iters[i] = it + 1
+            if step < tolerance:
+                converged[i] = True
+                break
+        pin.framesForwardKinematics(model, data, q)
+        for k in range(m):
+            if seen[k]:
+                residuals[i, k] = float(
+                    np.linalg.norm(data.oMf[frames[k]].act(offsets[k]) - meas[i, k])
+                )
+        out_q[i] = q
+        if progress is not None:
+            progress(i)
+    return IKResult(markers.time.copy(), out_q, names, residuals, iters, converged)

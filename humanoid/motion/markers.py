@@ -1,0 +1,449 @@
+"""Markers and keypoints: 3D points attached to the body's frames, and the files they come in.
+
+A **marker set** names points fixed to frames of the body (``frame``, ``offset`` in that frame
+[m], ``weight`` in inverse kinematics). :func:`default_markers` builds one for the toolkit's
+bodies from their own geometry: the joint centres (``right_hip``, ``right_knee``,
+``right_ankle``, ``right_shoulder``, ``right_elbow``, ``right_wrist``, their left twins,
+``pelvis``, ``neck``, ``head``) and the landmarks of OpenSim's gait2354 marker set by their
+names there (``R.ASIS``, ``V.Sacral``, ``R.Heel``, ``R.Toe.Tip``, ``R.Acromium``, ``Top.Head``
+... : the markers of its example walking trial), placed at the body's proportions (a scale of
+the body's hip width): where a lab puts a marker on a person is where a marker set says, and a
+person is not the body, so every marker's residual is reported, never hidden. Marker sets are
+read and written as TOML (:func:`read_markers`, :func:`write_markers`)::
+
+    [markers."R.ASIS"]
+    frame = "pelvis"
+    offset = [0.071, -0.125, 0.066]
+    weight = 1.0
+    anatomical = true    # false: a cluster's marker, registered by inverse kinematics
+
+**Keypoints** of pose estimators are joint centres in a fixed order (:data:`KEYPOINT_LAYOUTS`:
+COCO's 17, Human3.6M's 17 as VideoPose3D orders them, SMPL's 24), each named as the marker of
+the default set it is (or None: no point of the body).
+
+**TRC** files (OpenSim's and Motion Analysis's marker trajectories, :func:`read_trc`): a
+header of 5 lines (``PathFileType``, the keys ``DataRate CameraRate NumFrames NumMarkers Units
+...`` and their values, ``Frame# Time`` and the marker names, ``X1 Y1 Z1 ...``), then one
+row per frame; empty fields or ``nan`` are a missing marker; Y up, turned to ours (z up);
+millimetres or metres by ``Units``.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError
+from .loads import OPENSIM_TO_OURS
+from .storage import MotionFileError
+
+__all__ = [
+    "KEYPOINT_LAYOUTS",
+    "Marker",
+    "MarkerTrajectories",
+    "default_markers",
+    "keypoints",
+    "marker_positions",
+    "read_c3d",
+    "read_markers",
+    "read_trc",
+    "write_markers",
+    "write_trc",
+]
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A point fixed to a frame of the body: ``offset`` [m] in the frame, its IK ``weight``;
+    ``anatomical``: on a landmark the set places by anatomy (else a technical marker, a
+    cluster's, whose place on the person is the lab's choice: inverse kinematics can register
+    it, :func:`~humanoid.motion.ik.inverse_kinematics`)."""
+
+    frame: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    weight: float = 1.0
+    anatomical: bool = True
+
+
+@dataclass
+class MarkerTrajectories:
+    """Measured points over time, world axes (ours, z up) [m].
+
+    Attributes:
+        time: (n,) [s]. names: (m,). positions: (n, m, 3), NaN where a marker was not seen.
+        source: Where they came from.
+    """
+
+    time: np.ndarray
+    names: list[str]
+    positions: np.ndarray
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        self.time = np.asarray(self.time, dtype=float).reshape(-1)
+        self.positions = np.asarray(self.positions, dtype=float).reshape(
+            len(self.time), len(self.names), 3
+        )
+
+    @property
+    def rate(self) -> float:
+        return (
+            (len(self.time) - 1) / float(self.time[-1] - self.time[0])
+            if len(self.time) > 1
+            else math.nan
+        )
+
+
+# -- the toolkit's bodies' marker set ------------------------------------------------------
+
+# landmarks at a 1.75 m male body's proportions, relative to a joint centre, world axes at the
+# standing posture (x forward, y to the body's left for the left side); scaled by the body's
+# hip width; (frame, joint the offset is from, offset) per side ("R" right, mirrored for "L")
+_LANDMARKS = {
+    "ASIS": ("pelvis", "hip", (0.0707, 0.045, 0.0661)),  # gait2354's hip offset; 25 cm apart
+    "Thigh.Upper": ("thigh", "hip", (0.0, 0.075, -0.14)),
+    "Thigh.Front": ("thigh", "knee", (0.07, 0.0, 0.18)),
+    "Thigh.Rear": ("thigh", "knee", (-0.02, 0.06, 0.12)),
+    "Knee.Lat": ("thigh", "knee", (0.0, 0.05, 0.0)),
+    "Shank.Upper": ("shank", "knee", (0.0, 0.055, -0.12)),
+    "Shank.Front": ("shank", "ankle", (0.045, 0.0, 0.2)),
+    "Shank.Rear": ("shank", "ankle", (-0.02, 0.045, 0.15)),
+    "Ankle.Lat": ("shank", "ankle", (0.0, 0.04, 0.0)),
+    "Heel": ("foot", "heel", (-0.01, 0.0, 0.03)),
+    "Midfoot.Sup": ("foot", "ankle", (0.08, 0.0, -0.01)),
+    "Midfoot.Lat": ("foot", "ankle", (0.07, 0.045, -0.045)),
+    "Toe.Tip": ("foot", "toe", (0.0, 0.0, 0.02)),
+    "Toe.Lat": ("foot", "toe", (-0.06, 0.045, 0.02)),
+    "Toe.Med": ("foot", "toe", (-0.06, -0.035, 0.02)),
+    "Acromium": ("thorax", "shoulder", (0.0, 0.0, 0.04)),
+    "Bicep": ("upper_arm", "elbow", (0.04, 0.0, 0.13)),
+    "Elbow": ("upper_arm", "elbow", (0.0, 0.04, 0.0)),
+    "Wrist.Lat": ("forearm", "wrist", (0.0, 0.03, 0.0)),
+    "Wrist.Med": ("forearm", "wrist", (0.0, -0.025, 0.0)),
+    "Temple": ("head", "neck", (0.08, 0.07, 0.13)),
+    "Hand": ("hand", "wrist", (0.0, 0.0, -0.08)),  # not gait2354's: the hand's own markers
+    "Hand.Front": ("hand", "wrist", (0.035, 0.0, -0.05)),
+}
+# the clusters' markers: where a lab puts them is its own choice
+_TECHNICAL = ("Thigh.Upper", "Thigh.Front", "Thigh.Rear", "Shank.Upper", "Shank.Front",
+              "Shank.Rear", "Bicep", "Hand", "Hand.Front")  # fmt: skip
+_MIDLINE = {  # (frame, joint, offset)
+    "V.Sacral": ("pelvis", "root", (-0.10, 0.0, 0.066)),
+    "Sternum": ("thorax", "neck", (0.09, 0.0, -0.06)),
+    "Top.Head": ("head", "neck", (0.0, 0.0, 0.23)),
+}
+_SIDE = {"R": "right", "L": "left"}
+_JOINTS = {"hip": "hip", "knee": "knee", "ankle": "ankle_flexion", "shoulder": "shoulder",
+           "elbow": "elbow", "wrist": "wrist_flexion"}  # fmt: skip
+
+
+def _body_frame(side: str, segment: str) -> str:
+    if segment in ("pelvis", "thorax", "head", "abdomen"):
+        return segment
+    return f"{side}_{segment}"
+
+
+def default_markers(h) -> dict[str, Marker]:
+    """The default marker set of a toolkit body (see the module docstring).
+
+    Raises:
+        HumanoidError: the body is not one of the toolkit's (its frames have other names).
+    """
+    model = h.model
+    needed = ["pelvis", "thorax", "head", "neck"] + [
+        f"{s}_{x}" for s in ("left", "right")
+        for x in ("hip", "knee", "ankle_flexion", "shoulder", "elbow", "wrist_flexion", "thigh",
+                  "shank", "foot", "upper_arm", "forearm", "hand", "sole")
+    ]  # fmt: skip
+    missing = [n for n in needed if not model.existFrame(n)]
+    if missing:
+        raise HumanoidError(
+            f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
+            f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
+        )
+    data = model.createData()
+    q0 = h.standing_configuration()
+    pin.framesForwardKinematics(model, data, q0)
+
+    def at(name):
+        return data.oMf[model.getFrameId(name)]
+
+    scale = abs(at("left_hip").translation[1] - at("right_hip").translation[1]) / 0.16
+    out = {}
+
+    def attach(marker, frame, world, weight=1.0):
+        offset = at(frame).actInv(np.asarray(world, dtype=float))
+        technical = any(marker.endswith(x) for x in _TECHNICAL)
+        out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, not technical)
+
+    out["pelvis"] = Marker("pelvis", (0.0, 0.0, 0.0))
+    for s in ("left", "right"):
+        for name, joint in _JOINTS.items():
+            attach(f"{s}_{name}", f"{s}_{joint}", at(f"{s}_{joint}").translation)
+    attach("neck", "neck", at("neck").translation)
+    attach("head", "head", at("neck").translation + np.array([0.0, 0.0, 0.12]) * scale)
+    sole = {s: (h.sole_points(s), at(h.model.frames[h.sole_id(s)].name)) for s in ("left", "right")}
+    for letter, s in _SIDE.items():
+        mirror = 1.0 if s == "left" else -1.0
+        points, M = sole[s]
+        heel, toe = M.act(points[points[:, 0].argmin()]), M.act(points[points[:, 0].argmax()])
+        centre = {"root": at("pelvis").translation, "heel": heel, "toe": toe}
+        for name, (segment, joint, offset) in _LANDMARKS.items():
+            origin = centre.get(joint)
+            if origin is None:
+                origin = at(f"{s}_{_JOINTS[joint]}" if joint in _JOINTS else joint).translation
+            if joint in ("heel", "toe"):  # the sole's middle line, at its back or front
+                origin = np.array([origin[0], M.translation[1], origin[2]])
+            d = np.array(offset) * scale * np.array([1.0, mirror, 1.0])
+            attach(f"{letter}.{name}", _body_frame(s, segment), origin + d)
+    for name, (segment, joint, offset) in _MIDLINE.items():
+        origin = at("pelvis").translation if joint == "root" else at(joint).translation
+        attach(name, segment, origin + np.array(offset) * scale)
+    return out
+
+
+def marker_positions(h, q: np.ndarray, markers: dict[str, Marker], names=None) -> np.ndarray:
+    """Where the markers are for configurations ``q`` (n, nq): (n, m, 3) world [m], in the
+    order of ``names`` (default: the set's)."""
+    model = h.model
+    data = model.createData()
+    names = list(names or markers)
+    q = np.atleast_2d(q)
+    ids = [model.getFrameId(markers[n].frame) for n in names]
+    offsets = np.array([markers[n].offset for n in names])
+    out = np.zeros((len(q), len(names), 3))
+    for i, qi in enumerate(q):
+        pin.framesForwardKinematics(model, data, qi)
+        for k, (f, o) in enumerate(zip(ids, offsets, strict=True)):
+            out[i, k] = data.oMf[f].act(o)
+    return out
+
+
+def read_markers(path: str | Path) -> dict[str, Marker]:
+    """A marker set from TOML (``[markers.NAME]`` tables: ``frame``, ``offset``, ``weight``).
+
+    Raises:
+        HumanoidError: missing file, bad TOML, a marker without a frame, an offset that is not
+            three numbers, a negative weight.
+    """
+    path = Path(path)
+    try:
+        spec = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise HumanoidError(f"marker set not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+    table = spec.get("markers")
+    if not isinstance(table, dict) or not table:
+        raise HumanoidError(f"{path}: no [markers.NAME] tables")
+    out = {}
+    for name, m in table.items():
+        try:
+            offset = tuple(float(x) for x in m.get("offset", (0.0, 0.0, 0.0)))
+            weight = float(m.get("weight", 1.0))
+            frame = str(m["frame"])
+            anatomical = bool(m.get("anatomical", True))
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise HumanoidError(
+                f"{path}: markers.{name} needs a frame, an offset of 3 numbers and a weight"
+            ) from None
+        if len(offset) != 3 or not all(math.isfinite(x) for x in offset) or not weight >= 0.0:
+            raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers, "
+                                "weight at least 0")  # fmt: skip
+        out[name] = Marker(frame, offset, weight, anatomical)
+    return out
+
+
+def write_markers(path: str | Path, markers: dict[str, Marker]) -> Path:
+    """Write a marker set as TOML (read back by :func:`read_markers`, to the bit)."""
+    path = Path(path)
+    lines = []
+    for name, m in markers.items():
+        lines += [f'[markers."{name}"]', f'frame = "{m.frame}"',
+                  "offset = [" + ", ".join(repr(float(x)) for x in m.offset) + "]",
+                  f"weight = {float(m.weight)!r}",
+                  f"anatomical = {'true' if m.anatomical else 'false'}", ""]  # fmt: skip
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path
+
+
+# -- keypoints -----------------------------------------------------------------------------
+
+# each layout's points in its order, as the default set's markers (None: not a point of the
+# body); sources: COCO (mmpose's coco.py), Human3.6M 17 as VideoPose3D keeps them
+# (h36m_dataset.py), SMPL (smplx's joint_names.py)
+KEYPOINT_LAYOUTS = {
+    "coco17": (
+        "head", None, None, None, None, "left_shoulder", "right_shoulder", "left_elbow",
+        "right_elbow", "left_wrist", "right_wrist", "left_hip", "right_hip", "left_knee",
+        "right_knee", "left_ankle", "right_ankle",
+    ),
+    "h36m17": (
+        "pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",
+        "left_ankle", None, None, "neck", "head", "left_shoulder", "left_elbow", "left_wrist",
+        "right_shoulder", "right_elbow", "right_wrist",
+    ),
+    "smpl24": (
+        "pelvis", "left_hip", "right_hip", None, "left_knee", "right_knee", None, "left_ankle",
+        "right_ankle", None, None, None, "neck", None, None, "head", "left_shoulder",
+        "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", None, None,
+    ),
+}  # fmt: skip
+
+
+def keypoints(
+    time, points, layout: str, y_up: bool = False, source: str = ""
+) -> MarkerTrajectories:
+    """Pose-estimator keypoints (n, k, 3) [m] in a known ``layout`` as marker trajectories
+    named after the default set's joint centres (points the body has no match for dropped).
+
+    Raises:
+        HumanoidError: an unknown layout, or points whose count is not the layout's.
+    """
+    if layout not in KEYPOINT_LAYOUTS:
+        raise HumanoidError(
+            f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
+        )
+    names = KEYPOINT_LAYOUTS[layout]
+    points = np.asarray(points, dtype=float)
+    if points.ndim != 3 or points.shape[1:] != (len(names), 3):
+        raise HumanoidError(
+            f"{layout} keypoints must be (frames, {len(names)}, 3), got {points.shape}"
+        )
+    keep = [i for i, n in enumerate(names) if n is not None]
+    pts = points[:, keep]
+    if y_up:
+        pts = pts @ OPENSIM_TO_OURS.T
+    return MarkerTrajectories(time, [names[i] for i in keep], pts, source)
+
+
+# -- C3D -----------------------------------------------------------------------------------
+
+
+def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
+    """The marker trajectories of a C3D file (ezc3d): positions in metres (``POINT:UNITS``),
+    missing points NaN, our axes. ``y_up``: the lab's vertical is its Y (OpenSim's, turned to
+    ours) or its Z (most gait labs', kept); default: Y if the file's ``POINT:Y_SCREEN`` says
+    ``+Y``, else Z.
+
+    Raises:
+        MotionFileError: a missing or unreadable file, no points.
+    """
+    import ezc3d
+
+    path = Path(path)
+    if not path.exists():
+        raise MotionFileError(f"marker file not found: {path}")
+    try:
+        c = ezc3d.c3d(str(path))
+    except Exception as exc:  # noqa: BLE001 - ezc3d raises RuntimeError, ValueError ...
+        raise MotionFileError(f"cannot read {path} as C3D: {exc}") from None
+    point = c["parameters"]["POINT"]
+    names = [str(x).strip() for x in point["LABELS"]["value"]]
+    data = np.asarray(c["data"]["points"], dtype=float)  # (4, m, n)
+    if data.shape[1] == 0 or data.shape[2] == 0:
+        raise MotionFileError(f"{path}: no marker points")
+    names = names[: data.shape[1]]
+    units = str(point["UNITS"]["value"][0]).strip().lower() if "UNITS" in point else "mm"
+    scale = {"mm": 1e-3, "m": 1.0, "cm": 1e-2}.get(units)
+    if scale is None:
+        raise MotionFileError(f"{path}: unknown POINT:UNITS {units!r} (mm, cm or m)")
+    rate = float(np.ravel(point["RATE"]["value"])[0])
+    first = int(c["header"]["points"]["first_frame"])
+    pos = np.transpose(data[:3], (2, 1, 0)) * scale  # (n, m, 3)
+    if y_up is None:
+        screen = point.get("Y_SCREEN", {}).get("value", [""])
+        y_up = str(screen[0]).strip().upper() == "+Y"
+    if y_up:
+        pos = pos @ OPENSIM_TO_OURS.T
+    time = (first + np.arange(pos.shape[0])) / rate
+    return MarkerTrajectories(time, names, pos, str(path))
+
+
+# -- TRC -----------------------------------------------------------------------------------
+
+
+def read_trc(path: str | Path, y_up: bool = True) -> MarkerTrajectories:
+    """Read a TRC file (see the module docstring); positions in metres, our axes.
+
+    Raises:
+        MotionFileError: naming the file and line: missing, not a TRC, a marker count that
+            disagrees with the names, a row of the wrong length, an unknown unit.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    except FileNotFoundError:
+        raise MotionFileError(f"marker file not found: {path}") from None
+    if len(lines) < 5 or not lines[0].startswith("PathFileType"):
+        raise MotionFileError(f"{path}: not a TRC file (its first line must start PathFileType)")
+    keys = [x for x in lines[1].split("\t") if x.strip()]
+    values = [x.strip() for x in lines[2].split("\t") if x.strip()]
+    if len(keys) != len(values):
+        raise MotionFileError(f"{path}:3: {len(values)} values for {len(keys)} header keys")
+    header = dict(zip([k.strip() for k in keys], values, strict=True))
+    units = header.get("Units", "mm").lower()
+    scale = {"mm": 1e-3, "m": 1.0, "cm": 1e-2}.get(units)
+    if scale is None:
+        raise MotionFileError(f"{path}: unknown Units {header.get('Units')!r} (mm, cm or m)")
+    names = [x.strip() for x in lines[3].split("\t") if x.strip()][2:]
+    if "NumMarkers" in header and int(float(header["NumMarkers"])) != len(names):
+        raise MotionFileError(
+            f"{path}:4: {len(names)} marker names for NumMarkers={header['NumMarkers']}"
+        )
+    times, rows = [], []
+    for number, line in enumerate(lines[5:], start=6):
+        if not line.strip():
+            if rows:
+                break  # an empty line after the data ends it
+            continue
+        cells = [c.strip() for c in line.rstrip("\r\n").split("\t")]
+        while len(cells) > 2 + 3 * len(names) and cells[-1] == "":
+            cells.pop()
+        if len(cells) < 2 + 3 * len(names):
+            cells += [""] * (2 + 3 * len(names) - len(cells))
+        if len(cells) != 2 + 3 * len(names):
+            raise MotionFileError(
+                f"{path}:{number}: {len(cells) - 2} coordinates for {len(names)} markers"
+            )
+        try:
+            times.append(float(cells[1]))
+            rows.append([float(c) if c else math.nan for c in cells[2:]])
+        except ValueError:
+            raise MotionFileError(f"{path}:{number}: not a number in {line[:60]!r}") from None
+    if not rows:
+        raise MotionFileError(f"{path}: no frames")
+    pos = np.array(rows).reshape(len(rows), len(names), 3) * scale
+    if y_up:
+        pos = pos @ OPENSIM_TO_OURS.T
+    return MarkerTrajectories(np.array(times), names, pos, str(path))
+
+
+def write_trc(path: str | Path, markers: MarkerTrajectories, y_up: bool = True) -> Path:
+    """Write marker trajectories as a TRC file (millimetres, OpenSim's Y up by default; a
+    missing marker's fields empty)."""
+    path = Path(path)
+    n, m = len(markers.time), len(markers.names)
+    rate = markers.rate if n > 1 else 1.0
+    pos = markers.positions @ OPENSIM_TO_OURS if y_up else markers.positions
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame"
+        "\tOrigNumFrames",
+        f"{rate:.6g}\t{rate:.6g}\t{n}\t{m}\tmm\t{rate:.6g}\t1\t{n}",
+        "Frame#\tTime\t" + "\t\t\t".join(markers.names) + "\t\t",
+        "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, m + 1)),
+        "",
+    ]
+    for i in range(n):
+        cells = [str(i + 1), repr(float(markers.time[i]))]
+        for p in pos[i] * 1000.0:
+            cells += ["" if not np.isfinite(x) else repr(float(x)) for x in p]
+        lines.append("\t".join(cells))
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
