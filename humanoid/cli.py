@@ -161,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "markers on (implies --register)")  # fmt: skip
     k.add_argument(
         "--layout",
-        choices=("coco17", "h36m17", "smpl24"),
+        choices=("coco17", "h36m17", "body25", "smpl24"),
         help="the keypoints' order (for .npy/.npz)",
     )
     k.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when the file has "
@@ -174,6 +174,39 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--html", help="also write the fitted motion's viewer (one HTML file)")
     k.add_argument("--save-markers", help="write the marker set as used (TOML)")
     k.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    tr = command("track", help="follow a motion in forward simulation by joint torques "
+                 "(physics-based tracking)")  # fmt: skip
+    tr.add_argument("motion", help="coordinates (.mot/.sto), a run (.npz), or markers (.trc, "
+                    ".c3d) and keypoints (.npy, .npz with --layout): fitted first")  # fmt: skip
+    _subject_options(tr)
+    tr.add_argument("--loads", help="measured ground forces (.mot): when each foot is down")
+    tr.add_argument("--loads-xml", help="their ExternalLoads .xml")
+    tr.add_argument(
+        "--loads-side",
+        action="append",
+        default=[],
+        metavar="PREFIX=SIDE",
+        help="the foot of a load column prefix (repeatable)",
+    )
+    tr.add_argument("--map", help="the coordinates' model (gait2392, gait2354, rajagopal, TOML)")
+    tr.add_argument("--no-floor", action="store_true", help="keep the motion's height")
+    tr.add_argument(
+        "--layout",
+        choices=("coco17", "h36m17", "body25", "smpl24"),
+        help="keypoints' order (for .npy/.npz keypoints)",
+    )
+    tr.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
+    tr.add_argument("--y-up", action="store_true", help="keypoints with Y up")
+    tr.add_argument(
+        "--cutoff", type=float, default=6.0, help="low-pass cutoff of the reference [Hz] (0: none)"
+    )
+    tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
+    tr.add_argument("-o", "--output", default="tracked.npz", help="the run to write (.npz)")
+    tr.add_argument("--mot", help="also write it as OpenSim files (coordinates, ground forces)")
+    tr.add_argument("--figure", help="figure (PNG); default: next to the run")
+    tr.add_argument("--html", help="also write the viewer (one HTML file)")
+    tr.add_argument("--quiet", action="store_true", help="no progress bar")
 
     d = command("id", help="inverse dynamics of a motion (OpenSim .mot/.sto, or a run .npz)")
     d.add_argument("motion", help="joint coordinates (.mot/.sto, OpenSim's gait models' names) "
@@ -252,6 +285,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "export": ("mjcf",),
     "id": ("output", "figure"),
     "ik": ("output", "figure", "html", "save_markers"),
+    "track": ("output", "figure", "html", "mot"),
     "bench": ("output",),
 }
 
@@ -327,6 +361,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_ik
 
         return run_ik(args)
+    if args.command == "track":
+        from .motion.commands import run_track
+
+        return run_track(args)
     if args.command == "bench":
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark

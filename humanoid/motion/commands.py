@@ -200,7 +200,7 @@ def _markers_file(path, args):
         return read_c3d(path)
     if suffix in (".npy", ".npz"):
         if args.layout is None:
-            raise HumanoidError(f"{path}: keypoints need --layout (coco17, h36m17, smpl24)")
+            raise HumanoidError(f"{path}: keypoints need --layout (coco17, h36m17, body25, smpl24)")
         try:
             loaded = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:
@@ -297,6 +297,97 @@ def residual_figure(path, r, title: str = "") -> Path:
     b.barh([n for n, _ in rms][::-1], [v * 1e3 for _, v in rms][::-1], color="tab:blue")
     b.set_xlabel("RMS residual [mm]")
     b.tick_params(axis="y", labelsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def run_track(args) -> int:
+    """``humanoid track``: a motion followed in forward simulation, by joint torques."""
+    from .inverse_dynamics import joint_labels
+    from .tracking import track
+
+    suffix = Path(args.motion).suffix.lower()
+    if suffix in (".trc", ".c3d", ".npy") or (suffix == ".npz" and args.layout):
+        from .ik import inverse_kinematics
+        from .markers import default_markers
+
+        markers = _markers_file(args.motion, args)
+        h, what = subject_body(args)
+        fit = inverse_kinematics(h, markers, default_markers(h))
+        t, q, loads = fit.time, fit.q, []
+        print(f"ik           {len(fit.names)} markers, residual RMS per frame "
+              f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
+    else:
+        args.map = getattr(args, "map", None)
+        h, what, t, q, loads, _, _ = read_motion(args)
+    cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
+    res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)
+    traj = res.trajectory
+    path = traj.save(args.output)
+    meta = traj.metadata
+    err = res.joint_error
+    labels = joint_labels(h.model)
+    rms = np.sqrt(np.mean(err[:, 6:] ** 2, axis=0))
+    worst = np.argsort(-rms)[:5]
+    sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
+    print(f"body         {what} ({h.mass:.1f} kg)")
+    print(
+        f"status       {meta['status']}" + (f": {meta['message']}" if meta.get("message") else "")
+    )
+    print(f"real time    {sim_time / max(res.wall_time, 1e-9):.2f} x ({res.wall_time:.1f} s of "
+          f"wall time for {sim_time:.2f} s)")  # fmt: skip
+    print(f"root error   max {np.abs(err[:, :3]).max() * 1e3:.1f} mm, "
+          f"{np.degrees(np.abs(err[:, 3:6]).max()):.2f} deg")  # fmt: skip
+    print(f"joint error  RMS {np.degrees(np.sqrt(np.mean(err[:, 6:] ** 2))):.2f} deg, max "
+          f"{np.degrees(np.abs(err[:, 6:]).max()):.2f} deg; worst: "
+          + ", ".join(f"{labels[6 + i]} {np.degrees(rms[i]):.2f}" for i in worst))  # fmt: skip
+    for s in ("left", "right"):
+        fz = traj.forces.get(f"ground_{s}")
+        if fz is not None and len(fz):
+            print(f"ground {s:5s} peak vertical force {fz[:, 2].max() / (h.mass * 9.81):.2f} BW")
+    print(f"saved        {path}")
+    if args.mot:
+        from .export import write_opensim
+
+        for written in write_opensim(h, traj, args.mot):
+            print(f"opensim      {written}")
+    figure = Path(args.figure) if args.figure else Path(path).with_suffix(".png")
+    tracking_figure(figure, res, labels, h.mass, f"{Path(args.motion).name}: {what}")
+    print(f"figure       {figure}")
+    if args.html:
+        from ..viewer import export_html
+
+        print(f"viewer       {export_html(h, args.html, traj=traj, title='tracked motion')}")
+    return 0 if res.completed else 3
+
+
+def tracking_figure(path, res, labels, mass: float, title: str = "") -> Path:
+    """The tracking error of the root and the worst joints, and the feet's vertical forces."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    traj, err = res.trajectory, res.joint_error
+    fig, (a, b) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    a.plot(traj.t, np.linalg.norm(err[:, :3], axis=1) * 1e3, "k", label="root position [mm]")
+    rms = np.sqrt(np.mean(err[:, 6:] ** 2, axis=0))
+    for i in np.argsort(-rms)[:5]:
+        a.plot(traj.t, np.degrees(err[:, 6 + i]), label=f"{labels[6 + i]} [deg]")
+    a.axhline(0.0, color="0.6", lw=0.8)
+    a.set_title("tracking error (reference minus simulated)")
+    a.legend(fontsize=8, loc="best")
+    for s, colour in (("left", "tab:blue"), ("right", "tab:red")):
+        f = traj.forces.get(f"ground_{s}")
+        if f is not None:
+            b.plot(traj.t, f[:, 2] / (mass * 9.81), colour, label=s)
+    b.set_ylabel("vertical ground force [BW]")
+    b.set_xlabel("time [s]")
+    b.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
     path = Path(path)

@@ -82,6 +82,7 @@ __all__ = [
     "configurations",
     "coordinates_table",
     "guess_map",
+    "lowest_sole_point",
     "read_map",
 ]
 
@@ -407,7 +408,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         q[i, :3] = trans[i] + R @ offset
         q[i, 3:7] = pin.Quaternion(R).coeffs()
     if floor:
-        q[:, 2] -= _lowest_sole(h, q)
+        q[:, 2] -= lowest_sole_point(h, q)
     unmapped = [x for x in cols if x not in used and x not in cmap.ignored]
     skipped = [x for x in cols if x not in used and x in cmap.ignored]
     if unmapped or skipped:
@@ -420,7 +421,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
     return table.time.copy(), q, skipped + unmapped
 
 
-def _lowest_sole(h, q: np.ndarray) -> float:
+def lowest_sole_point(h, q: np.ndarray) -> float:
     """The lowest height any sole point reaches over the configurations."""
     model = h.model
     data = model.createData()

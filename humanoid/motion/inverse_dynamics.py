@@ -38,6 +38,7 @@ from .loads import Load
 __all__ = [
     "InverseDynamics",
     "carry_loads",
+    "derivatives",
     "inverse_dynamics",
     "joint_labels",
     "lowpass",
@@ -152,6 +153,52 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float) -> np.ndarray:
     return filtfilt(b, a, x, axis=0)
 
 
+def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
+    time = np.asarray(time, dtype=float).reshape(-1)
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 2 or q.shape[1] != model.nq or len(q) != len(time):
+        raise ConfigurationError(
+            f"q must be (n, nq) = ({len(time)}, {model.nq}) for {len(time)} times, got {q.shape}"
+        )
+    if not np.all(np.isfinite(q)) or not np.all(np.isfinite(time)):
+        raise ConfigurationError("the motion has non-finite entries")
+    if len(time) < 3:
+        raise HumanoidError(f"a motion needs at least 3 samples, got {len(time)}")
+    if not np.all(np.diff(time) > 0):
+        raise HumanoidError("the motion's time must increase")
+    slots = quaternion_slots(model)
+    return time, _normalise(_continuous(q, slots), slots)
+
+
+def derivatives(model, time, q, *, cutoff: float | None = 6.0, rate: float | None = None,
+                velocity: str = "central") -> tuple[np.ndarray, ...]:  # fmt: skip
+    """A motion resampled, filtered and differentiated (steps 1-3 of the module docstring):
+    (time, q, v, a) on a uniform grid."""
+    if velocity not in ("central", "backward"):
+        raise HumanoidError(f"velocity must be 'central' or 'backward', got {velocity!r}")
+    time, q = _checked(model, time, q)
+    slots = quaternion_slots(model)
+    rate = float(rate) if rate is not None else (len(time) - 1) / (time[-1] - time[0])
+    n = int(math.floor((time[-1] - time[0]) * rate + 1e-9)) + 1
+    uniform = time[0] + np.arange(n) / rate
+    if n != len(time) or not np.allclose(uniform, time, rtol=0.0, atol=1e-9 / rate):
+        q = _continuous(_resample(model, time, q, uniform), slots)
+    if cutoff is not None:
+        q = _normalise(lowpass(q, rate, cutoff), slots)
+    dt = 1.0 / rate
+    d = np.array([pin.difference(model, q[i], q[i + 1]) for i in range(n - 1)]) / dt
+    v = np.empty((n, model.nv))
+    a = np.empty((n, model.nv))
+    a[1:-1] = (d[1:] - d[:-1]) / dt
+    a[0], a[-1] = a[1], a[-2]
+    if velocity == "backward":
+        v[1:], v[0] = d, d[0]
+    else:
+        v[1:-1] = 0.5 * (d[1:] + d[:-1])
+        v[0], v[-1] = d[0], d[-1]
+    return uniform, q, v, a
+
+
 def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 6.0,
                      rate: float | None = None, velocity: str = "central",
                      recorded_feet: dict | None = None) -> InverseDynamics:  # fmt: skip
@@ -172,49 +219,19 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
             samples, time not increasing, a load on a body the model does not have.
     """
     model = h.model
-    time = np.asarray(time, dtype=float).reshape(-1)
-    q = np.asarray(q, dtype=float)
-    if q.ndim != 2 or q.shape[1] != model.nq or len(q) != len(time):
-        raise ConfigurationError(
-            f"q must be (n, nq) = ({len(time)}, {model.nq}) for {len(time)} times, got {q.shape}"
-        )
-    if not np.all(np.isfinite(q)) or not np.all(np.isfinite(time)):
-        raise ConfigurationError("the motion has non-finite entries")
-    if len(time) < 3:
-        raise HumanoidError(f"inverse dynamics needs at least 3 samples, got {len(time)}")
-    if not np.all(np.diff(time) > 0):
-        raise HumanoidError("the motion's time must increase")
-    if velocity not in ("central", "backward"):
-        raise HumanoidError(f"velocity must be 'central' or 'backward', got {velocity!r}")
-    slots = quaternion_slots(model)
-    q = _normalise(_continuous(q, slots), slots)
+    time, q = _checked(model, time, q)
     carried = []
     if recorded_feet:  # at the motion's own samples, where the recorded feet are given
         loads, carried = carry_loads(h, time, q, loads, recorded_feet)
-    rate = float(rate) if rate is not None else (len(time) - 1) / (time[-1] - time[0])
-    n = int(math.floor((time[-1] - time[0]) * rate + 1e-9)) + 1
-    uniform = time[0] + np.arange(n) / rate
-    if n != len(time) or not np.allclose(uniform, time, rtol=0.0, atol=1e-9 / rate):
-        q = _continuous(_resample(model, time, q, uniform), slots)
-    time = uniform
+    time, q, v, a = derivatives(model, time, q, cutoff=cutoff, rate=rate, velocity=velocity)
+    rate = 1.0 / (time[1] - time[0])
+    n = len(time)
     wrenches = {}
     for load in loads:
         j = _load_joint(h, load.body)
         wrenches[load.body] = (j, wrenches.get(load.body, (j, 0.0))[1] + load.resampled(time))
     if cutoff is not None:
-        q = _normalise(lowpass(q, rate, cutoff), slots)
         wrenches = {k: (j, lowpass(w, rate, cutoff)) for k, (j, w) in wrenches.items()}
-    dt = 1.0 / rate
-    d = np.array([pin.difference(model, q[i], q[i + 1]) for i in range(n - 1)]) / dt
-    v = np.empty((n, model.nv))
-    a = np.empty((n, model.nv))
-    a[1:-1] = (d[1:] - d[:-1]) / dt
-    a[0], a[-1] = a[1], a[-2]
-    if velocity == "backward":
-        v[1:], v[0] = d, d[0]
-    else:
-        v[1:-1] = 0.5 * (d[1:] + d[:-1])
-        v[0], v[-1] = d[0], d[-1]
     data = model.createData()
     tau = np.empty((n, model.nv))
     res_f, res_m = np.zeros((n, 3)), np.zeros((n, 3))

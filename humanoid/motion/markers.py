@@ -18,8 +18,10 @@ read and written as TOML (:func:`read_markers`, :func:`write_markers`)::
     anatomical = true    # false: a cluster's marker, registered by inverse kinematics
 
 **Keypoints** of pose estimators are joint centres in a fixed order (:data:`KEYPOINT_LAYOUTS`:
-COCO's 17, Human3.6M's 17 as VideoPose3D orders them, SMPL's 24), each named as the marker of
-the default set it is (or None: no point of the body).
+COCO's 17, Human3.6M's 17 as VideoPose3D orders them, OpenPose's BODY_25 (with the feet's toes
+and heels), SMPL's 24), each named as the marker of the default set it is (or None: no point
+of the body). Joint centres alone do not fix a foot's orientation nor a limb's twist: give the
+feet's points (BODY_25) where there are any.
 
 **TRC** files (OpenSim's and Motion Analysis's marker trajectories, :func:`read_trc`): a
 header of 5 lines (``PathFileType``, the keys ``DataRate CameraRate NumFrames NumMarkers Units
@@ -276,7 +278,9 @@ def write_markers(path: str | Path, markers: dict[str, Marker]) -> Path:
 
 # each layout's points in its order, as the default set's markers (None: not a point of the
 # body); sources: COCO (mmpose's coco.py), Human3.6M 17 as VideoPose3D keeps them
-# (h36m_dataset.py), SMPL (smplx's joint_names.py)
+# (h36m_dataset.py), OpenPose's BODY_25 (its output format documentation: the feet's big
+# toe, small toe and heel, which fix the feet's orientation, as markerless pipelines such as
+# Pose2Sim use them), SMPL (smplx's joint_names.py)
 KEYPOINT_LAYOUTS = {
     "coco17": (
         "head", None, None, None, None, "left_shoulder", "right_shoulder", "left_elbow",
@@ -287,6 +291,12 @@ KEYPOINT_LAYOUTS = {
         "pelvis", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",
         "left_ankle", None, None, "neck", "head", "left_shoulder", "left_elbow", "left_wrist",
         "right_shoulder", "right_elbow", "right_wrist",
+    ),
+    "body25": (
+        None, "neck", "right_shoulder", "right_elbow", "right_wrist", "left_shoulder",
+        "left_elbow", "left_wrist", "pelvis", "right_hip", "right_knee", "right_ankle",
+        "left_hip", "left_knee", "left_ankle", None, None, None, None, "L.Toe.Med", "L.Toe.Lat",
+        "L.Heel", "R.Toe.Med", "R.Toe.Lat", "R.Heel",
     ),
     "smpl24": (
         "pelvis", "left_hip", "right_hip", None, "left_knee", "right_knee", None, "left_ankle",

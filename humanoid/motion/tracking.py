@@ -1,0 +1,365 @@
+"""Physics-based tracking: a recorded motion followed in forward simulation, by joint torques.
+
+The seeds' people tracking: a kinematic motion (from inverse kinematics of noisy markers or
+keypoints, say) is turned into one that obeys physics. The plant is the walk's: the rigid
+ground contact (every sole point unilateral with Coulomb friction), the joint ranges as
+constraints, semi-implicit Euler; the free flyer is never actuated, so the body goes where the
+ground's forces take it. At every step a task-space inverse-dynamics QP (ProxQP), the walk
+controller's (:mod:`humanoid.walking.tracking`) without its gait cycle, finds the acceleration
+``dv`` and the forces ``f`` of the sole points that carry load, and only the joint torques
+``tau = (M dv + h - J^T f)[6:]`` leave it:
+
+- **Reference.** The motion resampled, filtered (6 Hz by default) and differentiated as
+  inverse dynamics does (:func:`~humanoid.motion.inverse_dynamics.derivatives`), interpolated
+  at the simulation's steps.
+- **Contacts.** Which foot is on the ground when: from the measured loads if there are any
+  (vertical force over 20 N), else from the motion, a foot whose lowest sole point is within
+  ``contact_height`` of the motion's floor and moves slower than ``contact_speed``. A foot in
+  contact whose sole points are within ``touch`` of the floor sticks (its points' forces are the
+  QP's, in friction pyramids); a foot out of contact follows the motion's foot, and none of its
+  points may go through the floor within the ``horizon``.
+- **Tasks.** The root (pelvis position and orientation) and the centre of mass follow the
+  motion's, the centre of mass's horizontal acceleration kept to one the loaded soles can carry
+  (its centre of pressure moved into their hull); every joint follows its angle; a free foot
+  its pose; small forces.
+
+The result (:class:`Tracked`) is the simulated run, with its contact forces and torques, and the
+tracking error per joint against the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..effects import Effect
+from ..errors import HumanoidError, RunFailed
+from ..model import SIDES
+from ..walking.qp import WarmQP, pyramid_rows, range_damper
+from ..walking.tracking import closest_in_hull
+from .coordinates import lowest_sole_point
+from .inverse_dynamics import derivatives
+from .loads import Load
+
+__all__ = ["MotionReference", "MotionTracker", "TrackGains", "Tracked", "contact_schedule", "track"]
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+SOLE_DEPTH = 2e-3  # [m] only points this close to the sole's plane bear load
+
+
+@dataclass(frozen=True)
+class TrackGains:
+    """The tracking QP's gains and weights (accelerations: kp e + kd e')."""
+
+    joint_kp: float = 400.0
+    joint_kd: float = 40.0
+    root_kp: float = 100.0
+    root_kd: float = 20.0
+    com_kp: float = 100.0
+    com_kd: float = 20.0
+    foot_kp: float = 400.0
+    foot_kd: float = 40.0
+    w_joint: float = 1.0
+    w_root: float = 10.0
+    w_com: float = 10.0
+    w_foot: float = 10.0
+    w_force: float = 1e-3
+    mu: float = 0.6  # the pyramids' friction (inside the floor's)
+    touch: float = 1e-2  # [m] a contact foot's points this close to the floor may bear load
+    ref_touch: float = 1e-2  # [m] ... if the motion has them this close to its floor
+    contact_time: float = 0.02  # [s] a loaded point's velocity comes to rest in this time
+    settle: float = 0.02  # [s] a loaded point above the floor settles onto it in this time
+    horizon: float = 0.02  # [s] free points and ranges are kept off their bounds this far ahead
+
+
+def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float = 0.3,
+                     force: float = 20.0) -> dict:  # fmt: skip
+    """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
+    (vertical force over ``force`` [N]) if it has one, else from the motion: its lowest sole
+    point within ``height`` [m] of the motion's lowest and its sole moving slower than
+    ``speed`` [m/s]."""
+    model = h.model
+    data = model.createData()
+    out = {}
+    measured = {x.body: x for x in loads if x.body in SIDES}
+    pts = {s: h.sole_points(s) for s in SIDES}
+    # per sole point: its height and speed; a foot is down where one of its points is low and
+    # still (a trailing foot rolls on its toes while its frame moves fast)
+    low = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
+    fast = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
+    for i in range(len(time)):
+        pin.forwardKinematics(model, data, q[i], v[i])
+        for s in SIDES:
+            fid = h.sole_id(s)
+            M = pin.updateFramePlacement(model, data, fid)
+            vel = pin.getFrameVelocity(model, data, fid, LWA)
+            arms = pts[s] @ M.rotation.T
+            low[s][i] = (arms + M.translation)[:, 2]
+            fast[s][i] = np.linalg.norm(vel.linear + np.cross(vel.angular, arms), axis=1)
+    floor = min(float(x.min()) for x in low.values())
+    for s in SIDES:
+        if s in measured:
+            fz = np.interp(time, measured[s].time, measured[s].force[:, 2], left=0.0, right=0.0)
+            out[s] = (np.asarray(time), fz > force)
+        else:
+            down = (low[s] < floor + height) & (fast[s] < speed)
+            out[s] = (np.asarray(time), down.any(axis=1))
+    return out
+
+
+class FallMonitor:
+    """Stops a run as failed when the centre of mass drops below ``fraction`` of its height
+    at the start."""
+
+    def __init__(self, model, q0, fraction: float = 0.5) -> None:
+        self.model, self.data = model, model.createData()
+        self.limit = fraction * float(pin.centerOfMass(model, self.data, q0)[2])
+
+    def observe(self, sim, k: int, t: float, q, v, step) -> None:
+        if k % 10 == 0 and pin.centerOfMass(self.model, self.data, q)[2] < self.limit:
+            raise RunFailed(f"the body fell at t = {t:.2f} s")
+
+
+class MotionReference:
+    """The motion (uniform samples of q, v, a) at any time: q interpolated on the group,
+    v and a linearly; before the first sample the first, after the last the last at rest."""
+
+    def __init__(self, model, time, q, v, a, floor: float = 0.0) -> None:
+        self.model, self.time, self.q, self.v, self.a = model, time, q, v, a
+        self.rate = 1.0 / (time[1] - time[0])
+        self.floor = floor  # the height of the motion's floor [m]
+
+    def state(self, t: float):
+        x = (t - self.time[0]) * self.rate
+        if x <= 0.0:
+            return self.q[0].copy(), self.v[0].copy(), self.a[0].copy()
+        i = int(math.floor(x))
+        if i >= len(self.time) - 1:
+            return self.q[-1].copy(), np.zeros(self.model.nv), np.zeros(self.model.nv)
+        u = x - i
+        q = pin.interpolate(self.model, self.q[i], self.q[i + 1], u)
+        return q, (1 - u) * self.v[i] + u * self.v[i + 1], (1 - u) * self.a[i] + u * self.a[i + 1]
+
+
+class MotionTracker(Effect):
+    """The tracking controller (see the module docstring): an effect whose torques the
+    simulation applies, computed once per step in ``before_step``."""
+
+    name = "tracking"
+
+    def __init__(self, h, model, reference: MotionReference, contacts: dict, ground, dt: float,
+                 gains: TrackGains | None = None) -> None:  # fmt: skip
+        from ..constraints.limits import JointRanges
+
+        self.h, self.model, self.ref = h, model, reference
+        self.contacts = contacts  # side -> (times, bool array)
+        self.ground, self.dt = ground, dt
+        self.gains = gains or TrackGains()
+        self.data, self.rdata = model.createData(), model.createData()
+        self.sole = {s: h.sole_id(s) for s in SIDES}
+        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+        self.ranges = JointRanges(h)
+        self.tau = np.zeros(model.nv)
+        self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
+        self.relaxed = 0
+        self.last = None
+
+    def force(self, model, data, t, q, v):
+        return self.tau
+
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        self.tau = self.update(t, q, v)
+
+    def in_contact(self, side: str, t: float) -> bool:
+        times, on = self.contacts[side]
+        i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
+        return bool(on[i])
+
+    def update(self, t: float, q, v) -> np.ndarray:
+        model, data, g, dt = self.model, self.data, self.gains, self.dt
+        nv = model.nv
+        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        M = pin.crba(model, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        hvec = pin.nle(model, data, q, v)
+        cms, cds, phi, points = self.ground.ground.detect(model, data)
+        side_of = [next((s for s in SIDES if self.foot_joint[s] == cm.extract().joint2_id), None)
+                   for cm in cms]  # fmt: skip
+        on = {s: self.in_contact(s, t) for s in SIDES}
+        q_r, v_r, a_r = self.ref.state(t)
+        rd = self.rdata
+        pin.forwardKinematics(model, rd, q_r, v_r, a_r)
+        pin.updateFramePlacements(model, rd)
+        rows, rhs, weights = [], [], []
+
+        def task(J, a, w):
+            rows.append(J)
+            rhs.append(a)
+            weights.append(np.broadcast_to(w, J.shape[0]))
+
+        loaded, free = [], []
+        for i, s in enumerate(side_of):
+            ok = False
+            if s is not None and on[s] and phi[i] < g.touch:
+                local = data.oMf[self.sole[s]].actInv(points[i])
+                # a point of the sole that the motion has on the floor now (a heel rising in
+                # push-off is not held down)
+                ref_z = float(rd.oMf[self.sole[s]].act(local)[2]) - self.ref.floor
+                ok = local[2] < SOLE_DEPTH and ref_z < g.ref_touch
+            (loaded if ok else free).append(i)
+        bearing = {side_of[i] for i in loaded}
+        # the root: position and orientation
+        e_root = pin.difference(model, q, q_r)[:6]
+        J_root = np.zeros((6, nv))
+        J_root[:, :6] = np.eye(6)
+        task(J_root, a_r[:6] + g.root_kp * e_root + g.root_kd * (v_r[:6] - v[:6]), g.w_root)
+        # the centre of mass, its horizontal acceleration one the loaded soles can carry
+        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
+        dc, drift = data.vcom[0].copy(), data.acom[0].copy()
+        c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
+        dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        ddc = ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc)
+        support = [points[i][:2] for i in loaded]
+        if support:
+            gz = float(np.linalg.norm(model.gravity.linear)) + ddc[2]
+            cop = c[:2] - ddc[:2] * c[2] / gz
+            ddc[:2] = (c[:2] - closest_in_hull(cop, np.array(support))) * gz / c[2]
+        task(pin.jacobianCenterOfMass(model, data, q), ddc - drift, g.w_com)
+        # free feet follow the motion's
+        for s in SIDES:
+            if s in bearing:
+                continue
+            fid = self.sole[s]
+            J = pin.getFrameJacobian(model, data, fid, LWA)
+            vel = pin.getFrameVelocity(model, data, fid, LWA)
+            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
+            M_f, M_r = data.oMf[fid], rd.oMf[fid]
+            vr = pin.getFrameVelocity(model, rd, fid, LWA)
+            ar = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
+            a_lin = (
+                ar.linear
+                + g.foot_kp * (M_r.translation - M_f.translation)
+                + g.foot_kd * (vr.linear - vel.linear)
+            )
+            a_ang = (
+                ar.angular
+                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
+                + g.foot_kd * (vr.angular - vel.angular)
+            )
+            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+        # the joints
+        e = pin.difference(model, q, q_r)[6:]
+        task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
+             g.w_joint)  # fmt: skip
+        for cm, cd in zip(cms, cds, strict=True):
+            cm.calc(model, data, cd)
+        Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
+        depth = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi)
+        nf = 3 * len(loaded)
+        n = nv + nf
+        Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
+        A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
+        W = np.concatenate(weights)
+        P = A_cost.T @ (W[:, None] * A_cost)
+        qv = -A_cost.T @ (W * np.concatenate(rhs))
+        P[nv:, nv:] += g.w_force * np.eye(nf)
+        A_eq = [np.hstack([M[:6], -self.weight * Jc.T[:6]])]
+        b_eq = [-hvec[:6]]
+        if loaded:
+            target = -Jc @ v
+            for j, i in enumerate(loaded):
+                target[3 * j + 2] -= depth[i] / dt if phi[i] <= 0.0 else phi[i] / g.settle
+            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+            U = U[:, S > 1e-9 * S[0]]
+            A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
+            b_eq.append(U.T @ target / max(dt, g.contact_time))
+        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
+        G = [pyramid_rows(g.mu, len(loaded), n, nv)]
+        h_ineq = [np.zeros(5 * len(loaded))]
+        if free:
+            Jn = np.vstack([Jall[3 * i + 2] for i in free])
+            G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
+            h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
+        Jr, bound = range_damper(self.ranges, q, v, g.horizon, 0.2, 0.05)
+        if len(Jr):
+            G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
+            h_ineq.append(bound)
+        G, h_ineq = np.vstack(G), np.concatenate(h_ineq)
+        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
+        if x is None:  # the dynamics and the loaded points' cones only
+            self.relaxed += 1
+            x = self.qp.solve(P, qv, A_eq, b_eq, G[: 5 * len(loaded)], h_ineq[: 5 * len(loaded)])
+        if x is None or not np.all(np.isfinite(x)):
+            raise HumanoidError(f"the tracking QP has no solution at t = {t:.3f} s ({self.qp.why})")
+        dv, f = x[:nv], self.weight * x[nv:]
+        tau = M @ dv + hvec - Jc.T @ f
+        self.last = (dv, f.reshape(-1, 3), loaded)
+        return np.concatenate([np.zeros(6), tau[6:]])
+
+
+@dataclass
+class Tracked:
+    """A tracked motion.
+
+    Attributes:
+        trajectory: The simulated run (:class:`~humanoid.trajectory.Trajectory`; its forces
+            include each leg's ground wrench). reference: (time, q) of the motion followed, at
+            the run's records. joint_error: per record, each joint's error against the
+            reference [rad] (the root's 6 first: position [m] and orientation [rad]).
+        contacts: side -> (times, in contact) as scheduled. wall_time: [s].
+    """
+
+    trajectory: object
+    reference: tuple
+    joint_error: np.ndarray
+    contacts: dict
+    wall_time: float
+
+    @property
+    def completed(self) -> bool:
+        return self.trajectory.status == "completed"
+
+
+def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 6.0,
+          dt: float = 1e-3, mu: float = 0.8, gains: TrackGains | None = None,
+          record_rate: float = 100.0, quiet: bool = True) -> Tracked:  # fmt: skip
+    """Follow the motion ``q`` (n, nq) at ``time`` in forward simulation (see the module
+    docstring); ``loads`` (measured ground forces) only say when each foot is on the ground.
+
+    The run starts in the reference's first state; it stops as failed if the body falls (its
+    centre of mass below half its starting height); what it recorded up to then is kept.
+    """
+    import time as clock
+
+    from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
+    from ..simulation import Simulation
+
+    model = h.model
+    t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
+    contacts = contact_schedule(h, t, qf, vf, loads)
+    duration = float(t[-1] - t[0])
+    scene = Scene(
+        name="track", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
+        integrator="semi_implicit_euler", record_rate=record_rate,
+        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+                        ground=GroundSpec(bodies="feet", mu=mu)),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    shifted = MotionReference(model, t - t[0], qf, vf, af, floor=lowest_sole_point(h, qf))
+    contacts = {s: (times - t[0], on) for s, (times, on) in contacts.items()}
+    ctl = MotionTracker(h, sim.model, shifted, contacts, sim.ground, dt, gains)
+    sim.q0, sim.v0, _ = shifted.state(0.0)
+    sim.controller = ctl
+    sim.monitors.append(FallMonitor(sim.model, sim.q0))
+    start = clock.perf_counter()
+    traj = sim.run(quiet=quiet)
+    wall = clock.perf_counter() - start
+    ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
+    err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall)
