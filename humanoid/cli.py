@@ -223,6 +223,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PREFIX=SIDE",
         help="the foot (left, right) of a load column prefix (repeatable)",
     )
+    d.add_argument("--estimate-loads", action="store_true",
+                   help="estimate the feet's ground forces from the motion (as without "
+                   "--loads) and, with --loads, compare")  # fmt: skip
     d.add_argument("--map", help="the coordinates' model: gait2392, gait2354, rajagopal, or a "
                    "TOML map of your own (default: told from the file)")  # fmt: skip
     d.add_argument(

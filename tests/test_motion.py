@@ -783,3 +783,67 @@ def test_cli_track(tmp_path, walk_1khz, capsys):
     back = Trajectory.load(out)
     assert back.q.shape[1] == h.nq and np.all(back.tau[:, :6] == 0.0)
     assert (tmp_path / "t_grf.mot").exists() and (tmp_path / "tracked.png").exists()
+
+
+# -- ground forces without force plates -----------------------------------------------------
+
+
+def test_estimated_loads_of_a_standing_body_carry_its_weight():
+    """Standing still: the estimated ground forces carry the body's weight exactly (the root
+    residual vanishes), their centre of pressure under the centre of mass, half on each foot."""
+    from humanoid.motion.inverse_dynamics import derivatives, estimate_loads
+
+    h = get_model("male", "quaternion")
+    q = np.tile(h.standing_configuration(), (12, 1))
+    t, q, v, a = derivatives(h.model, np.arange(12) * 0.01, q, cutoff=None)
+    loads = estimate_loads(h, t, q, v, a)
+    W = h.mass * 9.81
+    total = sum(x.wrench for x in loads)
+    np.testing.assert_allclose(total[:, 2], W, rtol=1e-6)
+    c = pin.centerOfMass(h.model, h.model.createData(), q[0])
+    np.testing.assert_allclose(-total[:, 4] / total[:, 2], c[0], atol=1e-6)  # CoP x
+    np.testing.assert_allclose(total[:, 3] / total[:, 2], c[1], atol=1e-6)  # CoP y
+    for x in loads:
+        np.testing.assert_allclose(x.force[:, 2], W / 2, rtol=1e-3)
+    r = inverse_dynamics(h, t, q, loads, cutoff=None)
+    assert np.abs(r.residual_force).max() < 1e-6 * W
+
+
+def test_estimated_loads_of_the_walk(walk_1khz):
+    """The walk at 100 Hz with no force plates: its feet's estimated vertical forces are within
+    0.2 BW RMS of the simulation's own (through the same 6 Hz filter; measured 0.06-0.14), and
+    the knee moments they give within 20 % of their peak RMS of those the true forces give."""
+    from humanoid.motion.inverse_dynamics import derivatives, estimate_loads
+
+    h, tr = walk_1khz
+    t, q = tr.t[::10], tr.q[::10]
+    tt, qf, vf, af = derivatives(h.model, t, q)
+    est = estimate_loads(h, tt, qf, vf, af)
+    true = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]
+    W = h.mass * 9.81
+    for e, x in zip(est, true, strict=True):
+        f = lowpass(np.interp(tt, x.time, x.force[:, 2]), 100.0, 6.0)
+        assert np.sqrt(np.mean((e.force[:, 2] - f) ** 2)) < 0.2 * W
+    a, b = inverse_dynamics(h, t, q, true), inverse_dynamics(h, t, q, est)
+    for name in ("right_knee", "left_knee"):
+        k = a.labels.index(name)
+        peak = np.abs(a.tau[:, k]).max()
+        assert np.sqrt(np.mean((a.tau[:, k] - b.tau[:, k]) ** 2)) < 0.2 * peak
+
+
+def test_contact_schedule_on_a_treadmill(walk_1khz):
+    """The walk seen on a treadmill (the body held in place, the ground moving back at the
+    walking speed: OpenSim's example trial is such a recording): the feet are found on the
+    ground at the same samples as over ground (97 % of them or more)."""
+    from humanoid.motion.inverse_dynamics import contact_schedule, derivatives
+
+    h, tr = walk_1khz
+    t, q = tr.t[::10], tr.q[::10].copy()
+    speed = (q[-1, 0] - q[0, 0]) / (t[-1] - t[0])
+    belt = q.copy()
+    belt[:, 0] -= speed * (t - t[0])
+    over = contact_schedule(h, *derivatives(h.model, t, q)[:3])
+    tread = contact_schedule(h, *derivatives(h.model, t, belt)[:3])
+    for s in ("left", "right"):
+        assert np.mean(over[s][1] == tread[s][1]) >= 0.97
+        assert 0.4 < np.mean(tread[s][1]) < 0.8  # (stance: about 60 % of the cycle)

@@ -141,13 +141,29 @@ def moments_figure(path, table, mass: float, title: str = "") -> Path:
 def run_id(args) -> int:
     """``humanoid id``: inverse dynamics of a motion, written as OpenSim names it."""
     from .coordinates import generalized_forces_table
-    from .inverse_dynamics import inverse_dynamics
+    from .inverse_dynamics import derivatives, estimate_loads, inverse_dynamics, lowpass
     from .storage import write_csv, write_storage
 
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
     import scipy.signal  # noqa: F401 - imported before the clock starts: the timing is the ID's
 
     h, what, t, q, loads, cmap, left_out = read_motion(args)
+    compared = []
+    if args.estimate_loads or not loads:
+        start = clock.perf_counter()
+        d = derivatives(h.model, t, q, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
+        estimated = estimate_loads(h, *d)
+        for x in estimated:
+            measured = [m for m in loads if m.body == x.body]
+            if measured:
+                fz = np.interp(x.time, measured[0].time, measured[0].force[:, 2])
+                if cutoff is not None:
+                    fz = lowpass(fz, 1.0 / (x.time[1] - x.time[0]), cutoff)
+                compared.append((x.body, float(np.sqrt(np.mean((x.force[:, 2] - fz) ** 2))),
+                                 float(fz.max()), float(x.force[:, 2].max())))  # fmt: skip
+        loads = estimated
+        print(f"estimated    the feet's ground forces in {clock.perf_counter() - start:.2f} s "
+              "(no force plates, or --estimate-loads)")  # fmt: skip
     start = clock.perf_counter()
     r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
     elapsed = clock.perf_counter() - start
@@ -167,6 +183,11 @@ def run_id(args) -> int:
     print(f"loads        {names}")
     if left_out:
         print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
+    weight = h.mass * 9.81
+    for side, rms, peak_m, peak_e in compared:
+        print(f"estimate vs measured, {side}: vertical force RMS difference "
+              f"{rms / weight:.3f} BW (peaks {peak_m / weight:.2f} measured, "
+              f"{peak_e / weight:.2f} estimated)")  # fmt: skip
     for coord in _FLEXION:
         peaks = []
         for side in "rl":

@@ -33,12 +33,18 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ConfigurationError, HumanoidError
+from ..model import SIDES
+from .coordinates import lowest_sole_point
 from .loads import Load
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
 __all__ = [
     "InverseDynamics",
     "carry_loads",
+    "contact_schedule",
     "derivatives",
+    "estimate_loads",
     "inverse_dynamics",
     "joint_labels",
     "lowpass",
@@ -249,6 +255,100 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
             res_f[i], res_m[i] = R @ tau[i, :3], R @ tau[i, 3:6]
     return InverseDynamics(time, q, v, a, tau, res_f, res_m, joint_labels(model),
                            {k: w for k, (_, w) in wrenches.items()}, carried)  # fmt: skip
+
+
+def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float = 0.3,
+                     force: float = 20.0) -> dict:  # fmt: skip
+    """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
+    (vertical force over ``force`` [N]) if it has one, else from the motion: one of its sole
+    points within ``height`` [m] of the motion's floor (its lowest sole point) and moving with
+    the floor, slower than ``speed`` [m/s] relative to it (a trailing foot rolls on its toes
+    while its frame moves fast). The floor's own velocity is the median horizontal velocity of
+    the sole points that are low: zero over ground, the belt's on a treadmill (where the body
+    stays put and the standing foot moves back at the walking speed)."""
+    model = h.model
+    data = model.createData()
+    out = {}
+    measured = {x.body: x for x in loads if x.body in SIDES}
+    pts = {s: h.sole_points(s) for s in SIDES}
+    # per sole point: its height and speed; a foot is down where one of its points is low and
+    # still (a trailing foot rolls on its toes while its frame moves fast)
+    low = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
+    vel = {s: np.zeros((len(time), len(pts[s]), 3)) for s in SIDES}
+    for i in range(len(time)):
+        pin.forwardKinematics(model, data, q[i], v[i])
+        for s in SIDES:
+            fid = h.sole_id(s)
+            M = pin.updateFramePlacement(model, data, fid)
+            frame = pin.getFrameVelocity(model, data, fid, LWA)
+            arms = pts[s] @ M.rotation.T
+            low[s][i] = (arms + M.translation)[:, 2]
+            vel[s][i] = frame.linear + np.cross(frame.angular, arms)
+    floor = min(float(x.min()) for x in low.values())
+    near = np.concatenate([vel[s][low[s] < floor + height] for s in SIDES])
+    belt = np.median(near[:, :2], axis=0) if len(near) else np.zeros(2)
+    fast = {s: np.linalg.norm(vel[s] - np.array([*belt, 0.0]), axis=2) for s in SIDES}
+    for s in SIDES:
+        if s in measured:
+            fz = np.interp(time, measured[s].time, measured[s].force[:, 2], left=0.0, right=0.0)
+            out[s] = (np.asarray(time), fz > force)
+        else:
+            down = (low[s] < floor + height) & (fast[s] < speed)
+            out[s] = (np.asarray(time), down.any(axis=1))
+    return out
+
+
+def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0.8,
+                   regularization: float = 1e-6, lift: float = 0.005) -> list[Load]:  # fmt: skip
+    """The ground forces on the feet that make the motion's root residual smallest, without
+    force plates: in each sample, each foot in contact (``contacts``, default
+    :func:`contact_schedule` from the motion) gets a force at each of its sole points, inside
+    a friction pyramid (so its centre of pressure stays under the sole), found by a QP (ProxQP)
+    that minimises the squared root residual plus ``regularization`` times the squared forces
+    (per body weight, each point's times ``1 + (height / lift)^2``, its height above the
+    motion's floor: it shares the load of a double support, which the residual alone does not
+    fix, towards the points on the floor). Returns a :class:`Load` per foot, on the motion's
+    samples."""
+    import proxsuite
+
+    from ..walking.qp import pyramid_rows
+
+    model = h.model
+    data = model.createData()
+    contacts = contacts or contact_schedule(h, time, q, v)
+    sides = ("left", "right")
+    pts = {s: h.sole_points(s) for s in sides}
+    weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+    wrench = {s: np.zeros((len(time), 6)) for s in sides}
+    floor = lowest_sole_point(h, q)
+    for i in range(len(time)):
+        down = [s for s in sides if contacts[s][1][min(i, len(contacts[s][1]) - 1)]]
+        if not down:
+            continue
+        b6 = pin.rnea(model, data, q[i], v[i], a[i])[:6]  # what the root needs
+        pin.forwardKinematics(model, data, q[i])  # (RNEA leaves the world placements)
+        R, o = data.oMi[1].rotation, data.oMi[1].translation
+        cols, where, cost = [], [], []
+        for s in down:
+            M = pin.updateFramePlacement(model, data, h.sole_id(s))
+            for p in pts[s] @ M.rotation.T + M.translation:
+                # a world force f at p, as the root's generalised force: R'f, R'((p - o) x f)
+                cols.append(np.vstack([R.T, R.T @ pin.skew(p - o)]))
+                where.append((s, p))
+                # a point higher above the motion's floor is dearer (a heel rising, a foot
+                # about to lift or just landing takes less of the load)
+                cost += [1.0 + ((p[2] - floor) / lift) ** 2] * 3
+        A = np.hstack(cols) * weight  # forces in body weights
+        n = A.shape[1]
+        H = A.T @ A + regularization * weight**2 * np.diag(cost)
+        g = -A.T @ b6
+        C = pyramid_rows(mu, n // 3, n, 0)
+        res = proxsuite.proxqp.dense.solve(H, g, None, None, C, np.full(len(C), -1e20),
+                                           np.zeros(len(C)), eps_abs=1e-10)  # fmt: skip
+        f = np.asarray(res.x).reshape(-1, 3) * weight
+        for (s, p), fk in zip(where, f, strict=True):
+            wrench[s][i] += np.concatenate([fk, np.cross(p, fk)])
+    return [Load.from_wrench(s, time, wrench[s], name="estimated") for s in sides]
 
 
 def stances(load: Load, threshold: float = 20.0) -> list[tuple[int, int]]:

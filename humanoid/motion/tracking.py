@@ -41,10 +41,10 @@ from ..model import SIDES
 from ..walking.qp import WarmQP, pyramid_rows, range_damper
 from ..walking.tracking import closest_in_hull
 from .coordinates import lowest_sole_point
-from .inverse_dynamics import derivatives
+from .inverse_dynamics import contact_schedule, derivatives
 from .loads import Load
 
-__all__ = ["MotionReference", "MotionTracker", "TrackGains", "Tracked", "contact_schedule", "track"]
+__all__ = ["MotionReference", "MotionTracker", "TrackGains", "Tracked", "track"]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 SOLE_DEPTH = 2e-3  # [m] only points this close to the sole's plane bear load
@@ -73,41 +73,6 @@ class TrackGains:
     contact_time: float = 0.02  # [s] a loaded point's velocity comes to rest in this time
     settle: float = 0.02  # [s] a loaded point above the floor settles onto it in this time
     horizon: float = 0.02  # [s] free points and ranges are kept off their bounds this far ahead
-
-
-def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float = 0.3,
-                     force: float = 20.0) -> dict:  # fmt: skip
-    """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
-    (vertical force over ``force`` [N]) if it has one, else from the motion: its lowest sole
-    point within ``height`` [m] of the motion's lowest and its sole moving slower than
-    ``speed`` [m/s]."""
-    model = h.model
-    data = model.createData()
-    out = {}
-    measured = {x.body: x for x in loads if x.body in SIDES}
-    pts = {s: h.sole_points(s) for s in SIDES}
-    # per sole point: its height and speed; a foot is down where one of its points is low and
-    # still (a trailing foot rolls on its toes while its frame moves fast)
-    low = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
-    fast = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
-    for i in range(len(time)):
-        pin.forwardKinematics(model, data, q[i], v[i])
-        for s in SIDES:
-            fid = h.sole_id(s)
-            M = pin.updateFramePlacement(model, data, fid)
-            vel = pin.getFrameVelocity(model, data, fid, LWA)
-            arms = pts[s] @ M.rotation.T
-            low[s][i] = (arms + M.translation)[:, 2]
-            fast[s][i] = np.linalg.norm(vel.linear + np.cross(vel.angular, arms), axis=1)
-    floor = min(float(x.min()) for x in low.values())
-    for s in SIDES:
-        if s in measured:
-            fz = np.interp(time, measured[s].time, measured[s].force[:, 2], left=0.0, right=0.0)
-            out[s] = (np.asarray(time), fz > force)
-        else:
-            down = (low[s] < floor + height) & (fast[s] < speed)
-            out[s] = (np.asarray(time), down.any(axis=1))
-    return out
 
 
 class FallMonitor:
