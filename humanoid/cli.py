@@ -149,8 +149,9 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
     _model_options(x)
 
-    k = command("ik", help="inverse kinematics of markers (.trc, .c3d) or keypoints (.npy/.npz)")
-    k.add_argument("markers", help="marker trajectories (.trc, .c3d) or pose keypoints "
+    k = command("ik", help="inverse kinematics of markers (.trc, .c3d), a BVH's joints or "
+                "keypoints (.npy/.npz)")  # fmt: skip
+    k.add_argument("markers", help="marker trajectories (.trc, .c3d), a BVH motion or keypoints "
                    "(.npy (frames, k, 3), or .npz with 'points' and 'time') [m]")  # fmt: skip
     _subject_options(k)
     k.add_argument("--marker-set", help="where the markers are on the body (TOML); default: "

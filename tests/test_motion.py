@@ -847,3 +847,111 @@ def test_contact_schedule_on_a_treadmill(walk_1khz):
     for s in ("left", "right"):
         assert np.mean(over[s][1] == tread[s][1]) >= 0.97
         assert 0.4 < np.mean(tread[s][1]) < 0.8  # (stance: about 60 % of the cycle)
+
+
+# -- BVH -------------------------------------------------------------------------------------
+
+SMALL_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0.0 0.0 0.0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT LeftUpLeg
+  {
+    OFFSET 10.0 0.0 0.0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT LeftLeg
+    {
+      OFFSET 0.0 -45.0 0.0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 0.0 -45.0 0.0
+      }
+    }
+  }
+  JOINT Spine
+  {
+    OFFSET 0.0 60.0 0.0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT Head
+    {
+      OFFSET 0.0 100.0 0.0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0333333
+0 90 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0
+5 90 0 90 90 0 0 0 0 0 0 0 0 0 0 0 0 0
+"""
+
+
+def test_bvh_reads_as_blender_does(tmp_path):
+    """The channels are intrinsic rotations in their listed order (Zrotation Xrotation
+    Yrotation is Rz Rx Ry, degrees), chained parent to child, Y up turned to z up; the unit
+    told from the rest pose's height (its joints span 205 units: centimetres); joints named
+    after the body's joint centres where their names say which."""
+    from humanoid.motion.bvh import read_bvh
+
+    path = tmp_path / "s.bvh"
+    path.write_text(SMALL_BVH)
+    m = read_bvh(path)
+    assert m.names == ["pelvis", "left_hip", "left_knee", "Spine", "head"]
+    assert m.rate == pytest.approx(30.0, rel=1e-4)
+    # frame 0: the hips at (0, 90, 0) cm, Y up: ours (0, 0, 0.9) m; the left hip 10 cm along
+    # their X, our x
+    np.testing.assert_allclose(m.positions[0, 0], [0.0, 0.0, 0.9], atol=1e-12)
+    np.testing.assert_allclose(m.positions[0, 1], [0.1, 0.0, 0.9], atol=1e-12)
+    # frame 1: the root turned Rz(90) Rx(90): their X -> Y, so the hip offset (10, 0, 0) points
+    # along their Y (up, our z); the root moved 5 cm along X
+    R = pin.exp3(np.array([0, 0, np.pi / 2])) @ pin.exp3(np.array([np.pi / 2, 0, 0]))
+    hip = np.array([5.0, 90.0, 0.0]) + R @ np.array([10.0, 0.0, 0.0])
+    theirs_to_ours = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+    np.testing.assert_allclose(m.positions[1, 1], theirs_to_ours @ hip / 100.0, atol=1e-12)
+    knee = hip + R @ np.array([0.0, -45.0, 0.0])
+    np.testing.assert_allclose(m.positions[1, 2], theirs_to_ours @ knee / 100.0, atol=1e-12)
+
+
+def test_bvh_round_trip_of_the_walk(tmp_path, walk_1khz):
+    """The walk written as BVH (centimetres, Y up, Z X Y rotations) and read back: every joint
+    where the body's forward kinematics puts it, to 1e-6 m; inverse kinematics of those
+    joint centres gives back the knees to 0.5 degree (``humanoid ik walk.bvh``)."""
+    from humanoid.cli import main
+    from humanoid.motion.bvh import read_bvh, write_bvh
+
+    h, tr = walk_1khz
+    model = h.model
+    data = model.createData()
+    t, q = tr.t[::50], tr.q[::50]
+    path = write_bvh(tmp_path / "walk.bvh", h, t, q)
+    m = read_bvh(path)
+    assert len(m.names) == model.njoints - 1
+    for i, qi in enumerate(q):
+        pin.forwardKinematics(model, data, qi)
+        for k in range(1, model.njoints):
+            np.testing.assert_allclose(m.positions[i, k - 1], data.oMi[k].translation, atol=1e-6)
+    out = tmp_path / "ik.mot"
+    body = ["--model", str(BODIES / "adult_male.urdf")]
+    assert main(["ik", str(path), *body, "-o", str(out), "--quiet"]) == 0
+    from humanoid.motion.coordinates import coordinates_table
+
+    want = coordinates_table(h, t, q, "rajagopal")
+    got = read_storage(out)
+    for c in ("knee_angle_r", "knee_angle_l"):
+        np.testing.assert_allclose(got.column(c), want.column(c), atol=0.5)
+
+
+def test_bvh_errors(tmp_path):
+    from humanoid.motion.bvh import read_bvh
+
+    bad = tmp_path / "b.bvh"
+    bad.write_text("HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 3 Xrotation Yrotation Zrotation\n}"
+                   "\nMOTION\nFrames: 2\nFrame Time: 0.1\n0 0 0\n")  # fmt: skip
+    with pytest.raises(MotionFileError, match="'Frames: 2' but 1 rows"):
+        read_bvh(bad)
+    bad.write_text("not a bvh")
+    with pytest.raises(MotionFileError, match="not a BVH"):
+        read_bvh(bad)

@@ -219,6 +219,10 @@ def _markers_file(path, args):
         return read_trc(path)
     if suffix == ".c3d":
         return read_c3d(path)
+    if suffix == ".bvh":
+        from .bvh import read_bvh
+
+        return read_bvh(path)
     if suffix in (".npy", ".npz"):
         if args.layout is None:
             raise HumanoidError(f"{path}: keypoints need --layout (coco17, h36m17, body25, smpl24)")
@@ -236,7 +240,7 @@ def _markers_file(path, args):
         if time is None:
             time = np.arange(len(points)) / (args.rate or 30.0)
         return keypoints(time, points, args.layout, y_up=args.y_up, source=str(path))
-    raise HumanoidError(f"{path}: markers are .trc, .c3d, or keypoints in .npy/.npz")
+    raise HumanoidError(f"{path}: markers are .trc, .c3d, .bvh, or keypoints in .npy/.npz")
 
 
 def run_ik(args) -> int:
@@ -332,7 +336,7 @@ def run_track(args) -> int:
     from .tracking import track
 
     suffix = Path(args.motion).suffix.lower()
-    if suffix in (".trc", ".c3d", ".npy") or (suffix == ".npz" and args.layout):
+    if suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout):
         from .ik import inverse_kinematics
         from .markers import default_markers
 
