@@ -252,7 +252,11 @@ def build_parser() -> argparse.ArgumentParser:
             "that scenes and options accept")  # fmt: skip
 
     bench = command("bench", help="benchmarks: step cost, work-precision (accuracy)")
-    bench.add_argument("kind", choices=("step", "accuracy"))
+    bench.add_argument(
+        "kind",
+        choices=("step", "accuracy", "motion"),
+        help="motion: inverse dynamics and kinematics against OpenSim 4",
+    )
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
     return p
@@ -370,6 +374,10 @@ def _dispatch(args) -> int:
 
         return run_track(args)
     if args.command == "bench":
+        if args.kind == "motion":
+            from .bench.motion import run_motion_benchmark
+
+            return run_motion_benchmark(quick=args.quick, out=args.output)
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark
 

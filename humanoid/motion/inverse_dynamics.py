@@ -242,13 +242,16 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
     tau = np.empty((n, model.nv))
     res_f, res_m = np.zeros((n, 3)), np.zeros((n, 3))
     free = "FreeFlyer" in model.joints[1].shortname()
+    fext = pin.StdVec_Force()
+    for _ in range(model.njoints):
+        fext.append(pin.Force.Zero())
+    per_joint = {}  # the loads on each joint, summed: world wrenches about the origin
+    for j, w in wrenches.values():
+        per_joint[j] = per_joint.get(j, 0.0) + w
     for i in range(n):
         pin.forwardKinematics(model, data, q[i])
-        fext = pin.StdVec_Force()
-        for _ in range(model.njoints):
-            fext.append(pin.Force.Zero())
-        for j, w in wrenches.values():
-            fext[j] = fext[j] + data.oMi[j].actInv(pin.Force(w[i, :3], w[i, 3:]))
+        for j, w in per_joint.items():
+            fext[j] = data.oMi[j].actInv(pin.Force(w[i, :3], w[i, 3:]))
         tau[i] = pin.rnea(model, data, q[i], v[i], a[i], fext)
         if free:
             R = data.oMi[1].rotation

@@ -171,23 +171,27 @@ def _side_from_prefix(prefix: str) -> str | None:
     return _SIDE_WORDS.get(first)
 
 
-def write_loads(path: str | Path, loads: list[Load], name: str = "external loads") -> Path:
-    """Write loads sharing one time base as an OpenSim external loads ``.mot`` (Y up; prefix
-    ``r_ground_`` / ``l_ground_`` for the feet, ``<body>_`` otherwise) and its ExternalLoads
-    ``.xml`` next to it (``calcn_r``/``calcn_l``: the feet of OpenSim's gait models)."""
+def write_loads(path: str | Path, loads: list[Load], name: str = "external loads",
+                y_up: bool = True, bodies: dict | None = None) -> Path:  # fmt: skip
+    """Write loads sharing one time base as an OpenSim external loads ``.mot`` (Y up, unless
+    ``y_up`` is False: our axes; prefix ``r_ground_`` / ``l_ground_`` for the feet,
+    ``<body>_`` otherwise) and its ExternalLoads ``.xml`` next to it (the feet applied to
+    ``calcn_r``/``calcn_l``, the feet of OpenSim's gait models, unless ``bodies`` maps a load's
+    body to another)."""
     if not loads:
         raise MotionFileError("no loads to write")
     time = loads[0].time
     if any(len(x.time) != len(time) or not np.array_equal(x.time, time) for x in loads):
         raise MotionFileError("the loads to write must share one time base")
-    R = OPENSIM_TO_OURS.T  # ours to OpenSim's
+    R = OPENSIM_TO_OURS.T if y_up else np.eye(3)  # ours to the file's
     labels, columns, forces = [], [], []
     for x in loads:
         prefix = {"right": "r_ground_", "left": "l_ground_"}.get(x.body, f"{x.body}_")
         for what, a in (("force_v", x.force), ("force_p", x.point), ("torque_", x.torque)):
             labels += [f"{prefix}{what}{c}" for c in "xyz"]
             columns.append(a @ R.T)
-        forces.append((prefix, {"right": "calcn_r", "left": "calcn_l"}.get(x.body, x.body)))
+        feet = {"right": "calcn_r", "left": "calcn_l"} | (bodies or {})
+        forces.append((prefix, feet.get(x.body, x.body)))
     path = write_storage(path, Table(time, labels, np.hstack(columns), None, name))
     xml = ['<?xml version="1.0" encoding="UTF-8" ?>', '<OpenSimDocument Version="40000">',
            '\t<ExternalLoads name="externalloads">', "\t\t<objects>"]  # fmt: skip
