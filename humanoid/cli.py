@@ -247,6 +247,8 @@ def build_parser() -> argparse.ArgumentParser:
         "-o", "--output", default="id.sto", help="generalised forces to write (.sto, or .csv)"
     )
     d.add_argument("--figure", help="figure (PNG); default: next to the output")
+    d.add_argument("--html", help="also write the motion's viewer, the loads drawn (one HTML "
+                   "file)")  # fmt: skip
 
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
             "that scenes and options accept")  # fmt: skip
@@ -291,7 +293,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "walk": ("output", "html", "figure", "mot"),
     "view": ("html",),
     "export": ("mjcf",),
-    "id": ("output", "figure"),
+    "id": ("output", "figure", "html"),
     "ik": ("output", "figure", "html", "save_markers"),
     "track": ("output", "figure", "html", "mot"),
     "bench": ("output",),

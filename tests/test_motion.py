@@ -479,8 +479,10 @@ def test_cli_id_on_a_run_and_on_opensim_files(tmp_path, walk_1khz, capsys):
 
     h, tr = walk_1khz
     run = tr.save(tmp_path / "walk.npz")
-    assert main(["id", str(run), "-o", str(tmp_path / "a.sto"), "--map", "gait2392"]) == 0
+    assert main(["id", str(run), "-o", str(tmp_path / "a.sto"), "--map", "gait2392", "--html",
+                 str(tmp_path / "a.html")]) == 0  # fmt: skip
     out = capsys.readouterr().out
+    assert (tmp_path / "a.html").stat().st_size > 100_000
     assert "root residual force" in out and "loads        left (run), right (run)" in out
     a = read_storage(tmp_path / "a.sto")
     assert a.labels[:6] == ["pelvis_tilt_moment", "pelvis_list_moment", "pelvis_rotation_moment",

@@ -100,14 +100,15 @@ def read_motion(args):
     return h, what, t, q, loads, cmap, left_out
 
 
-def moments_figure(path, table, mass: float, title: str = "") -> Path:
-    """Hip, knee and ankle moments (N m/kg, both sides) and the root residuals over time."""
+def moments_figure(path, table, mass: float, title: str = "", residual=None) -> Path:
+    """Hip, knee and ankle moments (N m/kg, both sides) and the root residuals over time
+    (``residual``: (time, force (n, 3), moment (n, 3)) in world axes)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    fig, axes = plt.subplots(2, 3, figsize=(14, 7), sharex=True)
     for ax, coord in zip(axes.flat[:3], _FLEXION, strict=True):
         for side, colour in (("r", "tab:red"), ("l", "tab:blue")):
             label = f"{coord}_{side}_moment"
@@ -118,18 +119,21 @@ def moments_figure(path, table, mass: float, title: str = "") -> Path:
         ax.set_title(f"{coord}_moment")
         ax.set_ylabel("N m/kg")
         ax.legend(loc="best", fontsize=8)
-    ax = axes.flat[3]
     weight = mass * 9.81
-    for c, colour in zip("xyz", ("tab:orange", "tab:green", "tab:purple"), strict=True):
-        label = f"pelvis_t{c}_force"
-        if label in table:
-            ax.plot(table.time, table.column(label) / weight * 100.0, colour, label=label)
-    ax.axhline(0.0, color="0.6", lw=0.8)
-    ax.set_title("root residual force (OpenSim's axes)")
-    ax.set_ylabel("% body weight")
-    ax.legend(loc="best", fontsize=8)
+    if residual is not None:
+        t, force, moment = residual
+        panels = (("force", "% body weight", force, 100.0 / weight), ("moment", "N m", moment, 1.0))
+        for k, (name, unit, data, scale) in enumerate(panels):
+            ax = axes[1, k]
+            for c, colour in zip("xyz", ("tab:orange", "tab:green", "tab:purple"), strict=True):
+                ax.plot(t, data[:, "xyz".index(c)] * scale, colour, label=c)
+            ax.axhline(0.0, color="0.6", lw=0.8)
+            ax.set_title(f"root residual {name} (world axes)")
+            ax.set_ylabel(unit)
+            ax.legend(loc="best", fontsize=8)
     for ax in axes[1]:
         ax.set_xlabel("time [s]")
+    axes[1, 2].axis("off")
     fig.suptitle(title)
     fig.tight_layout()
     path = Path(path)
@@ -172,7 +176,8 @@ def run_id(args) -> int:
     out = Path(args.output)
     written = write_csv(out, table) if out.suffix.lower() == ".csv" else write_storage(out, table)
     figure = Path(args.figure) if args.figure else out.with_suffix(".png")
-    moments_figure(figure, table, h.mass, f"{Path(args.motion).name}: {what}")
+    moments_figure(figure, table, h.mass, f"{Path(args.motion).name}: {what}",
+                   (r.time, r.residual_force, r.residual_moment))  # fmt: skip
     weight = h.mass * 9.81
     n = len(r.time)
     print(f"body         {what} ({h.mass:.1f} kg), map {cmap.name}")
@@ -205,6 +210,14 @@ def run_id(args) -> int:
     print(f"time         {elapsed * 1e3:.1f} ms ({elapsed / n * 1e6:.0f} us per frame)")
     print(f"wrote        {written}")
     print(f"figure       {figure}")
+    if args.html:
+        from ..trajectory import Trajectory
+        from ..viewer import export_html
+
+        ground = sum(r.loads.values()) if r.loads else np.zeros((n, 6))
+        traj = Trajectory(r.time, r.q, r.v, r.tau, {"ground": np.asarray(ground)}, np.zeros(n),
+                          np.zeros(n), {"model": h.source, "status": "completed"})  # fmt: skip
+        print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse dynamics')}")
     return 0
 
 
