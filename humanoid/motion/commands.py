@@ -100,6 +100,17 @@ def read_motion(args):
     return h, what, t, q, loads, cmap, left_out
 
 
+def _save(fig, path, title: str) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def moments_figure(path, table, mass: float, title: str = "", residual=None) -> Path:
     """Hip, knee and ankle moments (N m/kg, both sides) and the root residuals over time
     (``residual``: (time, force (n, 3), moment (n, 3)) in world axes)."""
@@ -134,12 +145,7 @@ def moments_figure(path, table, mass: float, title: str = "", residual=None) -> 
     for ax in axes[1]:
         ax.set_xlabel("time [s]")
     axes[1, 2].axis("off")
-    fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)
 
 
 def run_id(args) -> int:
@@ -335,12 +341,7 @@ def residual_figure(path, r, title: str = "") -> Path:
     b.barh([n for n, _ in rms][::-1], [v * 1e3 for _, v in rms][::-1], color="tab:blue")
     b.set_xlabel("RMS residual [mm]")
     b.tick_params(axis="y", labelsize=7)
-    fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)
 
 
 def run_track(args) -> int:
@@ -426,9 +427,4 @@ def tracking_figure(path, res, labels, mass: float, title: str = "") -> Path:
     b.set_ylabel("vertical ground force [BW]")
     b.set_xlabel("time [s]")
     b.legend(fontsize=8)
-    fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, title)

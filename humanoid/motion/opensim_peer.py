@@ -90,6 +90,7 @@ def to_osim(h, path: str | Path | None = None, markers: dict | None = None):
     import opensim as osim
 
     osim.Logger.setLevelString("warn")  # (its tools print every step at "info")
+    osim.Logger.removeFileSink()  # (else it writes opensim.log wherever it runs)
     model = h.model
     om = osim.Model()
     om.setName(Path(h.source).stem)

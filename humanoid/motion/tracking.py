@@ -38,7 +38,7 @@ import pinocchio as pin
 from ..effects import Effect
 from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
-from ..walking.qp import WarmQP, pyramid_rows, range_damper
+from ..walking.qp import WarmQP, dynamics_terms, feet_contacts, pyramid_rows, range_damper
 from ..walking.tracking import closest_in_hull
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives
@@ -147,15 +147,8 @@ class MotionTracker(Effect):
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         nv = model.nv
-        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        M = pin.crba(model, data, q)
-        M = np.triu(M) + np.triu(M, 1).T
-        hvec = pin.nle(model, data, q, v)
-        cms, cds, phi, points = self.ground.ground.detect(model, data)
-        side_of = [next((s for s in SIDES if self.foot_joint[s] == cm.extract().joint2_id), None)
-                   for cm in cms]  # fmt: skip
+        M, hvec = dynamics_terms(model, data, q, v)
+        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
         rd = self.rdata

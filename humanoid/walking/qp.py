@@ -4,8 +4,9 @@ of a set of contact points, and the joint ranges' velocity dampers."""
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
-__all__ = ["WarmQP", "pyramid_rows", "range_damper"]
+__all__ = ["WarmQP", "dynamics_terms", "feet_contacts", "pyramid_rows", "range_damper"]
 
 # ProxQP's default inner cap (1500) let one infeasible tick of a Talos walk take 1.4 million
 # iterations (11 s) before the controller could fall back; a walk's solves take at most 62 in all
@@ -89,3 +90,24 @@ def range_damper(ranges, q, v, period: float, margin: float, time: float):
     geometrically and is never crossed. Returns (J, bound) with -J dv <= bound."""
     r, J = ranges.rows(q, margin=margin)
     return J, (J @ v + r / time) / period
+
+
+def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
+    """The kinematics a task-space QP reads (placements, velocities, drift accelerations,
+    joint Jacobians, frames) brought to (q, v), and the mass matrix (symmetric) and the
+    nonlinear effects h(q, v)."""
+    nv = model.nv
+    pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    M = pin.crba(model, data, q)
+    return np.triu(M) + np.triu(M, 1).T, pin.nle(model, data, q, v)
+
+
+def feet_contacts(ground, model, data, foot_joint: dict):
+    """The plant's own ground detection (constraint models and datas, signed distances, world
+    points) and, per point, the side whose foot it is on (None: another body)."""
+    cms, cds, phi, points = ground.ground.detect(model, data)
+    side_of = [next((s for s, j in foot_joint.items() if j == cm.extract().joint2_id), None)
+               for cm in cms]  # fmt: skip
+    return cms, cds, phi, points, side_of

@@ -73,7 +73,7 @@ from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
-from .qp import WarmQP, pyramid_rows, range_damper
+from .qp import WarmQP, dynamics_terms, feet_contacts, pyramid_rows, range_damper
 
 __all__ = ["CyclePlayer", "GaitController", "TrackingGains", "bend"]
 
@@ -509,18 +509,9 @@ class GaitController(Effect):
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         nv = model.nv
-        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        M = pin.crba(model, data, q)
-        M = np.triu(M) + np.triu(M, 1).T
-        hvec = pin.nle(model, data, q, v)
+        M, hvec = dynamics_terms(model, data, q, v)
         # contacts: the plant's own detection
-        cms, cds, phi, points = self.ground.ground.detect(model, data)
-        side_of = [
-            next((s for s in SIDES if self.foot_joint[s] == cm.extract().joint2_id), None)
-            for cm in cms
-        ]
+        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
         near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
         touching = {s for s, n in zip(side_of, near, strict=True) if n}
         # the reference, its feet and centre of mass
