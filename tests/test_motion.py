@@ -957,3 +957,33 @@ def test_bvh_errors(tmp_path):
     bad.write_text("not a bvh")
     with pytest.raises(MotionFileError, match="not a BVH"):
         read_bvh(bad)
+
+
+def test_c3d_markers(tmp_path):
+    """A C3D written by ezc3d: points in millimetres to metres, a point with a negative
+    residual (ezc3d's missing) or NaN read as NaN, Z up kept, Y up (POINT:Y_SCREEN +Y) turned."""
+    import ezc3d
+
+    from humanoid.motion.markers import read_c3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    c["parameters"]["POINT"]["RATE"]["value"] = [100]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "B")
+    pts = np.zeros((4, 2, 5))
+    pts[3] = 1.0
+    pts[0, 0] = 100.0  # A at x = 0.1 m
+    pts[1, 1] = 1000.0  # B at y = 1 m
+    pts[:3, 1, 2] = np.nan
+    c["data"]["points"] = pts
+    path = tmp_path / "t.c3d"
+    c.write(str(path))
+    m = read_c3d(path)
+    assert m.names == ["A", "B"] and m.rate == pytest.approx(100.0)
+    np.testing.assert_allclose(m.positions[0, 0], [0.1, 0.0, 0.0])
+    np.testing.assert_allclose(m.positions[0, 1], [0.0, 1.0, 0.0])
+    assert np.isnan(m.positions[2, 1]).all()
+    up = read_c3d(path, y_up=True)  # their Y (1 m) is our z
+    np.testing.assert_allclose(up.positions[0, 1], [0.0, 0.0, 1.0], atol=1e-12)
+    with pytest.raises(MotionFileError, match="not found"):
+        read_c3d(tmp_path / "none.c3d")
