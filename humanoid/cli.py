@@ -224,6 +224,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PREFIX=SIDE",
         help="the foot (left, right) of a load column prefix (repeatable)",
     )
+    d.add_argument("--markers", help="the trial's markers (.trc, .c3d): each foot's load is "
+                   "carried with the body's foot, by where the foot's markers show the "
+                   "recorded foot was")  # fmt: skip
+    d.add_argument("--marker-set", help="where the markers are on the body (TOML; default: "
+                   "the toolkit's set)")  # fmt: skip
     d.add_argument("--estimate-loads", action="store_true",
                    help="estimate the feet's ground forces from the motion (as without "
                    "--loads) and, with --loads, compare")  # fmt: skip

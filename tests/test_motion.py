@@ -987,3 +987,42 @@ def test_c3d_markers(tmp_path):
     np.testing.assert_allclose(up.positions[0, 1], [0.0, 0.0, 1.0], atol=1e-12)
     with pytest.raises(MotionFileError, match="not found"):
         read_c3d(tmp_path / "none.c3d")
+
+
+def test_loads_are_carried_with_the_feet_the_markers_show():
+    """A recording whose feet stood 4 cm ahead and 3 cm out of where the body's stand (another
+    person's legs): its force plates' loads, applied where they were measured, leave the
+    standing body a residual moment of its weight times that offset; carried with the feet
+    that the foot markers show (``recorded_feet``), none."""
+    from humanoid.motion.inverse_dynamics import recorded_feet
+    from humanoid.motion.markers import MarkerTrajectories, default_markers, marker_positions
+
+    h = get_model("male", "quaternion")
+    n = 12
+    t = np.arange(n) * 0.01
+    q = np.tile(h.standing_configuration(), (n, 1))
+    data = h.model.createData()
+    c = pin.centerOfMass(h.model, data, q[0])
+    W = h.mass * 9.81
+    d = {"left": np.array([0.04, 0.03, 0.0]), "right": np.array([0.04, -0.03, 0.0])}
+    loads = []
+    for s in ("left", "right"):  # each foot half the weight, under the centre of mass's x
+        pin.framesForwardKinematics(h.model, data, q[0])
+        foot = data.oMf[h.sole_id(s)].translation
+        p = np.array([c[0], foot[1], 0.0]) + d[s]
+        loads.append(Load(s, t, np.tile([0, 0, W / 2], (n, 1)), np.tile(p, (n, 1)),
+                          np.zeros((n, 3))))  # fmt: skip
+    markers = default_markers(h)
+    pos = marker_positions(h, q, markers)
+    for k, name in enumerate(markers):
+        for s in ("left", "right"):
+            if markers[name].frame == f"{s}_foot":
+                pos[:, k] += d[s]
+    seen = MarkerTrajectories(t, list(markers), pos)
+    plain = inverse_dynamics(h, t, q, loads, cutoff=None)
+    assert np.abs(plain.residual_moment).max() > 0.5 * W * 0.04
+    feet = recorded_feet(h, t, q, seen, markers)
+    carried = inverse_dynamics(h, t, q, loads, cutoff=None, recorded_feet=feet)
+    assert np.abs(carried.residual_moment).max() < 1e-6 * W
+    assert [x[0] for x in carried.carried] == ["left", "right"]
+    np.testing.assert_allclose(carried.carried[0][3:], [-0.04, -0.03], atol=1e-9)

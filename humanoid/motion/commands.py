@@ -151,7 +151,13 @@ def moments_figure(path, table, mass: float, title: str = "", residual=None) -> 
 def run_id(args) -> int:
     """``humanoid id``: inverse dynamics of a motion, written as OpenSim names it."""
     from .coordinates import generalized_forces_table
-    from .inverse_dynamics import derivatives, estimate_loads, inverse_dynamics, lowpass
+    from .inverse_dynamics import (
+        derivatives,
+        estimate_loads,
+        inverse_dynamics,
+        lowpass,
+        recorded_feet,
+    )
     from .storage import write_csv, write_storage
 
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
@@ -174,8 +180,15 @@ def run_id(args) -> int:
         loads = estimated
         print(f"estimated    the feet's ground forces in {clock.perf_counter() - start:.2f} s "
               "(no force plates, or --estimate-loads)")  # fmt: skip
+    feet = None
+    if args.markers:  # where the recorded feet were: carry the loads with the body's feet
+        from .markers import default_markers, read_markers
+
+        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        feet = recorded_feet(h, t, q, _markers_file(args.markers, args), marker_set)
     start = clock.perf_counter()
-    r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
+    r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity,
+                         recorded_feet=feet)  # fmt: skip
     elapsed = clock.perf_counter() - start
     table = generalized_forces_table(h, r.time, r.q, r.tau, cmap)
     table.name = "Inverse Dynamics"
@@ -195,6 +208,9 @@ def run_id(args) -> int:
     if left_out:
         print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
     weight = h.mass * 9.81
+    for side, t0, t1, dx, dy in r.carried:
+        print(f"carried      {side} load {t0:.2f}-{t1:.2f} s by ({dx * 1e3:+.0f}, "
+              f"{dy * 1e3:+.0f}) mm with the foot")  # fmt: skip
     for side, rms, peak_m, peak_e in compared:
         print(f"estimate vs measured, {side}: vertical force RMS difference "
               f"{rms / weight:.3f} BW (peaks {peak_m / weight:.2f} measured, "

@@ -49,6 +49,7 @@ __all__ = [
     "joint_labels",
     "lowpass",
     "quaternion_slots",
+    "recorded_feet",
     "stances",
 ]
 
@@ -352,6 +353,41 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
         for (s, p), fk in zip(where, f, strict=True):
             wrench[s][i] += np.concatenate([fk, np.cross(p, fk)])
     return [Load.from_wrench(s, time, wrench[s], name="estimated") for s in sides]
+
+
+def recorded_feet(h, time, q, markers, marker_set: dict) -> dict:
+    """Where the recorded feet's sole middles were, from the markers on the body's feet: the
+    body's sole middle moved by the mean misfit of that foot's markers (measured minus the
+    body's) in each sample, {side: (n, 3)} at ``time``, for the sides whose foot carries
+    markers that were seen (:func:`carry_loads`)."""
+    model = h.model
+    data = model.createData()
+    out = {}
+    for s in SIDES:
+        foot = model.frames[h.sole_id(s)].parentJoint
+
+        def on_foot(n, foot=foot):
+            return model.frames[model.getFrameId(marker_set[n].frame)].parentJoint == foot
+
+        names = [n for n in markers.names if n in marker_set and on_foot(n)]
+        if not names:
+            continue
+        cols = [markers.names.index(n) for n in names]
+        measured = np.stack(
+            [np.column_stack([np.interp(time, markers.time, markers.positions[:, c, k])
+                              for k in range(3)]) for c in cols], axis=1)  # fmt: skip
+        middle = h.sole_points(s).mean(axis=0)
+        place = np.zeros((len(time), 3))
+        for i in range(len(time)):
+            pin.framesForwardKinematics(model, data, q[i])
+            body = np.array([data.oMf[model.getFrameId(marker_set[n].frame)].act(
+                np.asarray(marker_set[n].offset)) for n in names])  # fmt: skip
+            gap = measured[i] - body
+            seen = np.all(np.isfinite(gap), axis=1)
+            shift = gap[seen].mean(axis=0) if seen.any() else np.zeros(3)
+            place[i] = data.oMf[h.sole_id(s)].act(middle) + shift
+        out[s] = place
+    return out
 
 
 def stances(load: Load, threshold: float = 20.0) -> list[tuple[int, int]]:
