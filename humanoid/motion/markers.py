@@ -4,7 +4,8 @@ A **marker set** names points fixed to frames of the body (``frame``, ``offset``
 [m], ``weight`` in inverse kinematics). :func:`default_markers` builds one for the toolkit's
 bodies from their own geometry: the joint centres (``right_hip``, ``right_knee``,
 ``right_ankle``, ``right_shoulder``, ``right_elbow``, ``right_wrist``, their left twins,
-``pelvis``, ``neck``, ``head``) and the landmarks of OpenSim's gait2354 marker set by their
+``pelvis``, ``neck``, ``head``, and the feet's balls ``right_toes``, ``left_toes``) and the
+landmarks of OpenSim's gait2354 marker set by their
 names there (``R.ASIS``, ``V.Sacral``, ``R.Heel``, ``R.Toe.Tip``, ``R.Acromium``, ``Top.Head``
 ... : the markers of its example walking trial), placed at the body's proportions (a scale of
 the body's hip width): where a lab puts a marker on a person is where a marker set says, and a
@@ -16,6 +17,9 @@ read and written as TOML (:func:`read_markers`, :func:`write_markers`)::
     offset = [0.071, -0.125, 0.066]
     weight = 1.0
     anatomical = true    # false: a cluster's marker, registered by inverse kinematics
+
+The landmarks' places are data (``humanoid/data/markers/default.toml``, :data:`LANDMARKS`),
+written for a 1.75 m male body and scaled by a body's hip width.
 
 **Keypoints** of pose estimators are joint centres in a fixed order (:data:`KEYPOINT_LAYOUTS`:
 COCO's 17, Human3.6M's 17 as VideoPose3D orders them, OpenPose's BODY_25 (with the feet's toes
@@ -46,6 +50,7 @@ from .storage import MotionFileError
 
 __all__ = [
     "KEYPOINT_LAYOUTS",
+    "LANDMARKS",
     "Marker",
     "MarkerTrajectories",
     "default_markers",
@@ -103,45 +108,10 @@ class MarkerTrajectories:
 
 # -- the toolkit's bodies' marker set ------------------------------------------------------
 
-# landmarks at a 1.75 m male body's proportions, relative to a joint centre, world axes at the
-# standing posture (x forward, y to the body's left for the left side); scaled by the body's
-# hip width; (frame, joint the offset is from, offset) per side ("R" right, mirrored for "L")
-_LANDMARKS = {
-    "ASIS": ("pelvis", "hip", (0.0707, 0.045, 0.0661)),  # gait2354's hip offset; 25 cm apart
-    "Thigh.Upper": ("thigh", "hip", (0.0, 0.075, -0.14)),
-    "Thigh.Front": ("thigh", "knee", (0.07, 0.0, 0.18)),
-    "Thigh.Rear": ("thigh", "knee", (-0.02, 0.06, 0.12)),
-    "Knee.Lat": ("thigh", "knee", (0.0, 0.05, 0.0)),
-    "Shank.Upper": ("shank", "knee", (0.0, 0.055, -0.12)),
-    "Shank.Front": ("shank", "ankle", (0.045, 0.0, 0.2)),
-    "Shank.Rear": ("shank", "ankle", (-0.02, 0.045, 0.15)),
-    "Ankle.Lat": ("shank", "ankle", (0.0, 0.04, 0.0)),
-    "Heel": ("foot", "heel", (-0.01, 0.0, 0.03)),
-    "Midfoot.Sup": ("foot", "ankle", (0.08, 0.0, -0.01)),
-    "Midfoot.Lat": ("foot", "ankle", (0.07, 0.045, -0.045)),
-    "Toe.Tip": ("foot", "toe", (0.0, 0.0, 0.02)),
-    "Toe.Lat": ("foot", "toe", (-0.06, 0.045, 0.02)),
-    "Toe.Med": ("foot", "toe", (-0.06, -0.035, 0.02)),
-    "Acromium": ("thorax", "shoulder", (0.0, 0.0, 0.04)),
-    "Bicep": ("upper_arm", "elbow", (0.04, 0.0, 0.13)),
-    "Elbow": ("upper_arm", "elbow", (0.0, 0.04, 0.0)),
-    "Wrist.Lat": ("forearm", "wrist", (0.0, 0.03, 0.0)),
-    "Wrist.Med": ("forearm", "wrist", (0.0, -0.025, 0.0)),
-    "Temple": ("head", "neck", (0.08, 0.07, 0.13)),
-    "Hand": ("hand", "wrist", (0.0, 0.0, -0.08)),  # not gait2354's: the hand's own markers
-    "Hand.Front": ("hand", "wrist", (0.035, 0.0, -0.05)),
-}
-# the clusters' markers: where a lab puts them is its own choice
-_TECHNICAL = ("Thigh.Upper", "Thigh.Front", "Thigh.Rear", "Shank.Upper", "Shank.Front",
-              "Shank.Rear", "Bicep", "Hand", "Hand.Front")  # fmt: skip
-_MIDLINE = {  # (frame, joint, offset)
-    "V.Sacral": ("pelvis", "root", (-0.10, 0.0, 0.066)),
-    "Sternum": ("thorax", "neck", (0.09, 0.0, -0.06)),
-    "Top.Head": ("head", "neck", (0.0, 0.0, 0.23)),
-}
 _SIDE = {"R": "right", "L": "left"}
 _JOINTS = {"hip": "hip", "knee": "knee", "ankle": "ankle_flexion", "shoulder": "shoulder",
            "elbow": "elbow", "wrist": "wrist_flexion"}  # fmt: skip
+LANDMARKS = Path(__file__).resolve().parent.parent / "data" / "markers" / "default.toml"
 
 
 def _body_frame(side: str, segment: str) -> str:
@@ -178,10 +148,9 @@ def default_markers(h) -> dict[str, Marker]:
     scale = abs(at("left_hip").translation[1] - at("right_hip").translation[1]) / 0.16
     out = {}
 
-    def attach(marker, frame, world, weight=1.0):
+    def attach(marker, frame, world, weight=1.0, anatomical=True):
         offset = at(frame).actInv(np.asarray(world, dtype=float))
-        technical = any(marker.endswith(x) for x in _TECHNICAL)
-        out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, not technical)
+        out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
     out["pelvis"] = Marker("pelvis", (0.0, 0.0, 0.0))
     for s in ("left", "right"):
@@ -190,22 +159,34 @@ def default_markers(h) -> dict[str, Marker]:
     attach("neck", "neck", at("neck").translation)
     attach("head", "head", at("neck").translation + np.array([0.0, 0.0, 0.12]) * scale)
     sole = {s: (h.sole_points(s), at(h.model.frames[h.sole_id(s)].name)) for s in ("left", "right")}
+    landmarks = tomllib.loads(LANDMARKS.read_text(encoding="utf-8"))["landmarks"]
     for letter, s in _SIDE.items():
         mirror = 1.0 if s == "left" else -1.0
         points, M = sole[s]
-        heel, toe = M.act(points[points[:, 0].argmin()]), M.act(points[points[:, 0].argmax()])
+        # the sole's middle line, at its back and front ends
+        heel, toe = (np.array([*M.act(points[points[:, 0].argmin()])[:1], M.translation[1],
+                               M.act(points[points[:, 0].argmin()])[2]]),
+                     np.array([*M.act(points[points[:, 0].argmax()])[:1], M.translation[1],
+                               M.act(points[points[:, 0].argmax()])[2]]))  # fmt: skip
+        attach(f"{s}_toes", f"{s}_foot", toe + np.array([-0.06, 0.0, 0.02]) * scale)
         centre = {"root": at("pelvis").translation, "heel": heel, "toe": toe}
-        for name, (segment, joint, offset) in _LANDMARKS.items():
+        for name, spec in landmarks.items():
+            if not spec["sides"]:
+                continue
+            joint = spec["from"]
             origin = centre.get(joint)
             if origin is None:
                 origin = at(f"{s}_{_JOINTS[joint]}" if joint in _JOINTS else joint).translation
-            if joint in ("heel", "toe"):  # the sole's middle line, at its back or front
-                origin = np.array([origin[0], M.translation[1], origin[2]])
-            d = np.array(offset) * scale * np.array([1.0, mirror, 1.0])
-            attach(f"{letter}.{name}", _body_frame(s, segment), origin + d)
-    for name, (segment, joint, offset) in _MIDLINE.items():
+            d = np.array(spec["offset"]) * scale * np.array([1.0, mirror, 1.0])
+            attach(f"{letter}.{name}", _body_frame(s, spec["frame"]), origin + d,
+                   anatomical=spec["anatomical"])  # fmt: skip
+    for name, spec in landmarks.items():
+        if spec["sides"]:
+            continue
+        joint = spec["from"]
         origin = at("pelvis").translation if joint == "root" else at(joint).translation
-        attach(name, segment, origin + np.array(offset) * scale)
+        attach(name, spec["frame"], origin + np.array(spec["offset"]) * scale,
+               anatomical=spec["anatomical"])  # fmt: skip
     return out
 
 

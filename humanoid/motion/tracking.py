@@ -69,7 +69,10 @@ class TrackGains:
     w_force: float = 1e-3
     mu: float = 0.6  # the pyramids' friction (inside the floor's)
     touch: float = 1e-2  # [m] a contact foot's points this close to the floor may bear load
-    ref_touch: float = 1e-2  # [m] ... if the motion has them this close to its floor
+    ref_touch: float = 1e-2  # [m] ... if the motion has them this close to its floor,
+    ref_reach: float = 3e-2  # [m] ... or this close and rising slower than ref_rise [m/s]:
+    ref_rise: float = 0.05  # (with 1 cm alone, a fitted noisy motion's standing heel rose
+    # past it and the body fell; with 2 cm alone, a clean walk's heel was held 6 degrees down)
     contact_time: float = 0.02  # [s] a loaded point's velocity comes to rest in this time
     settle: float = 0.02  # [s] a loaded point above the floor settles onto it in this time
     horizon: float = 0.02  # [s] free points and ranges are kept off their bounds this far ahead
@@ -166,10 +169,16 @@ class MotionTracker(Effect):
             ok = False
             if s is not None and on[s] and phi[i] < g.touch:
                 local = data.oMf[self.sole[s]].actInv(points[i])
-                # a point of the sole that the motion has on the floor now (a heel rising in
-                # push-off is not held down)
-                ref_z = float(rd.oMf[self.sole[s]].act(local)[2]) - self.ref.floor
-                ok = local[2] < SOLE_DEPTH and ref_z < g.ref_touch
+                # a point of the sole that the motion has on the floor now: low, and not
+                # rising away from it (a heel rising in push-off is not held down; a fitted
+                # noisy motion's standing heel, a centimetre or two up, is)
+                M_r = rd.oMf[self.sole[s]]
+                ref_z = float(M_r.act(local)[2]) - self.ref.floor
+                vel = pin.getFrameVelocity(model, rd, self.sole[s], LWA)
+                rising = float(vel.linear[2] + np.cross(vel.angular, M_r.rotation @ local)[2])
+                ok = local[2] < SOLE_DEPTH and (
+                    ref_z < g.ref_touch or (ref_z < g.ref_reach and rising < g.ref_rise)
+                )
             (loaded if ok else free).append(i)
         bearing = {side_of[i] for i in loaded}
         # the root: position and orientation
