@@ -158,6 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "the toolkit's set (joint centres, gait2354's landmarks)")  # fmt: skip
     k.add_argument("--register", action="store_true", help="place the technical (cluster) "
                    "markers where the anatomical ones' fit finds them, then fit all")  # fmt: skip
+    k.add_argument("--smoothing", type=float,
+                   help="the joints' pull towards the frame before, on their velocity [s^2] "
+                   "(default: 0 with 40 markers or more, 1e-7 with fewer: keypoints)")  # fmt: skip
     k.add_argument("--static", help="a static trial (.trc, .c3d) to register the technical "
                    "markers on (implies --register)")  # fmt: skip
     k.add_argument(

@@ -301,7 +301,8 @@ def run_ik(args) -> int:
     try:
         static = _markers_file(args.static, args) if args.static else None
         r = inverse_kinematics(h, markers, marker_set, register=args.register or static is not None,
-                               static=static, progress=lambda i: bar.update(1))  # fmt: skip
+                               static=static, smoothing=args.smoothing,
+                               progress=lambda i: bar.update(1))  # fmt: skip
     finally:
         bar.close()
     elapsed = clock.perf_counter() - start

@@ -26,7 +26,9 @@ import pinocchio as pin
 from ..errors import HumanoidError
 from .markers import Marker, MarkerTrajectories
 
-__all__ = ["IKResult", "inverse_kinematics", "register_markers"]
+__all__ = ["IKResult", "SPARSE_SMOOTHING", "inverse_kinematics", "register_markers"]
+
+SPARSE_SMOOTHING = 1e-7  # [s^2]: 1e-3 per marker weight at 100 Hz
 
 
 @dataclass
@@ -93,7 +95,8 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                        register: bool = False, static: MarkerTrajectories | None = None,
                        iterations: int = 50, tolerance: float = 1e-6,
                        damping: float = 1e-6,
-                       regularization: float = 1e-6, q0: np.ndarray | None = None,
+                       regularization: float = 1e-6, smoothing: float | None = None,
+                       q0: np.ndarray | None = None,
                        progress=None) -> IKResult:  # fmt: skip
     """Fit the body to measured markers (see the module docstring).
 
@@ -109,6 +112,12 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         iterations: Gauss-Newton iterations per frame at most. tolerance: a frame stops when
             its step is smaller than this [rad or m]. damping: Levenberg's lambda.
         regularization: The pull towards the standing posture, per unit of marker weight.
+        smoothing: The pull of the joints (not the root) towards the frame before, on their
+            velocity (the weight is this over the frame interval squared, per unit of marker
+            weight; default: none with 40 markers or more; :data:`SPARSE_SMOOTHING` with
+            fewer, as keypoints are, which leave a limb's twist unseen and noise free to turn
+            it: with 1 cm of noise on BODY_25's points of the walk at 100 Hz the fit was 8.8
+            degrees RMS off without it, 3.5 with it).
         q0: The first frame's starting configuration (default: see the module docstring).
         progress: Called with the frame index after each frame (a progress bar).
 
@@ -117,19 +126,21 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             with fewer than 3 markers seen in total for the first frame.
     """
     names = [n for n in markers.names if n in marker_set]
+    if smoothing is None:
+        smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
     technical = [n for n in names if not marker_set[n].anatomical]
     if register and technical and len(technical) < len(names):
         first = {n: (Marker(m.frame, m.offset, 0.0, False) if n in technical else m)
                  for n, m in marker_set.items()}  # fmt: skip
         source = static if static is not None else markers
         technical = [n for n in technical if n in source.names]
-        fit = _solve(h, source, first, iterations, tolerance, damping, regularization, q0,
-                     progress if static is None else None)  # fmt: skip
+        fit = _solve(h, source, first, iterations, tolerance, damping, regularization,
+                     smoothing, q0, progress if static is None else None)  # fmt: skip
         marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical)
         if static is None:
             q0 = fit.q[0]
-    result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, q0,
-                    progress)  # fmt: skip
+    result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
+                    smoothing, q0, progress)  # fmt: skip
     result.marker_set = marker_set
     return result
 
@@ -159,8 +170,8 @@ def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: 
     return out
 
 
-def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, q0,
-           progress) -> IKResult:  # fmt: skip
+def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, smoothing,
+           q0, progress) -> IKResult:  # fmt: skip
     model = h.model
     data = model.createData()
     names = [n for n in markers.names if n in marker_set]
@@ -188,6 +199,8 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     converged = np.zeros(n, dtype=bool)
     q = None if q0 is None else np.asarray(q0, dtype=float).copy()
     eye = np.eye(model.nv)
+    joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
+    previous = None
     for i in range(n):
         seen = np.all(np.isfinite(meas[i]), axis=1) & (weights > 0)
         if q is None:
@@ -202,6 +215,10 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         w = np.where(seen, weights, 0.0)
         w3 = np.repeat(w, 3)
         reg = regularization * max(float(w.sum()), 1.0)
+        smooth = 0.0
+        if previous is not None and smoothing:  # a pull on the joints' velocity: per 1/dt^2
+            dt = float(markers.time[i] - markers.time[i - 1])
+            smooth = smoothing * max(float(w.sum()), 1.0) / dt**2
         for it in range(iterations):
             pin.computeJointJacobians(model, data, q)
             pin.updateFramePlacements(model, data)
@@ -218,6 +235,9 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             e = pin.difference(model, q, standing)
             A = J.T @ (w3[:, None] * J) + (damping + reg) * eye
             b = J.T @ (w3 * r) + reg * e
+            if smooth:  # the joints (not the root) held near the frame before
+                A += smooth * joints
+                b += smooth * (joints @ pin.difference(model, q, previous))
             dq = _bounded_step(A, b, q, ranges)
             q_new = pin.integrate(model, q, dq)
             for _, iq, lo, hi in ranges:  # (rounding)
@@ -235,6 +255,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                     np.linalg.norm(data.oMf[frames[k]].act(offsets[k]) - meas[i, k])
                 )
         out_q[i] = q
+        previous = q.copy()
         if progress is not None:
             progress(i)
     return IKResult(markers.time.copy(), out_q, names, residuals, iters, converged)
