@@ -731,7 +731,7 @@ def _stance_jitter(h, q, reference):
 def test_tracking_reproduces_the_clean_walk(walk_1khz):
     """The walk's configurations at 100 Hz followed in forward simulation by joint torques
     alone (the root unactuated, on the rigid ground): within 1 cm at the root and 2 degrees at
-    every joint, all the way (measured 6.8 mm and 1.95 degrees on 3 steps)."""
+    every joint, all the way (measured 6.1 mm and 1.95 degrees)."""
     from humanoid.motion.tracking import track
 
     h, tr = walk_1khz
@@ -745,10 +745,10 @@ def test_tracking_reproduces_the_clean_walk(walk_1khz):
 
 def test_tracking_cleans_noisy_markers(walk_1khz):
     """The walk's markers with 1 cm of noise (seeded), through inverse kinematics: a motion
-    whose joints are 4.8 degrees RMS off and whose standing feet jitter 8 mm per sample.
+    whose joints are 4.65 degrees RMS off and whose standing feet jitter 7.6 mm per sample.
     Tracked, it is physically consistent (a simulation on the ground), its joints closer to the
-    clean walk's than the noisy motion's (1.7 degrees RMS) and its standing feet still (under
-    1 mm per sample)."""
+    clean walk's than the noisy motion's (1.68 degrees RMS) and its standing feet still (0.14
+    mm per sample)."""
     from humanoid.motion.ik import inverse_kinematics
     from humanoid.motion.markers import MarkerTrajectories, default_markers, marker_positions
     from humanoid.motion.tracking import track
