@@ -160,40 +160,30 @@ def _side(s: str) -> str:
     return "right" if s == "r" else "left"
 
 
-def _legs(knee_sign: float) -> list[JointMap]:
+def _limbs(ball: str, coords: tuple[str, str, str], hinges) -> list[JointMap]:
+    """Both sides' maps of a limb: a ball joint (``<side>_<ball>``) from three coordinates
+    (``<coord>_r`` / ``_l``, OpenSim's Z, X, Y: the left's X and Y negated) and hinges
+    (joint, coordinate, sign)."""
     out = []
     for s in "rl":
         side = _side(s)
         m = "" if s == "r" else "-"
-        out += [
-            JointMap(
-                (f"{side}_hip",),
-                (f"hip_flexion_{s}", f"hip_adduction_{s}", f"hip_rotation_{s}"),
-                ("-y", f"{m}x", f"{m}z"),
-            ),  # fmt: skip
-            JointMap((f"{side}_knee",), (f"knee_angle_{s}",), signs=(knee_sign,)),
-            JointMap((f"{side}_ankle_flexion",), (f"ankle_angle_{s}",), signs=(1.0,)),
-            JointMap((f"{side}_ankle_inversion",), (f"subtalar_angle_{s}",), signs=(1.0,)),
-        ]
+        out.append(JointMap((f"{side}_{ball}",), tuple(f"{c}_{s}" for c in coords),
+                            ("-y", f"{m}x", f"{m}z")))  # fmt: skip
+        out += [JointMap((f"{side}_{j}",), (f"{c}_{s}",), signs=(sign,)) for j, c, sign in hinges]
     return out
+
+
+def _legs(knee_sign: float) -> list[JointMap]:
+    return _limbs("hip", ("hip_flexion", "hip_adduction", "hip_rotation"),
+                  (("knee", "knee_angle", knee_sign), ("ankle_flexion", "ankle_angle", 1.0),
+                   ("ankle_inversion", "subtalar_angle", 1.0)))  # fmt: skip
 
 
 def _arms() -> list[JointMap]:
-    out = []
-    for s in "rl":
-        side = _side(s)
-        m = "" if s == "r" else "-"
-        out += [
-            JointMap(
-                (f"{side}_shoulder",),
-                (f"arm_flex_{s}", f"arm_add_{s}", f"arm_rot_{s}"),
-                ("-y", f"{m}x", f"{m}z"),
-            ),  # fmt: skip
-            JointMap((f"{side}_elbow",), (f"elbow_flex_{s}",), signs=(1.0,)),
-            JointMap((f"{side}_wrist_flexion",), (f"wrist_flex_{s}",), signs=(1.0,)),
-            JointMap((f"{side}_wrist_deviation",), (f"wrist_dev_{s}",), signs=(-1.0,)),
-        ]
-    return out
+    return _limbs("shoulder", ("arm_flex", "arm_add", "arm_rot"),
+                  (("elbow", "elbow_flex", 1.0), ("wrist_flexion", "wrist_flex", 1.0),
+                   ("wrist_deviation", "wrist_dev", -1.0)))  # fmt: skip
 
 
 _BACK = ("lumbar_extension", "lumbar_bending", "lumbar_rotation")
@@ -444,7 +434,6 @@ def coordinates_table(h, time, q, cmap: CoordinateMap | str = "rajagopal",
     cmap = MAPS[cmap] if isinstance(cmap, str) else cmap
     q = np.asarray(q, dtype=float).reshape(len(time), model.nq)
     scale = 180.0 / math.pi if degrees else 1.0
-    data = model.createData()
     labels, cols = [], []
     rot = np.zeros((len(q), 3))
     trans = np.zeros((len(q), 3))
@@ -476,7 +465,6 @@ def coordinates_table(h, time, q, cmap: CoordinateMap | str = "rajagopal",
             cols.append(np.column_stack([q[:, model.joints[ids[0]].idx_q] * jm.signs[0]])
                         * scale)  # fmt: skip
         labels += list(jm.columns)
-    del data
     return Table(np.asarray(time, dtype=float), labels, np.hstack(cols), degrees, name)
 
 
