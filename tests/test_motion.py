@@ -1063,3 +1063,20 @@ def test_tracking_cleans_noisy_keypoints(walk_1khz):
     clean = q[np.clip(np.round(res.trajectory.t * 100).astype(int), 0, len(q) - 1)]
     assert rms(res.trajectory.q, clean) < rms(fit.q, q) < 6.0
     assert _stance_jitter(h, res.trajectory.q, clean) < 1e-3
+
+
+def test_inverse_dynamics_ignores_quaternion_signs(walk_1khz):
+    """q and -q are one rotation: a motion whose quaternions flip sign from sample to sample
+    gives the same moments as the one that does not."""
+    from humanoid.motion.inverse_dynamics import quaternion_slots
+
+    h, tr = walk_1khz
+    q = tr.q[::10].copy()
+    flipped = q.copy()
+    rng = np.random.default_rng(4)
+    for s in quaternion_slots(h.model):
+        flip = rng.random(len(q)) < 0.5
+        flipped[flip, s : s + 4] *= -1.0
+    a = inverse_dynamics(h, tr.t[::10], q)
+    b = inverse_dynamics(h, tr.t[::10], flipped)
+    np.testing.assert_allclose(b.tau, a.tau, atol=1e-9 * np.abs(a.tau).max())

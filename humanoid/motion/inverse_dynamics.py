@@ -121,13 +121,14 @@ def quaternion_slots(model: pin.Model) -> list[int]:
 
 
 def _continuous(q: np.ndarray, slots: list[int]) -> np.ndarray:
-    """Quaternions flipped sample by sample to stay on one hemisphere (q, -q: one rotation)."""
+    """Quaternions flipped sample by sample to stay on one hemisphere (q, -q: one rotation):
+    each sample's sign is the product of the signs of the dot products before it."""
     q = q.copy()
     for s in slots:
         block = q[:, s : s + 4]
-        for i in range(1, len(block)):
-            if block[i] @ block[i - 1] < 0.0:
-                block[i] = -block[i]
+        dots = np.einsum("ij,ij->i", block[1:], block[:-1])
+        signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0))
+        block[1:] *= signs[:, None]
     return q
 
 
