@@ -33,6 +33,18 @@ done
 "$BIN/python" -c 'from humanoid.walking.norms import norms
 n = norms()
 print(f"norms: {len(n.units)} normative curves from the installed package data")'
+"$BIN/python" -c 'import humanoid
+from humanoid.motion.markers import default_markers, marker_positions, MarkerTrajectories
+from humanoid.motion.bvh import write_bvh
+h = humanoid.load("adult_male")
+m = default_markers(h)
+q = h.standing_configuration()[None].repeat(5, axis=0)
+write_bvh("stand.bvh", h, [0.0, 0.1, 0.2, 0.3, 0.4], q)
+print(f"markers: {len(m)} from the installed package data")'
+"$BIN/humanoid" ik stand.bvh --model adult_male -o stand.mot --quiet > ik.txt
+"$BIN/humanoid" id stand.mot --model adult_male --cutoff 0 -o stand_id.sto > id.txt
+grep -q "root residual force" id.txt || { echo "humanoid id printed no residual" >&2; exit 1; }
+echo "ik and id of a BVH: $(grep -c . stand_id.sto) lines of generalised forces"
 "$BIN/humanoid" bench step --quick -o bench > bench.txt
 rows=$(($(wc -l < bench/step.csv) - 1))
 if [ "$rows" -lt 1 ]; then echo "bench step wrote no rows" >&2; exit 1; fi
