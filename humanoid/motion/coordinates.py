@@ -62,7 +62,6 @@ A user map (TOML, :func:`read_map`) names the body's joints and the file's colum
 from __future__ import annotations
 
 import math
-import tomllib
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -71,7 +70,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError
-from .storage import MotionFileError, Table
+from .storage import MotionFileError, Table, read_toml
 
 __all__ = [
     "MAPS",
@@ -249,12 +248,7 @@ def read_map(path: str | Path) -> CoordinateMap:
             different lengths, an axis that is not one of x, y, z.
     """
     path = Path(path)
-    try:
-        spec = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise HumanoidError(f"map file not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+    spec = read_toml(path, "map file")
     unknown = set(spec) - {"name", "root", "joints", "ignored"}
     if unknown:
         raise HumanoidError(f"{path}: unknown keys {sorted(unknown)} (name, root, joints, ignored)")

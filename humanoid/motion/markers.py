@@ -46,7 +46,7 @@ import pinocchio as pin
 
 from ..errors import HumanoidError
 from .loads import OPENSIM_TO_OURS
-from .storage import MotionFileError
+from .storage import MotionFileError, read_toml
 
 __all__ = [
     "KEYPOINT_LAYOUTS",
@@ -215,12 +215,7 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
             three numbers, a negative weight.
     """
     path = Path(path)
-    try:
-        spec = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise HumanoidError(f"marker set not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+    spec = read_toml(path, "marker set")
     table = spec.get("markers")
     if not isinstance(table, dict) or not table:
         raise HumanoidError(f"{path}: no [markers.NAME] tables")

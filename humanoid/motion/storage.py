@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import HumanoidError
 
-__all__ = ["MotionFileError", "Table", "read_storage", "write_csv", "write_storage"]
+__all__ = ["MotionFileError", "Table", "read_storage", "read_toml", "write_csv", "write_storage"]
 
 
 class MotionFileError(HumanoidError, ValueError):
@@ -193,3 +193,17 @@ def write_csv(path: str | Path, table: Table) -> Path:
     lines += [",".join(repr(float(x)) for x in row) for row in block]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def read_toml(path: str | Path, what: str) -> dict:
+    """A TOML file's tables; HumanoidError naming ``what`` it should be if it is missing or
+    not TOML."""
+    import tomllib
+
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise HumanoidError(f"{what} not found: {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise HumanoidError(f"{path}: not TOML: {exc}") from None
