@@ -1,4 +1,5 @@
-"""The motion commands of the command line: ``humanoid id`` (and the helpers they share).
+"""The motion commands of the command line: ``humanoid ik``, ``id`` and ``track`` (and the
+helpers they share).
 
 Kept out of :mod:`humanoid.cli` so that the parser stays light: this module loads scipy and
 matplotlib only when a command runs.
@@ -13,7 +14,16 @@ import numpy as np
 
 from ..errors import HumanoidError
 
-__all__ = ["moments_figure", "read_motion", "residual_figure", "run_id", "run_ik", "subject_body"]
+__all__ = [
+    "moments_figure",
+    "read_motion",
+    "residual_figure",
+    "run_id",
+    "run_ik",
+    "run_track",
+    "subject_body",
+    "tracking_figure",
+]
 
 # the moments drawn and summarised (OpenSim's coordinates; their signs are the map's)
 _FLEXION = ("hip_flexion", "knee_angle", "ankle_angle")
@@ -35,7 +45,8 @@ def subject_body(args):
         params = BodyParameters(args.height, args.mass, args.sex)
         return load(build_urdf(params)), f"{args.sex}, {args.height} m, {args.mass} kg"
     name = args.model or "adult_male"
-    return load(name), name
+    h = load(name)
+    return h, f"{name} ({h.mass:.1f} kg)"
 
 
 def _map(args, table=None):
@@ -199,7 +210,7 @@ def run_id(args) -> int:
                    (r.time, r.residual_force, r.residual_moment))  # fmt: skip
     weight = h.mass * 9.81
     n = len(r.time)
-    print(f"body         {what} ({h.mass:.1f} kg), map {cmap.name}")
+    print(f"body         {what}, map {cmap.name}")
     print(f"motion       {n} frames at {1.0 / (r.time[1] - r.time[0]):.1f} Hz, "
           f"{r.time[0]:.3f}-{r.time[-1]:.3f} s, "
           f"filter {'none' if cutoff is None else f'{cutoff:g} Hz'}")  # fmt: skip
@@ -312,7 +323,7 @@ def run_ik(args) -> int:
     unused = [n for n in markers.names if n not in marker_set]
     rms = r.marker_rms()
     frame = r.frame_rms()
-    print(f"body         {what} ({h.mass:.1f} kg)")
+    print(f"body         {what}")
     print(f"markers      {len(r.names)} of {len(markers.names)} in the set, {len(r.time)} frames"
           f" at {markers.rate:.1f} Hz" + (", registered" if args.register or args.static else "")
           + (f" on {Path(args.static).name}" if args.static else ""))  # fmt: skip
@@ -390,7 +401,7 @@ def run_track(args) -> int:
     rms = np.sqrt(np.mean(err[:, 6:] ** 2, axis=0))
     worst = np.argsort(-rms)[:5]
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
-    print(f"body         {what} ({h.mass:.1f} kg)")
+    print(f"body         {what}")
     print(
         f"status       {meta['status']}" + (f": {meta['message']}" if meta.get("message") else "")
     )
