@@ -111,3 +111,15 @@ def assert_heel_to_toe(analysis, strikes: int, stances: int, slip: float = 2e-3)
     for f in feet:
         assert f["heel_strike"] and f["flat"] and f["heel_off"] and f["toe_off"], f
         assert f["slip"] < slip, f
+
+
+@pytest.fixture(scope="session")
+def walk_1khz():
+    """Two steps of the male body's walk at 0.8 m/s, every simulation step recorded (the motion
+    tests' and the OpenSim peer's)."""
+    from humanoid.walking.gait import walk_on_ground
+
+    h = hm.load(BODIES / "adult_male.urdf")
+    walk = walk_on_ground(h, speed=0.8, steps=2, record_rate=1000.0)
+    assert walk.trajectory.status == "completed"
+    return h, walk.trajectory

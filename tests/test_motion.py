@@ -229,17 +229,6 @@ def test_inverse_dynamics_resamples_a_nonuniform_motion():
 # -- round trips through OpenSim's files, on the project's own walk ------------------------
 
 
-@pytest.fixture(scope="module")
-def walk_1khz():
-    """Two steps of the male body's walk at 0.8 m/s, every simulation step recorded."""
-    from humanoid.walking.gait import walk_on_ground
-
-    h = hm.load(BODIES / "adult_male.urdf")
-    walk = walk_on_ground(h, speed=0.8, steps=2, record_rate=1000.0)
-    assert walk.trajectory.status == "completed"
-    return h, walk.trajectory
-
-
 def _export(tmp_path, h, tr, convention="rajagopal"):
     """The walk written as OpenSim files and read back: (time, q, loads)."""
     from humanoid.motion.coordinates import configurations, coordinates_table

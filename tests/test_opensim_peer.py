@@ -66,15 +66,11 @@ def test_a_moving_body_matches_opensim_to_its_spline(tmp_path, walk_motion):
 
 
 @pytest.fixture(scope="module")
-def walk_motion():
-    from conftest import BODIES
-
-    import humanoid as hm
+def walk_motion(walk_1khz):
+    """The walk at 100 Hz (every tenth step), filtered at 6 Hz, with its ground forces."""
     from humanoid.motion.inverse_dynamics import derivatives
-    from humanoid.walking.gait import walk_on_ground
 
-    h = hm.load(BODIES / "adult_male.urdf")
-    tr = walk_on_ground(h, speed=0.8, steps=2).trajectory  # recorded at 100 Hz
-    t, q, _, _ = derivatives(h.model, tr.t, tr.q, cutoff=6.0)
+    h, tr = walk_1khz
+    t, q, _, _ = derivatives(h.model, tr.t[::10], tr.q[::10], cutoff=6.0)
     loads = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]
     return h, t, q, loads
