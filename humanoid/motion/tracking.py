@@ -38,8 +38,8 @@ import pinocchio as pin
 from ..effects import Effect
 from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
-from ..walking.qp import WarmQP, dynamics_terms, feet_contacts, pyramid_rows, range_damper
-from ..walking.tracking import closest_in_hull
+from ..walking.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH, closest_in_hull
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives
 from .loads import Load
@@ -47,7 +47,6 @@ from .loads import Load
 __all__ = ["MotionReference", "MotionTracker", "TrackGains", "Tracked", "track"]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-SOLE_DEPTH = 2e-3  # [m] only points this close to the sole's plane bear load
 
 
 @dataclass(frozen=True)
@@ -224,48 +223,17 @@ class MotionTracker(Effect):
         e = pin.difference(model, q, q_r)[6:]
         task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
              g.w_joint)  # fmt: skip
-        for cm, cd in zip(cms, cds, strict=True):
-            cm.calc(model, data, cd)
-        Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
-        depth = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi)
-        nf = 3 * len(loaded)
-        n = nv + nf
-        Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
-        A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
-        W = np.concatenate(weights)
-        P = A_cost.T @ (W[:, None] * A_cost)
-        qv = -A_cost.T @ (W * np.concatenate(rhs))
-        P[nv:, nv:] += g.w_force * np.eye(nf)
-        A_eq = [np.hstack([M[:6], -self.weight * Jc.T[:6]])]
-        b_eq = [-hvec[:6]]
-        if loaded:
-            target = -Jc @ v
-            for j, i in enumerate(loaded):
-                target[3 * j + 2] -= depth[i] / dt if phi[i] <= 0.0 else phi[i] / g.settle
-            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
-            U = U[:, S > 1e-9 * S[0]]
-            A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
-            b_eq.append(U.T @ target / max(dt, g.contact_time))
-        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
-        G = [pyramid_rows(g.mu, len(loaded), n, nv)]
-        h_ineq = [np.zeros(5 * len(loaded))]
-        if free:
-            Jn = np.vstack([Jall[3 * i + 2] for i in free])
-            G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
-            h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
-        Jr, bound = range_damper(self.ranges, q, v, g.horizon, 0.2, 0.05)
-        if len(Jr):
-            G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
-            h_ineq.append(bound)
-        G, h_ineq = np.vstack(G), np.concatenate(h_ineq)
-        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M, hvec,
+                       q, v, dt, self.weight, g, self.ranges, self.ground.settings.correction,
+                       RANGE_MARGIN, RANGE_TIME)  # fmt: skip
+        x = self.qp.solve(p.P, p.q, p.A, p.b, p.G, p.h)
         if x is None:  # the dynamics and the loaded points' cones only
             self.relaxed += 1
-            x = self.qp.solve(P, qv, A_eq, b_eq, G[: 5 * len(loaded)], h_ineq[: 5 * len(loaded)])
+            x = self.qp.solve(p.P, p.q, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
         if x is None or not np.all(np.isfinite(x)):
             raise HumanoidError(f"the tracking QP has no solution at t = {t:.3f} s ({self.qp.why})")
         dv, f = x[:nv], self.weight * x[nv:]
-        tau = M @ dv + hvec - Jc.T @ f
+        tau = M @ dv + hvec - p.Jc.T @ f
         self.last = (dv, f.reshape(-1, 3), loaded)
         return np.concatenate([np.zeros(6), tau[6:]])
 

@@ -3,10 +3,20 @@ of a set of contact points, and the joint ranges' velocity dampers."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["WarmQP", "dynamics_terms", "feet_contacts", "pyramid_rows", "range_damper"]
+__all__ = [
+    "ContactQP",
+    "WarmQP",
+    "contact_qp",
+    "dynamics_terms",
+    "feet_contacts",
+    "pyramid_rows",
+    "range_damper",
+]
 
 # ProxQP's default inner cap (1500) let one infeasible tick of a Talos walk take 1.4 million
 # iterations (11 s) before the controller could fall back; a walk's solves take at most 62 in all
@@ -111,3 +121,84 @@ def feet_contacts(ground, model, data, foot_joint: dict):
     side_of = [next((s for s, j in foot_joint.items() if j == cm.extract().joint2_id), None)
                for cm in cms]  # fmt: skip
     return cms, cds, phi, points, side_of
+
+
+@dataclass
+class ContactQP:
+    """A task-space inverse-dynamics QP over x = (dv, f / weight) (see :func:`contact_qp`):
+    minimise 1/2 x'Px + q'x subject to A x = b, G x <= h. ``Jc``: the loaded points'
+    Jacobian (3 rows each); ``U``: the independent combinations of its rows that the sticking
+    equalities use (after the root's 6 rows of A); ``cones``: how many rows of G, first, keep
+    the forces in their pyramids."""
+
+    P: np.ndarray
+    q: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    G: np.ndarray
+    h: np.ndarray
+    Jc: np.ndarray
+    U: np.ndarray
+    cones: int
+
+
+def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: float,
+               weight: float, gains, ranges, correction: float,
+               range_margin: float, range_time: float) -> ContactQP:  # fmt: skip
+    """The walking and tracking controllers' QP on the rigid ground.
+
+    ``contacts``: the plant's detection (constraint models and datas, signed distances);
+    ``loaded`` and ``free``: indices of its points that stick (their forces are unknowns) and
+    that only must not go through the floor; ``tasks``: (rows, right-hand sides, weights) of the
+    costs on dv; ``gains``: ``w_force``, ``mu``, ``settle``, ``contact_time``, ``horizon``.
+
+    - Equalities: the free flyer's six rows of the dynamics (never actuated); each loaded
+      point's velocity brought to rest over ``contact_time`` (J (v + T dv) + gap = 0; a point
+      still above the floor settles onto it over ``settle``), on an independent set of the
+      rows (one sole's four points are twelve dependent rows: rank deficient equalities make
+      the solver crawl).
+    - Inequalities: the loaded points' forces in friction pyramids; every free point kept off
+      the floor within the ``horizon`` H, -(J_n (v + H dv) + depth / H) <= 0 (the plant stops
+      what is left within its step); the joint ranges as velocity dampers over H.
+    - Costs: the tasks, and small forces (``w_force``).
+    """
+    cms, cds, phi = contacts
+    nv = model.nv
+    g = gains
+    for cm, cd in zip(cms, cds, strict=True):
+        cm.calc(model, data, cd)
+    Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
+    depth = np.where(phi >= 0.0, phi, correction * phi)
+    gap = depth / dt
+    nf = 3 * len(loaded)
+    n = nv + nf
+    Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
+    rows, rhs, weights = tasks
+    A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
+    W = np.concatenate(weights)
+    P = A_cost.T @ (W[:, None] * A_cost)
+    qv = -A_cost.T @ (W * np.concatenate(rhs))
+    P[nv:, nv:] += g.w_force * np.eye(nf)
+    A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
+    b_eq = [-hvec[:6]]
+    U = np.zeros((0, 0))
+    if loaded:
+        target = -Jc @ v
+        for j, i in enumerate(loaded):
+            target[3 * j + 2] -= gap[i] if phi[i] <= 0.0 or not g.settle else phi[i] / g.settle
+        U, S, _ = np.linalg.svd(Jc, full_matrices=False)
+        U = U[:, S > 1e-9 * S[0]]
+        A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
+        b_eq.append(U.T @ target / max(dt, g.contact_time))
+    G = [pyramid_rows(g.mu, len(loaded), n, nv)]
+    h_ineq = [np.zeros(5 * len(loaded))]
+    if free:
+        Jn = np.vstack([Jall[3 * i + 2] for i in free])
+        G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
+        h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
+    Jr, bound = range_damper(ranges, q, v, g.horizon, range_margin, range_time)
+    if len(Jr):
+        G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
+        h_ineq.append(bound)
+    return ContactQP(P, qv, np.vstack(A_eq), np.concatenate(b_eq), np.vstack(G),
+                     np.concatenate(h_ineq), Jc, U, 5 * len(loaded))  # fmt: skip

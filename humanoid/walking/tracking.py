@@ -73,7 +73,7 @@ from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
-from .qp import WarmQP, dynamics_terms, feet_contacts, pyramid_rows, range_damper
+from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
 
 __all__ = ["CyclePlayer", "GaitController", "TrackingGains", "bend"]
 
@@ -675,55 +675,16 @@ class GaitController(Effect):
         e = pin.difference(model, q, q_r)[6:]
         task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_post - v[6:]), self.w_posture)
 
-        for cm, cd in zip(cms, cds, strict=True):
-            cm.calc(model, data, cd)
-        Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
-        depth = np.where(phi >= 0.0, phi, self.ground.settings.correction * phi)
-        gap = depth / dt
-        nf = 3 * len(loaded)
-        n = nv + nf
-        Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
-
-        A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
-        b_cost = np.concatenate(rhs)
-        W = np.concatenate(weights)
-        P = A_cost.T @ (W[:, None] * A_cost)
-        qv = -A_cost.T @ (W * b_cost)
-        P[nv:, nv:] += g.w_force * np.eye(nf)
+        problem = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M,
+                        hvec, q, v, dt, self.weight, g, self.ranges,
+                        self.ground.settings.correction, RANGE_MARGIN, RANGE_TIME)  # fmt: skip
         share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
         if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
-            row = np.zeros(n)
+            row = np.zeros(nv + 3 * len(loaded))
             row[nv:] = share
-            P += g.w_share * np.outer(row, row)
-        weight = self.weight  # forces are solved in body weights
-        A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
-        b_eq = [-hvec[:6]]
-        if loaded:
-            target = -Jc @ v
-            for j, i in enumerate(loaded):
-                # a point still above the floor settles onto it (its force is the plant's
-                # once it touches)
-                target[3 * j + 2] -= gap[i] if phi[i] <= 0.0 or not g.settle else phi[i] / g.settle
-            # the rows of one sole's points are dependent (a foot has six degrees of freedom,
-            # four points twelve rows): keep an independent set, else the QP's equalities are
-            # rank deficient and its solver crawls
-            U, S, _ = np.linalg.svd(Jc, full_matrices=False)
-            U = U[:, S > 1e-9 * S[0]]
-            A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
-            b_eq.append(U.T @ target / max(dt, g.contact_time))
-        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
-        G = [pyramid_rows(g.mu, len(loaded), n, nv)]
-        h_ineq = [np.zeros(5 * len(loaded))]
-        if free:  # no point goes through the floor within the horizon H:
-            # -(J_n (v + H dv) + depth / H) <= 0 (the plant stops what is left within its step)
-            Jn = np.vstack([Jall[3 * i + 2] for i in free])
-            G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
-            h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
-        Jr, bound = range_damper(self.ranges, q, v, g.horizon, RANGE_MARGIN, RANGE_TIME)
-        if len(Jr):
-            G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
-            h_ineq.append(bound)
-        G, h_ineq = np.vstack(G), np.concatenate(h_ineq)
+            problem.P += g.w_share * np.outer(row, row)
+        p = problem
+        P, qv, A_eq, b_eq, G, h_ineq, Jc, U = p.P, p.q, p.A, p.b, p.G, p.h, p.Jc, p.U
         x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
         if x is None and loaded:
             # two sticking points of a tilted sole at different depths cannot both close
@@ -734,11 +695,11 @@ class GaitController(Effect):
         if x is None:  # the last resort: the dynamics and the loaded points only (no range
             # dampers, no floor rows for the other points: the plant enforces both)
             self.relaxed += 1
-            x = self.qp.solve(P, qv, A_eq, b_eq, G[: 5 * len(loaded)], h_ineq[: 5 * len(loaded)])
+            x = self.qp.solve(P, qv, A_eq, b_eq, G[: p.cones], h_ineq[: p.cones])
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
             raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.qp.why})")
-        dv, f = x[:nv], weight * x[nv:]
+        dv, f = x[:nv], self.weight * x[nv:]
         tau = M @ dv + hvec - Jc.T @ f
         self.tau = np.concatenate([np.zeros(6), tau[6:]])
         self.last = (dv, f.reshape(-1, 3), [int(i) for i in loaded])
