@@ -389,7 +389,6 @@ def run_track(args) -> int:
         print(f"ik           {len(fit.names)} markers, residual RMS per frame "
               f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
     else:
-        args.map = getattr(args, "map", None)
         h, what, t, q, loads, _, _ = read_motion(args)
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
     res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)

@@ -184,13 +184,13 @@ def write_loads(path: str | Path, loads: list[Load], name: str = "external loads
     if any(len(x.time) != len(time) or not np.array_equal(x.time, time) for x in loads):
         raise MotionFileError("the loads to write must share one time base")
     R = OPENSIM_TO_OURS.T if y_up else np.eye(3)  # ours to the file's
+    feet = {"right": "calcn_r", "left": "calcn_l"} | (bodies or {})
     labels, columns, forces = [], [], []
     for x in loads:
         prefix = {"right": "r_ground_", "left": "l_ground_"}.get(x.body, f"{x.body}_")
         for what, a in (("force_v", x.force), ("force_p", x.point), ("torque_", x.torque)):
             labels += [f"{prefix}{what}{c}" for c in "xyz"]
             columns.append(a @ R.T)
-        feet = {"right": "calcn_r", "left": "calcn_l"} | (bodies or {})
         forces.append((prefix, feet.get(x.body, x.body)))
     path = write_storage(path, Table(time, labels, np.hstack(columns), None, name))
     xml = ['<?xml version="1.0" encoding="UTF-8" ?>', '<OpenSimDocument Version="40000">',

@@ -164,10 +164,12 @@ def default_markers(h) -> dict[str, Marker]:
         mirror = 1.0 if s == "left" else -1.0
         points, M = sole[s]
         # the sole's middle line, at its back and front ends
-        heel, toe = (np.array([*M.act(points[points[:, 0].argmin()])[:1], M.translation[1],
-                               M.act(points[points[:, 0].argmin()])[2]]),
-                     np.array([*M.act(points[points[:, 0].argmax()])[:1], M.translation[1],
-                               M.act(points[points[:, 0].argmax()])[2]]))  # fmt: skip
+        ends = []
+        for k in (points[:, 0].argmin(), points[:, 0].argmax()):
+            end = M.act(points[k])
+            end[1] = M.translation[1]
+            ends.append(end)
+        heel, toe = ends
         attach(f"{s}_toes", f"{s}_foot", toe + np.array([-0.06, 0.0, 0.02]) * scale)
         centre = {"root": at("pelvis").translation, "heel": heel, "toe": toe}
         for name, spec in landmarks.items():

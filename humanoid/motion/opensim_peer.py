@@ -43,11 +43,7 @@ def _kind(model, j) -> str:
         return "free"
     if "Spherical" in short and "ZYX" not in short:
         return "ball"
-    if (
-        model.joints[j].nv == 1
-        and "Revolute" in short
-        or short in ("JointModelRX", "JointModelRY", "JointModelRZ")
-    ):
+    if model.joints[j].nv == 1 and ("Revolute" in short or short.endswith(("RX", "RY", "RZ"))):
         return "hinge"
     raise HumanoidError(f"joint {model.names[j]!r} ({short}) has no OpenSim counterpart here")
 
