@@ -46,8 +46,9 @@ class Effect(ABC):
     external: bool = False
 
     @abstractmethod
-    def force(self, model: pin.Model, data: pin.Data, t: float, q, v) -> np.ndarray:
-        """Generalised force [N, N m], shape (nv,)."""
+    def force(self, model: pin.Model, data: pin.Data, t: float, q, v) -> np.ndarray | None:
+        """Generalised force [N, N m], shape (nv,), or None when the effect adds nothing at
+        (t, q, v) (a push outside its window, every joint inside its range)."""
 
 
 class JointDamping(Effect):
@@ -104,7 +105,7 @@ class JointLimits(Effect):
     def force(self, model, data, t, q, v):
         r, J = self.ranges.rows(q, margin=0.0)
         if not len(r):
-            return np.zeros(model.nv)
+            return None
         f = -self.k * r - self.c * np.minimum(J @ v, 0.0)
         return J.T @ f
 
@@ -142,7 +143,7 @@ class Push(Effect):
 
     def force(self, model, data, t, q, v):
         if not self.active(t):
-            return np.zeros(model.nv)
+            return None
         pin.framesForwardKinematics(model, data, q)
         J = pin.computeFrameJacobian(
             model, data, q, self.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -184,6 +185,8 @@ class PostureController(Effect):
     ):
         mask = joint_mask(model)
         self.joints = np.flatnonzero(mask)
+        if np.array_equal(self.joints, np.arange(self.joints[0], model.nv)):
+            self.joints = slice(int(self.joints[0]), model.nv)  # contiguous: a view, no gather
         self.q_ref = np.array(q_ref, dtype=float)
         self.feedforward = np.zeros(model.nv)
         J = contact_jacobian if contact_jacobian is not None else np.zeros((0, model.nv))
@@ -196,12 +199,11 @@ class PostureController(Effect):
             if len(J):
                 AJt = A @ J.T
                 A = A - AJt @ np.linalg.pinv(J @ AJt, rcond=1e-10) @ AJt.T
-            sel = np.ix_(self.joints, self.joints)
-            L = np.linalg.pinv(A[sel], rcond=PINV_RCOND, hermitian=True)
+            L = np.linalg.pinv(A[self.joints][:, self.joints], rcond=PINV_RCOND, hermitian=True)
             w = 2.0 * np.pi * frequency
             self.kp, self.kd = w**2 * L, 2.0 * damping_ratio * w * L
         else:
-            n = len(self.joints)
+            n = int(mask.sum())
             self.kp, self.kd = kp * np.eye(n), kd * np.eye(n)
 
     def force(self, model, data, t, q, v):

@@ -154,7 +154,7 @@ class Stabilisation:
     baumgarte: float = 0.0  # Baumgarte time constant in steps; 0 = off
     projection: bool = False  # project q and v on the constraint manifold after each step
     quaternions: str = "lie"  # lie | coordinates (the seeds' norm-constrained formulation)
-    backend: str = "reference"  # reference (own KKT solve) | pinocchio (constraintDynamics)
+    backend: str = "native"  # native (solved in Pinocchio's C++) | reference (NumPy KKT)
 
 
 @dataclass(frozen=True)
@@ -537,8 +537,6 @@ def _validate(s: Scene) -> None:
             "stabilisation.baumgarte",
             f"time constant must be 0 (off) or >= 1 step, got {st.baumgarte}",
         )
-    if st.quaternions == "coordinates" and st.backend == "pinocchio":
-        bad("stabilisation.backend", "the coordinate quaternion formulation needs 'reference'")
     ini = s.initial
     if isinstance(ini.configuration, str) and ini.configuration != "standing":
         bad("initial.configuration", f"must be 'standing' or a list, got {ini.configuration!r}")

@@ -19,16 +19,16 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from .constraints import Baumgarte, Weld, solve_kkt, update_kinematics
+from .constraints import Baumgarte, solve_kkt, update_kinematics
 from .constraints.ground import ContactSolver, Ground, GroundSettings
 from .constraints.limits import JointRanges
+from .constraints.native import NativeSolution, NativeSolve
 from .constraints.quaternion import CoordinateMap, QuaternionNorm
-from .constraints.solve import impact, split_forces, stack
+from .constraints.solve import impact, stack
 from .contacts import ContactState
 from .effects import (
     JointDamping,
@@ -52,9 +52,9 @@ GIMBAL_TOLERANCE = 1e-3  # |cos(middle angle)| below this: a hinge triplet is at
 GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
 
 
-@dataclass(frozen=True)
 class StepResult:
-    """One step of :meth:`Simulation.step`.
+    """One step of :meth:`Simulation.step` (read-only by convention: a plain slotted class,
+    built every step, costs a quarter of a frozen dataclass).
 
     Attributes:
         t: Time at the end of the step [s].
@@ -64,11 +64,11 @@ class StepResult:
             contact forces), or None when no contact was attached.
     """
 
-    t: float
-    q: np.ndarray
-    v: np.ndarray
-    torque: np.ndarray
-    solution: object | None
+    __slots__ = ("t", "q", "v", "torque", "solution")
+
+    def __init__(self, t: float, q: np.ndarray, v: np.ndarray, torque: np.ndarray,
+                 solution: object | None) -> None:  # fmt: skip
+        self.t, self.q, self.v, self.torque, self.solution = t, q, v, torque, solution
 
 
 class Simulation:
@@ -144,8 +144,16 @@ class Simulation:
         self._zero = np.zeros(self.model.nv)
         self._zero.flags.writeable = False
         self.joint_torque = self._zero
-        self._pin_backend = None
+        self._solve = None  # the native backend's prepared active set
+        # the native backend needs the full bias b(q, v) (Pinocchio's); a scene without the
+        # velocity terms is solved by the reference
+        self._native_backend = scene.stabilisation.backend == "native" and e.coriolis
+        self._native_backend &= scene.stabilisation.quaternions == "lie"
         self._dynamics = self.coordinate_acceleration if self.coordinates else self.acceleration
+        # semi-implicit Euler on the Lie group without the ground's velocity-level solve: one
+        # evaluation per step, inlined in :meth:`step`
+        self._euler = (scene.integrator == "semi_implicit_euler" and not self.coordinates
+                       and self.ground is None)  # fmt: skip
         self.gimbal = _gimbal_monitor(h)
         self._locked: set[str] = set()
 
@@ -254,20 +262,22 @@ class Simulation:
         if not self._forced:
             self.joint_torque = self._zero
             return self._zero
-        t = self._tick
-        tau = np.zeros(self.model.nv)
-        external = np.zeros(self.model.nv)
-        for eff in self.effects:
-            f = eff.force(self.model, self.data, t, q, v)
-            if eff.external:
-                external += f
-            else:
-                tau += f
+        t, model, data = self._tick, self.model, self.data
+        tau = external = None
         if self.controller is not None:
-            tau += self.controller.force(self.model, self.data, t, q, v)
-        tau *= self.mask
+            tau = self.controller.force(model, data, t, q, v)
+        for eff in self.effects:
+            f = eff.force(model, data, t, q, v)
+            if f is None:  # nothing this step (a push outside its window, ranges clear)
+                continue
+            if eff.external:
+                external = f if external is None else external + f
+            else:
+                tau = f if tau is None else tau + f
+        # masked into a new array: a controller may hand out its own buffer
+        tau = self._zero if tau is None else tau * self.mask
         self.joint_torque = tau
-        return tau + external
+        return tau if external is None else tau + external
 
     def bias(self, q, v) -> np.ndarray:
         """b(q, v) with only the terms the scene calls for."""
@@ -288,17 +298,21 @@ class Simulation:
     # -- dynamics ------------------------------------------------------------------------
     def acceleration(self, t, q, v) -> np.ndarray:
         """dv/dt for the Lie-group formulation."""
-        tau = self.applied(t, q, v)
-        constraints = self.active_constraints()
+        if self.effects or self.controller is not None:
+            tau = self.applied(t, q, v)
+        else:
+            tau = self.joint_torque = self._zero
+        constraints = self._active
+        if constraints is None:
+            constraints = self.active_constraints()
         if not constraints:
             self.counters["aba"] += 1
-            v_dyn = v if self.velocity_terms else np.zeros_like(v)
-            a = pin.aba(self.model, self.data, q, v_dyn, tau)
             self.last = (self.joint_torque, None)
-            return a.copy()
+            # a new array (Pinocchio's bindings copy data.ddq out)
+            return pin.aba(self.model, self.data, q, v if self.velocity_terms else self._zero, tau)
         self.counters["kkt"] += 1
-        if self.scene.stabilisation.backend == "pinocchio" and self.velocity_terms:
-            return self._pinocchio_backend(q, v, tau, constraints)
+        if self._native_backend:
+            return self._native(q, v, tau, constraints)
         update_kinematics(self.model, self.data, q, v)
         Minv = pin.computeMinverse(self.model, self.data, q)
         J, gamma = stack(self.model, self.data, constraints, v, self.baumgarte)
@@ -306,15 +320,15 @@ class Simulation:
         self.last = (self.joint_torque, sol)
         return sol.a
 
-    def _pinocchio_backend(self, q, v, tau, constraints):
-        key = tuple(id(c) for c in constraints)
-        if self._pin_backend is None or self._pin_backend[0] != key:
+    def _native(self, q, v, tau, constraints):
+        """The native backend: the active set solved in Pinocchio's C++ (prepared once per
+        active set: :class:`~humanoid.constraints.native.NativeSolve`)."""
+        solve = self._solve
+        if solve is None or solve.source is not constraints:
             redundant = sum(c.size for c in constraints) > 6 * len(self.contacts)
-            cms, cds, data = rigid_constraints(self.model, constraints, self.baumgarte)
-            self._pin_backend = (key, cms, cds, data, proximal_settings(redundant))
-        _, cms, cds, data, prox = self._pin_backend
-        a = pin.constraintDynamics(self.model, data, q, v, tau, cms, cds, prox)
-        self.last = (self.joint_torque, _PinSolution(a, cms, cds))
+            solve = self._solve = NativeSolve(self.model, constraints, self.baumgarte, redundant)
+        a = solve.acceleration(q, v, tau)
+        self.last = (self.joint_torque, NativeSolution(solve))
         return a
 
     def coordinate_acceleration(self, t, x, xdot) -> np.ndarray:
@@ -366,9 +380,15 @@ class Simulation:
     # -- one step ------------------------------------------------------------------------
     def step(self, t: float, q, v, dt: float) -> StepResult:
         """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
+        self._tick = t
+        if self._euler:  # semi-implicit Euler on the Lie group, inlined (the hot path)
+            a = self.acceleration(t, q, v)
+            torque, solution = self.last
+            v_new = v + dt * a
+            return StepResult(t + dt, pin.integrate(self.model, q, dt * v_new), v_new, torque,
+                              solution)  # fmt: skip
         self._first = None
         self._frozen = False
-        self._tick = t
         if self.ground is not None:
             q_new, v_new = self.ground_step_advance(t, q, v, dt)
             self._first = self.last
@@ -394,7 +414,7 @@ class Simulation:
         """The dynamics, keeping the first evaluation of a step (the state at its start)."""
         if self._first is not None and not self._frozen:
             # a later stage is about to overwrite Pinocchio's contact data: read it now
-            if isinstance(self._first[1], _PinSolution):
+            if isinstance(self._first[1], NativeSolution):
                 self._first[1].freeze()
             self._frozen = True
         a = self._dynamics(t, q, v)
@@ -631,68 +651,6 @@ def scene_schedule(sim: Simulation, k: int, t: float, q, v, last: StepResult | N
     """The scene's contact schedule: windows, touchdowns and the force checks
     (:meth:`Simulation.update_contacts`)."""
     return sim.update_contacts(t, q, v, last)
-
-
-def rigid_constraints(model: pin.Model, constraints, baumgarte: Baumgarte | None = None):
-    """Pinocchio's rigid constraint models, data and a Data initialised for
-    ``pin.constraintDynamics``, equivalent to our Weld (CONTACT_6D, LOCAL) and PointContact
-    (CONTACT_3D, world-aligned) constraints with the same Baumgarte gains (none by default)."""
-    baumgarte = baumgarte or Baumgarte()
-    cms = pin.StdVec_RigidConstraintModel()
-    for c in constraints:
-        fr = model.frames[c.frame_id]
-        if isinstance(c, Weld):
-            kind, ref, anchor = pin.ContactType.CONTACT_6D, pin.ReferenceFrame.LOCAL, c.anchor
-        else:
-            kind, ref = pin.ContactType.CONTACT_3D, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-            anchor = pin.SE3(np.eye(3), c.anchor)
-        cm = pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0, anchor, ref)
-        cm.setBaumgarteCorrectorParameters(
-            pin.BaumgarteCorrectorParameters(baumgarte.beta**2, 2 * baumgarte.alpha)
-        )
-        cms.append(cm)
-    cds = pin.StdVec_RigidConstraintData()
-    for cm in cms:
-        cds.append(cm.createData())
-    data = model.createData()
-    pin.initConstraintDynamics(model, data, cms, cds)
-    return cms, cds, data
-
-
-def proximal_settings(redundant: bool) -> pin.ProximalSettings:
-    """Settings of pin.constraintDynamics: one exact solve, or proximal iterations (mu = 1e-2)
-    for redundant sets such as point contacts (12 rows per foot), where mu = 0 gives NaN."""
-    if redundant:
-        return pin.ProximalSettings(1e-12, 1e-12, 1e-2, 50)
-    return pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
-
-
-class _PinSolution:
-    """The result of ``pin.constraintDynamics``; forces are read from its data on demand."""
-
-    method = "pinocchio"
-
-    def __init__(self, a, cms, cds) -> None:
-        self.a, self._cms, self._cds = a, cms, cds
-        self._forces = None
-
-    @property
-    def forces(self) -> np.ndarray:
-        if self._forces is None:
-            self._forces = np.concatenate(
-                [
-                    cd.contact_force.vector[: cm.residualSize()]
-                    for cm, cd in zip(self._cms, self._cds, strict=True)
-                ]
-            )
-        return self._forces
-
-    def freeze(self) -> None:
-        """Read the forces now (the constraint data is reused by the next evaluation)."""
-        _ = self.forces
-
-    def split(self, constraints):
-        return split_forces(self.forces, constraints)
 
 
 def _gimbal_monitor(h: Humanoid) -> list[tuple[str, int]]:

@@ -69,8 +69,10 @@ FORMULATIONS = Registry("quaternion formulation", "stabilisation.quaternions", {
     "coordinates": "the seeds' coordinate formulation: the quaternion norm as a constraint",
 })  # fmt: skip
 BACKENDS = Registry("constraint backend", "stabilisation.backend", {
-    "reference": "the project's KKT solve (Delassus matrix, Cholesky or eigen cut-off)",
-    "pinocchio": "Pinocchio's constraintDynamics (proximal) on the same constraints",
+    "native": "the project's constraints solved in Pinocchio's C++ (their rigid-constraint "
+              "twins through constraintDynamics; J and drift through forwardDynamics otherwise)",
+    "reference": "the project's KKT solve in NumPy (Delassus matrix, Cholesky or eigen "
+                 "cut-off): readable, the cross-check",
 })  # fmt: skip
 CONTACT_KINDS = Registry("contact kind", "effects.contacts[].kind", {
     "weld": "the sole frame welded in 6D where it lands",

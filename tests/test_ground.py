@@ -262,3 +262,25 @@ def test_example_robot_data_bodies_land_on_their_meshes(name, energy_rise):
     assert traj.metadata["max_penetration"] < 1e-3
     assert np.diff(traj.energy).max() < energy_rise
     assert traj.forces["ground"][:, 2].sum() * 1e-3 > 0.5 * h.mass * G0 * 0.6  # [N s]
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.1])
+def test_range_certificates_skip_only_what_is_clear(margin):
+    """A random walk of the whole body about standing (mean-reverting), in and out of its
+    ranges: the rows with the certificates (the decomposition skipped when no ball can be near
+    a limit) equal those decomposed at every step, and the certificates do skip steps."""
+    h = get_model("male", "quaternion")
+    lazy, exact = JointRanges(h), JointRanges(h)
+    rng = np.random.default_rng(72)
+    q0 = q = h.standing_configuration()
+    skipped = 0
+    for _ in range(600):
+        w = rng.normal(scale=0.01, size=h.nv) - 0.02 * pin.difference(h.model, q0, q)
+        w[:6] = 0.0
+        q = pin.integrate(h.model, q, w)
+        r1, J1 = lazy.rows(q, margin=margin)
+        r2, J2 = exact.rows(q, margin=margin, certified=False)
+        np.testing.assert_array_equal(r1, r2)
+        np.testing.assert_array_equal(J1, J2)
+        skipped += lazy.skipped
+    assert 50 < skipped < 600

@@ -298,14 +298,15 @@ def test_contact_checks_report_and_release():
     assert released and "normal force" in released[0]["reason"]
 
 
-def test_pinocchio_backend_matches_the_reference_solve():
+def test_native_backend_matches_the_reference_solve():
     """Same motion and forces; identical to round-off without Baumgarte terms, and within
     1e-5 with them over 0.7 s of a push (measured 2e-6: Pinocchio's 6D contact defines its
     Baumgarte error terms differently from our log6 residual)."""
     scene = Scene.load(SCENES / "push.toml").replace(duration=0.7)
     for baumgarte, tol_q, tol_f in ((0.0, 1e-10, 1e-7), (20.0, 1e-5, 0.1)):  # [rad or m], [N]
-        ref = simulate(scene.replace(stabilisation=Stabilisation(baumgarte=baumgarte)), quiet=True)
-        stab = Stabilisation(baumgarte=baumgarte, backend="pinocchio")
+        stab = Stabilisation(baumgarte=baumgarte, backend="reference")
+        ref = simulate(scene.replace(stabilisation=stab), quiet=True)
+        stab = Stabilisation(baumgarte=baumgarte, backend="native")
         fast = simulate(scene.replace(stabilisation=stab), quiet=True)
         assert np.abs(ref.q - fast.q).max() < tol_q
         assert np.nanmax(np.abs(ref.forces["left"] - fast.forces["left"])) < tol_f

@@ -199,14 +199,14 @@ def test_stiff_gains_are_stable_or_reported(frequency):
 
 # -- 7. long horizons ---------------------------------------------------------------------------
 def test_ten_minutes_of_welded_stance():
-    """10 simulated minutes of standing on welded feet with a posture hold (Pinocchio backend,
+    """10 simulated minutes of standing on welded feet with a posture hold (native backend,
     semi-implicit Euler, 2 ms): constraint drift below 1e-9 m and quaternion norms within
     1e-12 of 1 at every record (measured: 4e-16 and 2e-16)."""
     scene = Scene(
         body=MALE, duration=600.0, dt=2e-3, integrator="semi_implicit_euler", record_rate=10.0,
         effects=Effects(contacts=(Contact("left"), Contact("right"))),
         controller=Controller("posture", frequency=8.0),
-        stabilisation=Stabilisation(baumgarte=20.0, backend="pinocchio"),
+        stabilisation=Stabilisation(baumgarte=20.0, backend="native"),
     )  # fmt: skip
     traj = simulate(scene, quiet=True)
     assert traj.status == "completed", traj.metadata["message"]

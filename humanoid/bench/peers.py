@@ -204,7 +204,8 @@ def _mujoco_welded(h, scene, integrator, weld):
         start = time.perf_counter()
         if efforts:
             q, v = states.to_pinocchio(d.qpos, d.qvel)
-            tau = sum(e.force(model, work, k * dt, q, v) for e in efforts)
+            tau = sum(f for e in efforts if (f := e.force(model, work, k * dt, q, v)) is not None)
+            tau = tau if isinstance(tau, np.ndarray) else np.zeros(model.nv)
             d.qfrc_applied[:] = states.to_mujoco(q, tau)[1]  # forces map like velocities
         _apply_pushes(h, m, d, pushes, k * dt)
         mujoco.mj_step(m, d)

@@ -3,10 +3,12 @@
 For every shipped scene, one step of the project's simulator (semi-implicit Euler: one dynamics
 evaluation and one ``integrate``) is timed against the equivalent Pinocchio calls measured in
 the same run, interleaved: ``pin.aba`` + ``pin.integrate`` for contact-free scenes,
-``pin.constraintDynamics`` + ``pin.integrate`` for scenes with contacts. Three variants of ours:
-the scene as shipped (with its effects and controller), the dynamics only (no effects, the
-like-for-like comparison), and the dynamics only through the Pinocchio backend. Each figure is
-the best of several rounds (the machine is shared and noisy); ratios are what to read.
+``pin.constraintDynamics`` + ``pin.integrate`` for scenes with contacts (its rigid constraint
+models built here with Pinocchio's API alone). Three variants of ours: the dynamics only (no
+effects, the like-for-like comparison) with the default native backend, the same through the
+NumPy reference KKT solve, and the scene as shipped (with its effects and controller, native).
+Each figure is the best of several rounds (the machine is shared and noisy); ratios are what
+to read.
 
 Scenes with ground contact (one frictional contact solve per step, whose size changes as the
 body moves) are timed apart, over their first seconds, against MuJoCo's ``mj_step`` on the same
@@ -22,10 +24,13 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-__all__ = ["run_step_benchmark"]
-
 from ..data import SCENES
 from ..errors import HumanoidError
+
+__all__ = ["STEP_COLUMNS", "run_step_benchmark"]
+
+# step.csv's columns (seconds per step), in the order of the README's table
+STEP_COLUMNS = ["scene", "contacts", "pinocchio", "native", "reference", "as shipped"]
 
 
 def _best(fn, n: int, rounds: int) -> float:
@@ -40,22 +45,39 @@ def _best(fn, n: int, rounds: int) -> float:
 
 
 def _pinocchio_step(sim, q, v, dt):
-    """The equivalent Pinocchio work: dynamics + integrate, plain calls."""
+    """The equivalent Pinocchio work: dynamics + integrate, plain calls. The contacts are
+    Pinocchio's own rigid constraint models, built from the scene's contact frames here (a 6D
+    weld of the sole where it stands, or 3D points at the sole's corners)."""
     model = sim.model
     data = model.createData()
     tau = np.zeros(model.nv)
-    constraints = sim.active_constraints()
-    if not constraints:
+    if not sim.active_constraints():
 
         def step():
             a = pin.aba(model, data, q, v, tau)
             pin.integrate(model, q, (v + dt * a) * dt)
 
         return step
-    from ..simulation import proximal_settings, rigid_constraints
-
-    cms, cds, data = rigid_constraints(model, constraints)
-    prox = proximal_settings(sum(cm.residualSize() for cm in cms) > 6 * len(sim.contacts))
+    pin.framesForwardKinematics(model, data, q)
+    cms = pin.StdVec_RigidConstraintModel()
+    for contact in sim.contacts:
+        if contact.spec.kind == "weld":
+            frames, kind, ref = [contact.sole], pin.ContactType.CONTACT_6D, pin.LOCAL
+        else:
+            frames, kind, ref = contact.points, pin.ContactType.CONTACT_3D, pin.LOCAL_WORLD_ALIGNED
+        for f in frames:
+            fr = model.frames[f]
+            anchor = data.oMf[f] if kind == pin.ContactType.CONTACT_6D else pin.SE3(
+                np.eye(3), data.oMf[f].translation
+            )  # fmt: skip
+            cms.append(pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0,
+                                                anchor, ref))  # fmt: skip
+    cds = pin.StdVec_RigidConstraintData()
+    for cm in cms:
+        cds.append(cm.createData())
+    pin.initConstraintDynamics(model, data, cms, cds)
+    redundant = len(cms) > len(sim.contacts)
+    prox = pin.ProximalSettings(1e-12, 1e-12, 1e-2 if redundant else 0.0, 50 if redundant else 1)
 
     def step():
         a = pin.constraintDynamics(model, data, q, v, tau, cms, cds, prox)
@@ -80,37 +102,37 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
             effects=Effects(gravity=scene.effects.gravity, contacts=scene.effects.contacts),
             controller=type(scene.controller)(),
         )
-        pin_backend = bare.replace(
-            stabilisation=Stabilisation(baumgarte=bare.stabilisation.baumgarte, backend="pinocchio")
+        reference = bare.replace(
+            stabilisation=Stabilisation(baumgarte=bare.stabilisation.baumgarte, backend="reference")
         )
         variants = {}
-        for label, sc in (("as shipped", scene), ("dynamics", bare), ("pin backend", pin_backend)):
+        for label, sc in (("as shipped", scene), ("native", bare), ("reference", reference)):
             sim = Simulation(sc)
             q, v = sim.q0.copy(), sim.v0.copy()
             sim.update_contacts(0.0, q, v)
             variants[label] = (sim, q, v)
-        sim0, q0, v0 = variants["dynamics"]
-        reference = _pinocchio_step(sim0, q0, v0, scene.dt)
-        times = {"pinocchio": _best(reference, n, rounds)}
+        sim0, q0, v0 = variants["native"]
+        theirs = _pinocchio_step(sim0, q0, v0, scene.dt)
+        times = {"pinocchio": _best(theirs, n, rounds)}
         for label, (sim, q, v) in variants.items():
             times[label] = _best(
                 lambda s=sim, q=q, v=v, dt=scene.dt: s.step(0.0, q, v, dt), n, rounds
             )
-            times["pinocchio"] = min(times["pinocchio"], _best(reference, n, 1))
+            times["pinocchio"] = min(times["pinocchio"], _best(theirs, n, 1))
         contacts = "+".join(f"{c.foot}:{c.kind}" for c in scene.effects.contacts) or "none"
         rows.append({"scene": scene.name, "contacts": contacts} | times)
 
-    header = ["scene", "contacts", "pinocchio", "dynamics", "pin backend", "as shipped"]
+    header = STEP_COLUMNS
     print(
-        f"{'scene':<10} {'contacts':<24} {'pinocchio':>10} {'ours':>10} {'ratio':>6} "
-        f"{'pin backend':>12} {'ratio':>6} {'as shipped':>11} {'ratio':>6}   [us per step]"
+        f"{'scene':<10} {'contacts':<24} {'pinocchio':>10} {'native':>10} {'ratio':>6} "
+        f"{'reference':>10} {'ratio':>6} {'as shipped':>11} {'ratio':>6}   [us per step]"
     )
     for r in rows:
         p = r["pinocchio"]
         print(
-            f"{r['scene']:<10} {r['contacts']:<24} {p * 1e6:>10.1f} {r['dynamics'] * 1e6:>10.1f} "
-            f"{r['dynamics'] / p:>6.2f} {r['pin backend'] * 1e6:>12.1f} "
-            f"{r['pin backend'] / p:>6.2f} {r['as shipped'] * 1e6:>11.1f} "
+            f"{r['scene']:<10} {r['contacts']:<24} {p * 1e6:>10.1f} {r['native'] * 1e6:>10.1f} "
+            f"{r['native'] / p:>6.2f} {r['reference'] * 1e6:>10.1f} "
+            f"{r['reference'] / p:>6.2f} {r['as shipped'] * 1e6:>11.1f} "
             f"{r['as shipped'] / p:>6.2f}"
         )
     if not rows and not ground:
@@ -139,14 +161,14 @@ def _markdown(rows, ground_rows, n, rounds, duration) -> str:
         f"Measured by `humanoid bench step` on {machine()}. Microseconds per step, best of "
         f"{rounds} rounds of {n} steps; ratio = ours / Pinocchio in the same run.",
         "",
-        "| scene | contacts | Pinocchio | ours (reference KKT) | ratio | pin backend | ratio "
+        "| scene | contacts | Pinocchio | native | ratio | reference KKT | ratio "
         "| as shipped | ratio |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         p = r["pinocchio"]
         cells = [r["scene"], r["contacts"], f"{p * 1e6:.1f}"]
-        for key in ("dynamics", "pin backend", "as shipped"):
+        for key in STEP_COLUMNS[3:]:
             cells += [f"{r[key] * 1e6:.1f}", f"{r[key] / p:.2f}"]
         lines.append("| " + " | ".join(cells) + " |")
     if ground_rows:

@@ -53,5 +53,12 @@ class Constraint(ABC):
         """de/dq along tangent directions, shape (size, nv)."""
         return self.jacobian(model, data)
 
+    def twin(self, model: pin.Model, baumgarte) -> pin.RigidConstraintModel | None:
+        """Pinocchio's C++ model of this constraint (the same rows, Jacobian, drift and
+        Baumgarte gains), or None if Pinocchio has none: then the native backend solves the
+        constraint from :meth:`jacobian` and :meth:`drift` (:mod:`humanoid.constraints.native`).
+        """
+        return None
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, size={self.size})"

@@ -47,6 +47,10 @@ class Weld(Constraint):
         error = self.anchor.actInv(data.oMf[self.frame_id])
         return pin.Jlog6(error) @ self.jacobian(model, data)
 
+    def twin(self, model, baumgarte):
+        return _twin(model, self.frame_id, pin.ContactType.CONTACT_6D, LOCAL, self.anchor,
+                     baumgarte)  # fmt: skip
+
     def wrench_world(self, model, data, force: np.ndarray) -> np.ndarray:
         """The contact wrench (force, torque about the frame origin) in world axes [N, N m]."""
         R = data.oMf[self.frame_id].rotation
@@ -75,3 +79,20 @@ class PointContact(Constraint):
 
     def drift(self, model, data):
         return pin.getFrameClassicalAcceleration(model, data, self.frame_id, WORLD_ALIGNED).linear
+
+    def twin(self, model, baumgarte):
+        anchor = pin.SE3(np.eye(3), self.anchor)
+        return _twin(model, self.frame_id, pin.ContactType.CONTACT_3D, WORLD_ALIGNED, anchor,
+                     baumgarte)  # fmt: skip
+
+
+def _twin(model, frame_id, kind, reference, anchor, baumgarte) -> pin.RigidConstraintModel:
+    """A rigid constraint of frame ``frame_id`` to the world placement ``anchor``, with the
+    Baumgarte gains Kp = beta^2, Kd = 2 alpha."""
+    frame = model.frames[frame_id]
+    cm = pin.RigidConstraintModel(kind, model, frame.parentJoint, frame.placement, 0, anchor,
+                                  reference)  # fmt: skip
+    cm.setBaumgarteCorrectorParameters(
+        pin.BaumgarteCorrectorParameters(baumgarte.beta**2, 2 * baumgarte.alpha)
+    )
+    return cm

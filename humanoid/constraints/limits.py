@@ -8,12 +8,16 @@ the range [rad]) with its Jacobian dr/dv: +-1 on a hinge; for a ball joint the r
 E the map from the angle rates to the joint's angular velocity. Near the triplet's gimbal lock
 (middle angle +-90 deg) the outer angles are undefined and their rows are left out there.
 
-All ball joints are decomposed at once (batched over the joints): this runs every step.
+All ball joints are decomposed at once (batched over the joints): this runs every step. Most
+steps need no decomposition at all: after each one, every ball joint gets a certificate, the
+largest rotation away from its current orientation that cannot bring any of its angles within
+the margin of a limit (see :meth:`JointRanges.rows`), checked with one dot product per joint.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from ..fusion import euler_solutions
 
@@ -93,6 +97,10 @@ class JointRanges:
         self._GCt = self._GC.transpose(0, 2, 1).copy()
         self._mid = 0.5 * (self._blo + self._bhi)
         self._hint = None
+        self._bv3 = (self._bv[:, None] + np.arange(3)).ravel()
+        self.model = model
+        self._certificate = None  # (margin, reference quaternions, cos of half the rotation)
+        self.skipped = False  # whether the last call to rows skipped the decomposition
 
     def angles(self, q, remember: bool = True) -> np.ndarray:
         """Each ball joint's triplet angles [rad], (n_balls, 3).
@@ -125,9 +133,56 @@ class JointRanges:
             self._hint = th
         return th, R
 
-    def rows(self, q, margin: float | None = MARGIN):
-        """Rows within ``margin`` [rad] of a limit (all rows if None): (r, J), r >= 0 inside."""
+    def _clear(self, q, margin: float) -> np.ndarray | None:
+        """Which coordinates of q are certified clear of their limits by the margin (a bool
+        per velocity coordinate), or None without a certificate for this margin.
+
+        d = q (-) q_c, the difference from the certified configuration (one C++ call): a
+        hinge's d is its exact displacement, checked against its distances to its limits; a
+        ball's d is its rotation vector from there, inside the box of half-width phi / sqrt(3)
+        (so |d| <= phi, :meth:`_certify`)."""
+        c = self._certificate
+        if c is None or c[0] != margin:
+            return None
+        d = pin.difference(self.model, c[1], q)
+        return (d <= c[2]) & (d >= c[3])
+
+    def _certify(self, q, th, margin: float) -> None:
+        """Certificates at q: every hinge's distances to its limits beyond the margin, and
+        every ball's largest rotation phi away from its orientation now that keeps each of its
+        angles (th) more than ``margin`` inside its range.
+
+        With R = Rx(t1) Ry(t2) Rz(t3) and w the angular velocity, the angle rates are
+        t1' = (w_x cos t3 - w_y sin t3) / cos t2, t2' = w_x sin t3 + w_y cos t3,
+        t3' = w_z - tan t2 (w_x cos t3 - w_y sin t3): each at most (1 + 1/cos t2) |w|. Along
+        the geodesic to any orientation within phi (|w| = phi per unit path), |t2| grows by at
+        most phi, so every angle moves by at most phi (1 + 1/cos(|t2| + phi)). With s the
+        slack (the smallest distance to a limit beyond the margin), capped at half the way to
+        the lock, phi = s / (1 + 1/cos(|t2| + s)) keeps that bound below s."""
+        up, down = np.full(self.nv, np.inf), np.full(self.nv, -np.inf)
+        x = q[self.iq]
+        up[self.iv], down[self.iv] = self.hi - margin - x, self.lo + margin - x
+        if self.balls:
+            slack = np.minimum(th - self._blo, self._bhi - th).min(axis=1) - margin
+            b = np.abs(th[:, 1])
+            s = np.minimum(slack, 0.5 * (np.pi / 2 - b))
+            phi = np.where(s > 0, s / (1.0 + 1.0 / np.cos(b + np.maximum(s, 0.0))), -1.0)
+            box = np.repeat(phi / np.sqrt(3.0), 3)  # a negative box: never clear
+            up[self._bv3], down[self._bv3] = box, -box
+        self._certificate = (margin, q.copy(), up, down)
+
+    def rows(self, q, margin: float | None = MARGIN, certified: bool = True):
+        """Rows within ``margin`` [rad] of a limit (all rows if None): (r, J), r >= 0 inside.
+        ``certified``: skip the ball joints' decomposition when the last one's certificates
+        show that none of their rows can be within the margin (the same answer, tested; False
+        decomposes every time). ``skipped`` then tells whether this call skipped it.
+        """
         margin = np.inf if margin is None else margin
+        clear = self._clear(q, margin) if certified and np.isfinite(margin) else None
+        if clear is not None and clear.all():
+            self.skipped = True
+            return np.zeros(0), np.zeros((0, self.nv))
+        self.skipped = clear is not None and bool(clear[self._bv3].all())
         x = q[self.iq]
         r = np.concatenate([x - self.lo, self.hi - x])
         sign = np.concatenate([np.ones(len(x)), -np.ones(len(x))])
@@ -135,9 +190,13 @@ class JointRanges:
         keep = r < margin
         J = np.zeros((int(keep.sum()), self.nv))
         J[np.arange(len(J)), cols[keep]] = sign[keep]
+        if self.skipped:
+            return r[keep], J
+        th, R = self._angles(q) if self.balls else (None, None)
+        if np.isfinite(margin):
+            self._certify(q, th, margin)
         if not self.balls:
             return r[keep], J
-        th, R = self._angles(q)
         dist = np.stack([th - self._blo, self._bhi - th], axis=2)  # (n_balls, angle, lo/hi)
         locked = np.abs(np.cos(th[:, 1])) < LOCK
         near = dist < margin
