@@ -37,6 +37,8 @@ format: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m humanoid bench step -o docs/bench
+	$(PY) -m humanoid bench walk -o docs/bench
+	$(PY) -m humanoid bench scaling -o docs/bench
 	$(PY) scripts/readme_tables.py
 
 bench-accuracy: $(STAMP)

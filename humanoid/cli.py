@@ -110,6 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="(--gait welded) the plant's integrator (humanoid variants; default "
                    "semi_implicit_euler)")  # fmt: skip
     w.add_argument("--dt", type=float, default=1e-3, help="simulation and control step [s]")
+    w.add_argument("--control-dt", type=float,
+                   help="(--gait welded) the QP's period [s], a multiple of --dt (default 8 ms; "
+                   "between QP ticks the contact forces are held)")  # fmt: skip
     w.add_argument(
         "--drop", type=float, help="(--gait welded) pelvis lowered before walking [m] (0.04)"
     )
@@ -261,11 +264,18 @@ def build_parser() -> argparse.ArgumentParser:
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
             "that scenes and options accept")  # fmt: skip
 
-    bench = command("bench", help="benchmarks: step cost, work-precision (accuracy)")
+    bench = command(
+        "bench",
+        help="benchmarks: step cost, walking cost, work-precision "
+        "(accuracy), motion against OpenSim",
+    )
     bench.add_argument(
         "kind",
-        choices=("step", "accuracy", "motion"),
-        help="motion: inverse dynamics and kinematics against OpenSim 4",
+        choices=("step", "walk", "scaling", "accuracy", "motion"),
+        help="step: one step against Pinocchio (and MuJoCo on the ground); walk: a simulated "
+        "second of walking, its parts and the bare plant; scaling: cost against nv and the "
+        "contacts; motion: inverse dynamics and "
+        "kinematics against OpenSim 4",
     )
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
@@ -388,6 +398,14 @@ def _dispatch(args) -> int:
             from .bench.motion import run_motion_benchmark
 
             return run_motion_benchmark(quick=args.quick, out=args.output)
+        if args.kind == "scaling":
+            from .bench.scaling import run_scaling_benchmark
+
+            return run_scaling_benchmark(quick=args.quick, out=args.output)
+        if args.kind == "walk":
+            from .bench.walk import run_walk_benchmark
+
+            return run_walk_benchmark(quick=args.quick, out=args.output)
         if args.kind == "accuracy":
             from .bench.accuracy import run_accuracy_benchmark
 
@@ -489,7 +507,7 @@ def _walk(args) -> int:
         kw["step_length"] = args.step_length
     gait = GaitParameters.for_speed(args.speed, **kw) if args.speed else GaitParameters(**kw)
     result = walk(h, gait, dt=args.dt, mu=args.mu, quiet=args.quiet,
-                  drop=0.04 if args.drop is None else args.drop,
+                  drop=0.04 if args.drop is None else args.drop, control_dt=args.control_dt,
                   integrator=args.integrator or "semi_implicit_euler")  # fmt: skip
     path = result.trajectory.save(args.output)
     figure = plot_walk(result, args.figure or Path(args.output).with_suffix(".png"))
@@ -503,6 +521,11 @@ def _walk(args) -> int:
     if not result.ok:
         failed = [k for k, c in result.checks.items() if not c["ok"]]
         print(f"humanoid walk: checks failed: {', '.join(failed)}", file=sys.stderr)
+        period = result.trajectory.metadata["control_period"]
+        if period > args.dt * 1.5:
+            print(f"humanoid walk: the QP ran every {period * 1e3:g} ms with the contact forces "
+                  f"held in between; --control-dt {args.dt:g} solves it at every step (a "
+                  "marginal walk, such as g1's, may need it)", file=sys.stderr)  # fmt: skip
         return 3
     return 0
 
@@ -513,7 +536,8 @@ def _walk_human(args) -> int:
     from .walking.report import format_gait_table, plot_gait_report
 
     given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
-                            ("--drop", args.drop), ("--integrator", args.integrator))
+                            ("--drop", args.drop), ("--integrator", args.integrator),
+                            ("--control-dt", args.control_dt))
              if v is not None]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait welded")

@@ -36,8 +36,7 @@ __all__ = [
 def mass_matrix(h: Humanoid, q) -> np.ndarray:
     """Joint-space inertia matrix M(q) [nv x nv] from CRBA, symmetric (both triangles)."""
     q = check_configuration(h, q)
-    M = pin.crba(h.model, h.data, q)
-    return np.triu(M) + np.triu(M, 1).T
+    return pin.crba(h.model, h.data, q).copy()  # the binding fills both triangles
 
 
 def bias_forces(h: Humanoid, q, v) -> np.ndarray:

@@ -477,8 +477,7 @@ def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
     if model.nv == 0:
         return model, geoms
     q = _upright(model)
-    M = pin.crba(model, model.createData(), q)
-    M = np.triu(M) + np.triu(M, 1).T
+    M = pin.crba(model, model.createData(), q)  # both triangles (tests/test_dynamics.py)
     scale = max(float(np.abs(np.diag(M)).max()), 1e-300)
     if M[:3, :3].trace() <= MASSLESS_TOLERANCE * scale or not np.isfinite(scale):
         raise ModelError(f"{label}: the body has no mass (no link has an <inertial>)")

@@ -178,6 +178,39 @@ def test_bench_step_quick(tmp_path, capsys):
     assert ground["balance"]["mujoco"] == "nan"  # its controller is ours: no MuJoCo column
 
 
+def test_bench_walk_quick_splits_the_wall_time(tmp_path, capsys):
+    """Both control periods are timed, every check passes in both, the parts add up to the
+    wall time (other >= 0) and the bare plant is timed."""
+    from humanoid.bench.walk import WALK_COLUMNS
+
+    assert main(["bench", "walk", "--quick", "-o", str(tmp_path)]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "walk.csv")))
+    assert list(rows[0]) == WALK_COLUMNS and [r["control"] for r in rows] == ["8 ms", "1 ms"]
+    parts = ("qp_assembly", "joint_ranges", "qp_solve", "held", "plant", "checks", "records")
+    for r in rows:
+        assert r["checks_passed"] == "True"
+        wall, bare = float(r["wall"]), float(r["bare_plant"])
+        assert 0 < bare < wall and float(r["ratio"]) == pytest.approx(wall / bare)
+        assert all(float(r[k]) >= 0 for k in parts)
+        assert float(r["other"]) >= 0 and float(r["plant"]) > 0 and float(r["qp_solve"]) > 0
+    assert float(rows[0]["held"]) > 0 and float(rows[1]["held"]) == 0  # held ticks at 8 ms only
+    assert "| 8 ms |" in (tmp_path / "walk.md").read_text()
+
+
+def test_bench_scaling_quick_fits_the_growth(tmp_path, capsys):
+    from humanoid.bench.scaling import EXTRA, SCALING_COLUMNS
+
+    assert main(["bench", "scaling", "--quick", "-o", str(tmp_path)]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "scaling.csv")))
+    assert list(rows[0]) == SCALING_COLUMNS
+    nv = {r["body"]: int(r["nv"]) for r in rows}
+    assert nv["male"] == 39 and all(nv[f"male + {k} trunk"] == 39 + 3 * k for k in EXTRA)
+    contacts = list(csv.DictReader(open(tmp_path / "scaling_contacts.csv")))
+    assert [int(c["rows"]) for c in contacts] == [0, 6, 12, 18, 24, 30]
+    assert (tmp_path / "scaling.png").stat().st_size > 10_000
+    assert "per degree of freedom" in capsys.readouterr().out
+
+
 def test_view_writes_html_for_a_model_and_a_run(tmp_path, capsys):
     out = tmp_path / "model.html"
     assert main(["view", str(BODIES / "adult_female.urdf"), "--html", str(out)]) == 0

@@ -94,3 +94,20 @@ def test_bad_state_is_rejected():
         hm.gravity_forces(h, q)
     with pytest.raises(hm.ConfigurationError, match="nv = 39"):
         hm.bias_forces(h, h.standing_configuration(), np.zeros(3))
+
+
+@pytest.mark.parametrize("name", ["male", "talos"])
+def test_pinocchio_returns_both_triangles_of_m_and_its_inverse(name):
+    """The code takes ``pin.crba`` and ``pin.computeMinverse`` as full symmetric matrices (the
+    bindings fill the lower triangle; the C++ data holds only the upper one): checked on random
+    states, exactly."""
+    h = get_model(name, "quaternion")
+    rng = np.random.default_rng(5)
+    data = h.model.createData()
+    for _ in range(3):
+        q, _ = random_state(h, rng)
+        M = pin.crba(h.model, data, q)
+        Minv = pin.computeMinverse(h.model, data, q)
+        assert np.array_equal(M, M.T) and np.array_equal(Minv, Minv.T)
+        assert np.abs(np.tril(M, -1)).max() > 0  # the lower triangle is there, not zero
+        assert np.allclose(M @ Minv, np.eye(h.nv), atol=1e-8)

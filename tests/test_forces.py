@@ -234,6 +234,7 @@ def test_a_ball_joint_beyond_its_range_is_pushed_back():
     q[iq : iq + 4] = pin.Quaternion(ball.rotation(th)).coeffs()
     limits = JointLimits(h, 2000.0, 20.0)
     tau = limits.force(model, data, 0.0, q, np.zeros(model.nv))
-    assert np.flatnonzero(tau).tolist() == [iv, iv + 1, iv + 2]
+    acting = np.flatnonzero(tau).tolist()
+    assert acting and set(acting) <= {iv, iv + 1, iv + 2}  # on that ball joint only
     after = ranges.angles(pin.integrate(model, q, 1e-6 * tau))[k]
     assert after[0] < hi[0] + 0.05 - 1e-6  # the flexion moved back towards its range

@@ -49,13 +49,48 @@ def test_the_readme_names_no_file_outside_the_repo():
 
 
 def test_the_speed_tables_are_the_benchmark_output():
-    """The README's speed tables are the text `humanoid bench step -o docs/bench` wrote
-    (`make bench` pastes it), with the machine and the date they were measured on."""
+    """The README's speed tables are the text `humanoid bench step|walk -o docs/bench` wrote
+    (`make bench` pastes it), with the machine and the date they were measured on; their
+    columns are the benchmarks' CSV columns, and their numbers those of the CSV files."""
+    import csv
     import re
 
-    block = README.split("<!-- speed: begin -->\n", 1)[1].split("<!-- speed: end -->", 1)[0]
-    written = (ROOT / "docs" / "bench" / "speed.md").read_text()
-    assert block == written, "README speed tables differ from docs/bench/speed.md: make bench"
-    assert written.startswith("Measured by `humanoid bench step` on ")
-    assert re.search(r"\d{4}-\d{2}-\d{2} \d{2}:\d{2} UTC", written), "no date"
-    assert "| tumble |" in written and "| collapse |" in written
+    from humanoid.bench.step import STEP_COLUMNS
+    from humanoid.bench.walk import WALK_COLUMNS
+
+    for name, file, command in (("speed", "speed.md", "step"), ("walk-speed", "walk.md", "walk")):
+        block = README.split(f"<!-- {name}: begin -->\n", 1)[1].split(f"<!-- {name}: end -->")[0]
+        written = (ROOT / "docs" / "bench" / file).read_text()
+        assert block == written, f"README {name} tables differ from docs/bench/{file}: make bench"
+        assert written.startswith(f"Measured by `humanoid bench {command}` on ")
+        assert re.search(r"\d{4}-\d{2}-\d{2} \d{2}:\d{2} UTC", written), "no date"
+    speed = (ROOT / "docs" / "bench" / "speed.md").read_text()
+    assert "| tumble |" in speed and "| collapse |" in speed
+    # the step table: its columns, in order, are step.csv's; its numbers are the CSV's
+    with open(ROOT / "docs" / "bench" / "step.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == STEP_COLUMNS
+    header = next(line for line in speed.splitlines() if line.startswith("| scene |"))
+    cells = [c.strip() for c in header.strip("|").split("|")]
+    assert cells == ["scene", "contacts", "Pinocchio", "native", "ratio", "reference KKT",
+                     "ratio", "as shipped", "ratio"]  # fmt: skip
+    for row in rows:
+        line = next(x for x in speed.splitlines() if x.startswith(f"| {row['scene']} |"))
+        shown = [c.strip() for c in line.strip("|").split("|")]
+        p = float(row["pinocchio"])
+        expect = [row["scene"], row["contacts"], f"{p * 1e6:.1f}"]
+        for key in STEP_COLUMNS[3:]:
+            expect += [f"{float(row[key]) * 1e6:.1f}", f"{float(row[key]) / p:.2f}"]
+        assert shown == expect
+    # the walk table: a row per control period with walk.csv's numbers
+    walk = (ROOT / "docs" / "bench" / "walk.md").read_text()
+    with open(ROOT / "docs" / "bench" / "walk.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == WALK_COLUMNS
+    for row in rows:
+        line = next(x for x in walk.splitlines() if x.startswith(f"| {row['control']} |"))
+        shown = [c.strip() for c in line.strip("|").split("|")]
+        assert shown[1] == f"{float(row['real_time_factor']):.1f}x"
+        assert shown[2] == f"{float(row['ratio']):.1f}"
+        assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
+        assert shown[-1] == ("yes" if row["checks_passed"] == "True" else "no")

@@ -172,3 +172,39 @@ def test_walk_command_writes_the_run_the_figure_and_the_viewer(tmp_path, capsys)
 def test_walk_of_an_unknown_model_is_a_clear_error(capsys):
     assert main(["walk", "--model", str(BODIES / "nope.urdf"), "--quiet"]) == 2
     assert "URDF file not found" in capsys.readouterr().err
+
+
+def test_held_forces_are_the_plants_forces_between_qp_ticks():
+    """With the QP every 8 ms, at every step in between the plant's welds carry exactly the
+    last solve's contact forces (the held-forces torques), to 1e-6 of body weight."""
+    from humanoid.walking.run import prepare
+
+    h = get_model("male", "quaternion")
+    setup = prepare(h, GaitParameters(steps=2))
+    sim, ctl = setup.sim, setup.ctl
+    ctl.every, ctl.period = 8, 8e-3
+    weight, worst, held = h.mass * 9.81, 0.0, 0
+
+    class Compare:
+        def observe(self, sim, k, t, q, v, step):
+            nonlocal worst, held
+            if ctl.fresh or step.solution is None:
+                return
+            held += 1
+            sim.kinematics(q, v)
+            sim.store_forces(step.solution)
+            for c in sim.contacts:
+                if c.attached:
+                    f = ctl.last[1][c.side]  # the QP's corner forces, world axes
+                    worst = max(worst, float(np.abs(c.wrench[:3] - f.sum(axis=0)).max()))
+
+    sim.monitors.append(Compare())
+    sim.scene = sim.scene.replace(duration=2.5)
+    traj = sim.run(quiet=True)
+    assert traj.status == "completed", traj.metadata["message"]
+    assert held > 1500 and worst < 1e-6 * weight, (held, worst)
+
+
+def test_walk_hold_is_validated():
+    with pytest.raises(hm.HumanoidError, match="hold must be"):
+        walk(get_model("male", "quaternion"), GaitParameters(steps=2), quiet=True, hold="both")

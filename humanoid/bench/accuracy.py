@@ -214,7 +214,7 @@ def _walk_run(h, integrator, dt, tol=1e-6):
     start = time.perf_counter()
     result = walk(h, GaitParameters(steps=WALK_STEPS), dt=dt, integrator=integrator,
                   control_dt=CONTROL_DT, quiet=True, record_rate=RECORD_RATE, rtol=tol,
-                  atol=tol)  # fmt: skip
+                  atol=tol, hold="torques")  # fmt: skip
     return result.trajectory, time.perf_counter() - start
 
 

@@ -19,40 +19,29 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..fusion import euler_solutions
-
 __all__ = ["JointRanges"]
 
 MARGIN = 0.1  # [rad] rows closer than this to a limit are returned (speculative)
 LOCK = 0.05  # |cos(middle angle)| below this: the outer angles of a ball are not defined
 
 
-def _rotations(quats: np.ndarray) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) of unit quaternions (n, 4) stored x, y, z, w."""
-    P = 2.0 * quats[:, :, None] * quats[:, None, :]  # 2 q_i q_j
-    x, y, z, w = 0, 1, 2, 3
-    R = np.empty((len(quats), 3, 3))
-    R[:, 0, 0] = 1 - P[:, y, y] - P[:, z, z]
-    R[:, 1, 1] = 1 - P[:, x, x] - P[:, z, z]
-    R[:, 2, 2] = 1 - P[:, x, x] - P[:, y, y]
-    R[:, 0, 1] = P[:, x, y] - P[:, z, w]
-    R[:, 1, 0] = P[:, x, y] + P[:, z, w]
-    R[:, 0, 2] = P[:, x, z] + P[:, y, w]
-    R[:, 2, 0] = P[:, x, z] - P[:, y, w]
-    R[:, 1, 2] = P[:, y, z] - P[:, x, w]
-    R[:, 2, 1] = P[:, y, z] + P[:, x, w]
-    return R
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a x b of (n, 3) arrays (np.cross is slow on small arrays)."""
-    return a[:, [1, 2, 0]] * b[:, [2, 0, 1]] - a[:, [2, 0, 1]] * b[:, [1, 2, 0]]
-
-
-def _rotate(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rodrigues: each v (n, 3) turned by angle (n,) about its unit axis (n, 3)."""
-    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-    return v * c + _cross(axis, v) * s + axis * ((axis * v).sum(axis=1)[:, None] * (1 - c))
+def _rotation_terms() -> np.ndarray:
+    """The rotation matrix of a quaternion q (x, y, z, w) as a homogeneous quadratic form,
+    R_ij = sum_kl T_ijkl q_k q_l (the rotation for unit q): T, (3, 3, 4, 4), so that a
+    rotation's entries are one contraction with q q^T."""
+    T = np.zeros((3, 3, 4, 4))
+    x, y, z, w = range(4)
+    for (i, j), terms in {
+        (0, 0): ((w, w, 1), (x, x, 1), (y, y, -1), (z, z, -1)),
+        (1, 1): ((w, w, 1), (x, x, -1), (y, y, 1), (z, z, -1)),
+        (2, 2): ((w, w, 1), (x, x, -1), (y, y, -1), (z, z, 1)),
+        (0, 1): ((x, y, 2), (z, w, -2)), (1, 0): ((x, y, 2), (z, w, 2)),
+        (0, 2): ((x, z, 2), (y, w, 2)), (2, 0): ((x, z, 2), (y, w, -2)),
+        (1, 2): ((y, z, 2), (x, w, -2)), (2, 1): ((y, z, 2), (x, w, 2)),
+    }.items():  # fmt: skip
+        for k, m, c in terms:
+            T[i, j, k, m] += c
+    return T
 
 
 def _wrap(x):
@@ -96,8 +85,26 @@ class JointRanges:
         self._GC = self._G.transpose(0, 2, 1) @ self._C
         self._GCt = self._GC.transpose(0, 2, 1).copy()
         self._mid = 0.5 * (self._blo + self._bhi)
+        # the five entries of Wp = K^T R K (K = G^T C) that the Euler angles read, as quadratic
+        # forms of each ball's quaternion: Wp[e] = W[b, e] . vec(q q^T)
+        Wq = np.einsum("bik,ijmn,bjl->bklmn", self._GC, _rotation_terms(), self._GC)
+        self._W = np.stack([Wq[:, 0, 2], Wq[:, 1, 2], Wq[:, 2, 2], Wq[:, 0, 1], Wq[:, 0, 0]],
+                           axis=1).reshape(nb, 5, 16)  # fmt: skip
+        self._bq4 = self._bq + np.arange(4)
+        self._flip = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, 1.0]])
+        self._shift = np.array([[0.0, 0.0, 0.0], [np.pi, np.pi, np.pi]])
+        self._mid2 = self._mid[:, None, :]
+        self._lo2, self._hi2 = (self._blo - 1e-12)[:, None, :], (self._bhi + 1e-12)[:, None, :]
+        self._prefer = np.tile([0.0, 1.0], (nb, 1))  # without a hint: the first solution
+        self._balls_range = np.arange(nb)
         self._hint = None
         self._bv3 = (self._bv[:, None] + np.arange(3)).ravel()
+        nh = len(self.iq)
+        self._hq = np.concatenate([self.iq, self.iq])
+        self._hbound = np.concatenate([self.lo, self.hi])
+        self._hsign = np.concatenate([np.ones(nh), -np.ones(nh)])
+        self._hJ = np.zeros((2 * nh, self.nv))  # the hinge rows' Jacobian: +-1 on their v
+        self._hJ[np.arange(2 * nh), np.concatenate([self.iv, self.iv])] = self._hsign
         self.model = model
         self._certificate = None  # (margin, reference quaternions, cos of half the rotation)
         self.skipped = False  # whether the last call to rows skipped the decomposition
@@ -109,29 +116,31 @@ class JointRanges:
         the range; when both are (or neither), the one nearer the previous call's angles, else
         the one with |middle angle| <= pi/2 (as :meth:`BallJoint.angles`).
         """
-        return self._angles(q, remember)[0]
+        return self._angles(q, remember)
 
     def _angles(self, q, remember: bool = True):
-        R = _rotations(q[self._bq + np.arange(4)])
-        Wp = self._GCt @ R @ self._GC  # = Rx(s t1) Ry(s t2) Rz(s t3)
-        first, second = euler_solutions(Wp, self._s)
-        # each angle within +-pi of its range's centre, so that a range reaching +-180 deg
-        # (the shoulder's flexion) is continuous across it
-        mid = self._mid
-        first, second = mid + _wrap(first - mid), mid + _wrap(second - mid)
-        lo, hi = self._blo - 1e-12, self._bhi + 1e-12
-        in1 = np.all((first >= lo) & (first <= hi), axis=1)
-        in2 = np.all((second >= lo) & (second <= hi), axis=1)
+        quats = q[self._bq4]
+        w = (self._W @ (quats[:, :, None] * quats[:, None, :]).reshape(len(quats), 16, 1))[
+            :, :, 0
+        ]  # w02, w12, w22, w01, w00 of Wp = K^T R K = Rx(s t1) Ry(s t2) Rz(s t3)
+        abc = np.stack([np.arctan2(-w[:, 1], w[:, 2]), np.arcsin(np.clip(w[:, 0], -1.0, 1.0)),
+                        np.arctan2(-w[:, 3], w[:, 4])], axis=1)  # fmt: skip
+        # the two solutions, (a, b, c) and (a + pi, pi - b, c + pi) times s (as
+        # fusion.euler_solutions), each angle within +-pi of its range's centre (so that a
+        # range reaching +-180 deg, the shoulder's flexion, is continuous across it)
+        both = self._s[:, None, None] * (abc[:, None, :] * self._flip + self._shift)
+        both = self._mid2 + _wrap(both - self._mid2)
+        inside = ((both >= self._lo2) & (both <= self._hi2)).all(axis=2)
         if self._hint is None:
-            d1, d2 = np.zeros(len(first)), np.ones(len(first))
+            d = self._prefer
         else:
-            d1 = np.abs(_wrap(first - self._hint)).sum(axis=1)
-            d2 = np.abs(_wrap(second - self._hint)).sum(axis=1)
-        pick = (in2 & ~in1) | ((in1 == in2) & (d2 < d1))
-        th = np.where(pick[:, None], second, first)
+            d = np.abs(_wrap(both - self._hint[:, None, :])).sum(axis=2)
+        in1, in2 = inside[:, 0], inside[:, 1]
+        pick = (in2 & ~in1) | ((in1 == in2) & (d[:, 1] < d[:, 0]))
+        th = both[self._balls_range, pick.astype(int)]
         if remember:
             self._hint = th
-        return th, R
+        return th
 
     def _clear(self, q, margin: float) -> np.ndarray | None:
         """Which coordinates of q are certified clear of their limits by the margin (a bool
@@ -183,16 +192,12 @@ class JointRanges:
             self.skipped = True
             return np.zeros(0), np.zeros((0, self.nv))
         self.skipped = clear is not None and bool(clear[self._bv3].all())
-        x = q[self.iq]
-        r = np.concatenate([x - self.lo, self.hi - x])
-        sign = np.concatenate([np.ones(len(x)), -np.ones(len(x))])
-        cols = np.concatenate([self.iv, self.iv])
+        r = self._hsign * (q[self._hq] - self._hbound)  # every hinge's lower, then upper rows
         keep = r < margin
-        J = np.zeros((int(keep.sum()), self.nv))
-        J[np.arange(len(J)), cols[keep]] = sign[keep]
+        J = self._hJ[keep]
         if self.skipped:
             return r[keep], J
-        th, R = self._angles(q) if self.balls else (None, None)
+        th = self._angles(q) if self.balls else None
         if np.isfinite(margin):
             self._certify(q, th, margin)
         if not self.balls:
@@ -203,22 +208,29 @@ class JointRanges:
         near[locked, 0] = near[locked, 2] = False  # the outer angles are undefined at the lock
         if not near.any():
             return r[keep], J
-        # E maps the angle rates to the joint's angular velocity: E = (G R)^T [a1, R1 a2,
-        # R1 R2 a3] (R1, R2 the first two hinges' rotations); its inverse gives dth/dv
-        C, G = self._C, self._G
-        a1, a2, a3 = C[:, :, 0], C[:, :, 1], C[:, :, 2]
-        c2 = _rotate(a1, th[:, 0], a2)
-        c3 = _rotate(a1, th[:, 0], _rotate(a2, th[:, 1], a3))
-        E = (G @ R).transpose(0, 2, 1) @ np.stack([a1, c2, c3], axis=2)
-        rates = np.empty_like(E)
-        rates[~locked] = np.linalg.inv(E[~locked])
-        if locked.any():
-            rates[locked] = np.linalg.pinv(E[locked])
+        # the angle rates from the joint's angular velocity w (its v): with K = G^T C the
+        # triplet's axes in the joint's frame, Wp = K^T R K = Rx(a) Ry(b) Rz(c), (a, b, c) =
+        # s th, turns at w_W = s K^T w, and a' = (w_x cos c - w_y sin c) / cos b,
+        # b' = w_x sin c + w_y cos c, c' = w_z - tan b (w_x cos c - w_y sin c): th' = E^-1 K^T w
+        # (the outer rows are undefined at the lock, where they are left out)
+        b_, c_ = self._s * th[:, 1], self._s * th[:, 2]
+        cb = np.where(locked, 1.0, np.cos(b_))
+        cc, sc, tb = np.cos(c_), np.sin(c_), np.sin(b_) / cb
+        Einv = np.zeros((len(th), 3, 3))
+        Einv[:, 0, 0], Einv[:, 0, 1] = cc / cb, -sc / cb
+        Einv[:, 1, 0], Einv[:, 1, 1] = sc, cc
+        Einv[:, 2, 0], Einv[:, 2, 1], Einv[:, 2, 2] = -tb * cc, tb * sc, 1.0
+        rates = Einv @ self._GCt
         b, i, side = np.nonzero(near)
         Jb = np.zeros((len(b), self.nv))
         sgn = np.where(side == 0, 1.0, -1.0)[:, None]
         Jb[np.arange(len(b))[:, None], self._bv[b][:, None] + np.arange(3)] = sgn * rates[b, i]
         return np.concatenate([r[keep], dist[b, i, side]]), np.vstack([J, Jb])
+
+    def hinge_rows(self, q):
+        """Every hinge's two rows (lower, then upper bound): (r, J), r >= 0 inside, J constant
+        (+-1 on the hinge's velocity)."""
+        return self._hsign * (q[self._hq] - self._hbound), self._hJ
 
     def excess(self, q) -> np.ndarray:
         """How far q is beyond each bound [rad], >= 0 (0 inside): every hinge's lower and upper

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..linalg import cholesky_lapack
 from .base import Constraint, update_kinematics
 
 __all__ = [
@@ -93,14 +94,6 @@ def split_forces(forces: np.ndarray, constraints: Sequence[Constraint]) -> dict[
     return out
 
 
-def _lapack():
-    """LAPACK's Cholesky factor and solve, imported on first use (scipy.linalg is slow to
-    import and `import humanoid` stays light)."""
-    from scipy.linalg import lapack
-
-    return lapack.dpotrf, lapack.dpotrs
-
-
 def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray):
     """Solve M a = f + J^T lambda, J a = gamma, given M^-1.
 
@@ -114,7 +107,7 @@ def solve_kkt(Minv: np.ndarray, f: np.ndarray, J: np.ndarray, gamma: np.ndarray)
     D = J @ MJt
     rhs = gamma - J @ a_free
     lam, rank, method = None, J.shape[0], "cholesky"
-    potrf, potrs = _lapack()
+    potrf, potrs = cholesky_lapack()
     factor, info = potrf(D)  # LAPACK directly: numpy's wrappers cost more than the work here
     if info == 0:
         pivots = np.diag(factor) ** 2

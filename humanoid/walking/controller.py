@@ -28,6 +28,7 @@ from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..effects import Effect
 from ..errors import HumanoidError
+from ..linalg import cross, spd_solve
 from ..model import SIDES
 from .clinical import torso_frame
 from .qp import WarmQP, pyramid_rows, range_damper
@@ -80,6 +81,10 @@ class WalkingController(Effect):
         self.data = model.createData()
         self.t_ref, self.c_ref, self.dc_ref, self.ddc_ref = com
         self.z_c = z_c
+        # (c, dc, ddc) with z at every sample of the reference, for one interpolation
+        self._com_table = np.zeros((len(self.t_ref), 3, 3))
+        self._com_table[:, 0, :2], self._com_table[:, 0, 2] = self.c_ref, z_c
+        self._com_table[:, 1, :2], self._com_table[:, 2, :2] = self.dc_ref, self.ddc_ref
         self.q_posture = np.array(q_posture, dtype=float)
         self.baumgarte = baumgarte
         self.gains = gains or ControllerGains()
@@ -92,9 +97,31 @@ class WalkingController(Effect):
         self.ranges = JointRanges(h)
         self.period = period  # [s] the control period (torques are held over it)
         self.every = 1  # the QP is solved every this many simulation steps
+        # between QP solves: "forces" (the solve's contact forces held, the accelerations
+        # nearest its that the state allows: held_torques) or "torques" (its torques held)
+        self.hold = "forces"
+        self._held = None
         self.fresh = False  # whether the QP was solved at this tick's state
         self._solved_for = None  # the stance set of the last solve
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
+        self._zero = np.zeros(model.nv)
+        self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
+        for _ in range(model.njoints):
+            self._fext.append(pin.Force.Zero())
+        # each side's corners grouped by the joint that carries them: (joint, which corners,
+        # their places in its frame); the held wrenches are taken about the joint's origin
+        self._corner_groups = {}
+        for s in SIDES:
+            joints = [model.frames[f].parentJoint for f in self.corners[s]]
+            self._corner_groups[s] = [
+                (
+                    j,
+                    idx,
+                    np.array([model.frames[self.corners[s][i]].placement.translation for i in idx]),
+                )  # fmt: skip
+                for j in dict.fromkeys(joints)
+                for idx in [[i for i, k in enumerate(joints) if k == j]]
+            ]
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -107,31 +134,63 @@ class WalkingController(Effect):
         if self.fresh:
             self.update(t, q, v, welds)
             self._solved_for = set(welds)
+        elif self.hold == "forces":
+            self.tau = self.held_torques(q, v, [welds[s] for s in SIDES if s in welds])
+
+    def held_torques(self, q, v, welds) -> np.ndarray:
+        """Between control ticks: the torques under which the plant's feet carry exactly the
+        last solve's contact forces f (inside their friction pyramids, the centre of pressure
+        inside the soles), with the accelerations nearest the last solve's dv that the body
+        can have under them: dv + d, d the smallest change that satisfies the base's six
+        unactuated rows M_b (dv + d) + h_b - J_cb^T f = 0 and the welds' rows
+        J (dv + d) = gamma (the plant's, Baumgarte terms included), keeps the joint-range rows
+        the solve held at their damper's bound, and stops any hinge that would cross its own
+        within the step. Then tau = M (dv + d) + h - J_c^T f on the joints: one RNEA with f as
+        external wrenches (held in the feet's joint frames, which the welds keep still) and a
+        small least-squares."""
+        model, data = self.model, self.data
+        dv, fext, Jr = self._held
+        pin.forwardKinematics(model, data, q, v, self._zero)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)  # the welds' residuals read the soles' placements
+        J, gamma = stack(model, data, welds, v, self.baumgarte)
+        M = self._mass_matrix(q)
+        tau = pin.rnea(model, data, q, v, dv, fext)
+        # hinges that dv would drive through their damper in the next step get the damper's
+        # bound as their acceleration (r' + dt r'' >= -r / RANGE_TIME; J is constant on a hinge)
+        r, Jh = self.ranges.hinge_rows(q)
+        floor = (-r / RANGE_TIME - Jh @ v) * (self.every / self.period)
+        short = Jh @ dv < floor
+        A = np.vstack([M[:6], J, Jr, Jh[short]])
+        rhs = np.concatenate([tau[:6], J @ dv - gamma, np.zeros(len(Jr)),
+                              Jh[short] @ dv - floor[short]])  # fmt: skip
+        d = A.T @ spd_solve(A @ A.T, rhs, ridge=1e-12)  # (the rows may be dependent)
+        tau -= M @ d
+        tau[:6] = 0.0
+        return tau
+
+    def _mass_matrix(self, q) -> np.ndarray:
+        """M(q) (Pinocchio's binding fills both triangles: tests/test_dynamics.py)."""
+        return pin.crba(self.model, self.data, q)
 
     # -- references ----------------------------------------------------------------------
     def com_reference(self, t):
-        k = float(
-            np.clip((t - self.t_ref[0]) / (self.t_ref[1] - self.t_ref[0]), 0, len(self.t_ref) - 1)
-        )
-        i = min(int(k), len(self.t_ref) - 2)
+        t_ref = self.t_ref
+        k = min(max((t - t_ref[0]) / (t_ref[1] - t_ref[0]), 0.0), len(t_ref) - 1.0)
+        i = min(int(k), len(t_ref) - 2)
         s = k - i
-
-        def lerp(a):
-            return (1 - s) * a[i] + s * a[i + 1]
-
-        c, dc, ddc = lerp(self.c_ref), lerp(self.dc_ref), lerp(self.ddc_ref)
-        return np.array([*c, self.z_c]), np.array([*dc, 0.0]), np.array([*ddc, 0.0])
+        out = (1.0 - s) * self._com_table[i] + s * self._com_table[i + 1]  # c, dc, ddc
+        return out[0], out[1], out[2]
 
     # -- the QP ----------------------------------------------------------------------------
     def update(self, t: float, q, v, welds: dict) -> np.ndarray:
         """Solve the QP at (t, q, v) with the plant's stance welds; returns and holds tau."""
         model, data, g = self.model, self.data, self.gains
         nv = model.nv
-        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+        pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        M = pin.crba(model, data, q)
-        M = np.triu(M) + np.triu(M, 1).T
+        M = self._mass_matrix(q)
         hvec = pin.nle(model, data, q, v)
         stance = [s for s in ("left", "right") if s in welds]
         nf = 12 * len(stance)
@@ -223,7 +282,26 @@ class WalkingController(Effect):
         tau = M @ dv + hvec - Jc.T @ f
         self.tau = np.concatenate([np.zeros(6), tau[6:]])
         self.last = (dv, {s: f[12 * k : 12 * k + 12].reshape(4, 3) for k, s in enumerate(stance)})
+        if self.every > 1:
+            # the range rows the solve holds at their damper's bound keep their acceleration
+            tight = -Jr @ dv >= bound - 1e-6 * np.maximum(1.0, np.abs(bound))
+            self._held = (dv, self._external(stance, f), Jr[tight])
         return self.tau
+
+    def _external(self, stance, f) -> pin.StdVec_Force:
+        """The corner forces f (world axes) as wrenches on the feet's joints, in their frames
+        (Pinocchio's external forces)."""
+        data, fext = self.data, self._fext
+        for s in SIDES:
+            for joint, _, _ in self._corner_groups[s]:
+                fext[joint] = pin.Force.Zero()
+        for k, s in enumerate(stance):
+            forces = f[12 * k : 12 * k + 12].reshape(4, 3)
+            for joint, idx, offsets in self._corner_groups[s]:
+                local = forces[idx] @ data.oMi[joint].rotation  # R^T f: the joint's axes
+                wrench = pin.Force(local.sum(axis=0), cross(offsets, local).sum(axis=0))
+                fext[joint] = fext[joint] + wrench
+        return fext
 
     def shares(self, t, stance, data) -> list[float]:
         """Planned fraction of the weight on each stance foot, from the ZMP reference."""

@@ -13,6 +13,7 @@ cosine in z (zero velocity and acceleration at both ends: they land softly).
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -113,14 +114,14 @@ class FootstepPlan:
             t += g.period
         self.final = pos
         self.duration = self.steps[-1].t_land + g.t_end
+        self._lifts = [s.t_lift for s in self.steps]
 
     # -- phases --------------------------------------------------------------------------
     def swing(self, t: float) -> Footstep | None:
-        """The step whose foot is in the air at time t, if any."""
-        for s in self.steps:
-            if s.t_lift <= t < s.t_land:
-                return s
-        return None
+        """The step whose foot is in the air at time t, if any (the steps are in time order
+        and do not overlap: the last one lifted by t, if it has not landed)."""
+        i = bisect.bisect_right(self._lifts, t) - 1
+        return self.steps[i] if i >= 0 and t < self.steps[i].t_land else None
 
     def stance(self, t: float) -> set[str]:
         """Feet on the ground at time t."""

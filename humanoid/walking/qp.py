@@ -111,7 +111,7 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
     M = pin.crba(model, data, q)
-    return np.triu(M) + np.triu(M, 1).T, pin.nle(model, data, q, v)
+    return M, pin.nle(model, data, q, v)  # (Pinocchio's binding fills both triangles)
 
 
 def feet_contacts(ground, model, data, foot_joint: dict):

@@ -21,8 +21,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
-from ..contacts import cop_in_sole, cop_on_plane
 from ..errors import HumanoidError, RunFailed
+from ..linalg import cross
 from ..model import SIDES, Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
 from ..simulation import Simulation, StepResult, Trajectory
@@ -31,6 +31,7 @@ from .plan import FootstepPlan, GaitParameters
 from .preview import com_trajectory
 
 __all__ = [
+    "CONTROL_PERIOD",
     "FootstepSchedule",
     "WalkMonitor",
     "WalkResult",
@@ -41,6 +42,11 @@ __all__ = [
 ]
 
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
+# The controller's QP period [s]; between QP ticks the contact forces are held
+# (WalkingController.held_torques). Measured on the male, female and erd human bodies' 10-step
+# walks: every check passes up to 10 ms, the male falls at 16 ms; g1's walk (marginal at 1 ms,
+# its CoM 3.6 cm off its reference) passes at 3 ms and falls from 4 ms.
+CONTROL_PERIOD = 8e-3
 
 # Typical adult gait (Bohannon 1997, Murray 1964/1970, Perry & Burnfield, Winter, Powers 2002,
 # Cooper 2008).
@@ -181,6 +187,7 @@ def walk(
     control_dt: float | None = None,
     rtol: float = 1e-6,
     atol: float = 1e-6,
+    hold: str = "forces",
 ) -> WalkResult:
     """Walk ``h`` along a straight plan in forward simulation.
 
@@ -194,17 +201,25 @@ def walk(
         quiet: No progress bar.
         record_rate: Records per second in the trajectory [Hz].
         integrator: The simulator's integrator (semi-implicit Euler by default).
-        control_dt: Control period [s], a whole number of steps (default: every step). The
-            torques are held between control ticks; the consistency check runs on control ticks.
+        control_dt: The QP's period [s], a whole number of steps (default ``CONTROL_PERIOD``,
+            5 ms, or every step if dt is longer). Between QP ticks the contact forces are held
+            and the torques follow the state (``WalkingController.held_torques``); the
+            consistency check runs on QP ticks.
         rtol, atol: Tolerances of the adaptive integrator (``integrator="adaptive"``), which
             chooses its own steps inside each step of ``dt`` (the contacts switch, and the
             checks run, at multiples of ``dt``).
+        hold: Between QP ticks, ``"forces"`` (the contact forces held, the torques following
+            the state) or ``"torques"`` (the torques held: a sampled controller, as the
+            accuracy benchmark compares integrators under).
     """
+    if hold not in ("forces", "torques"):
+        raise HumanoidError(f"hold must be 'forces' or 'torques', got {hold!r}")
     gait = gait or GaitParameters()
     setup = prepare(h, gait, dt, mu, drop, gains, integrator, record_rate, rtol, atol)
     plan, sim, ctl, soles = setup.plan, setup.sim, setup.ctl, setup.soles
-    ctl.every = max(1, int(round((control_dt or dt) / dt)))
+    ctl.every = max(1, int(round((control_dt or CONTROL_PERIOD) / dt)))
     ctl.period = ctl.every * dt
+    ctl.hold = hold
     monitor = WalkMonitor(h, sim, ctl)
     sim.monitors.append(monitor)
     traj = sim.run(quiet=quiet)
@@ -218,6 +233,7 @@ def walk(
         "footsteps": [[s.side, *s.target.tolist(), s.t_lift, s.t_land] for s in plan.steps],
         "initial_soles": {s: soles[s].tolist() for s in SIDES},
         "weight": weight,
+        "control_period": ctl.period,
         "sole_size": [float(x) for x in sim.contacts[0].cop_box[1] - sim.contacts[0].cop_box[0]],
     })  # fmt: skip
     checks = _acceptance(series, plan, status, message, weight, mu)
@@ -251,77 +267,124 @@ SERIES = (
 
 
 class WalkMonitor:
-    """The walk's checks at every tick, from the plant's own solve, kept as time series; a
-    fall (pelvis below 80 % of its start height, or the trunk tilted over 30 degrees) stops
-    the run."""
+    """The walk's checks at every tick, from the plant's own solve, as time series; a fall
+    (pelvis below 80 % of its start height, or the trunk tilted over 30 degrees) stops the run.
+
+    During the run each tick keeps only what the checks need and cannot get back later (the
+    state, the plant's contact forces, the controller's base torques and, on control ticks,
+    the controller's accelerations against the plant's) and tests for a fall; the series
+    (centre of mass, feet wrenches, friction, centres of pressure, weld drift, zero-moment
+    point, joint ranges) are computed from those after the run (:meth:`series_until`), the
+    same numbers at every tick for a fraction of the cost.
+    """
 
     def __init__(self, h: Humanoid, sim: Simulation, ctl: WalkingController) -> None:
-        self.series = {k: np.full(sim.n_steps, np.nan) for k in SERIES}
-        self.h, self.ctl = h, ctl
+        n = sim.n_steps
+        self.h, self.sim, self.ctl = h, sim, ctl
         self.ranges = JointRanges(h)
         self.weight = h.mass * 9.81
         self.z_start = None
-
-    def series_until(self, n: int) -> dict:
-        return {k: a[:n] for k, a in self.series.items()}
+        self.t = np.full(n, np.nan)
+        self.q = np.zeros((n, sim.model.nq))
+        self.tilt = np.full(n, np.nan)
+        self.tau_base = np.full(n, np.nan)
+        self.consistency = np.full(n, np.nan)
+        self.wrench = {s: np.full((n, 6), np.nan) for s in SIDES}  # the welds' (LOCAL axes)
+        self.anchor = {s: np.full(n, -1) for s in SIDES}  # index into self.anchors
+        self.anchors: list[pin.SE3] = []
+        self.welds: dict = {}  # (weld, its anchor's index) of each side, the last seen
 
     def observe(self, sim: Simulation, k: int, t: float, q, v, step: StepResult) -> None:
-        s = self.series
         if self.z_start is None:
             self.z_start = q[2]
-        _check(sim, self.ctl, t, q, v, s, k, self.weight, step)
-        s["range"][k] = math.degrees(self.ranges.violation(q))
+        self.t[k] = t
+        self.q[k] = q
+        x, y = q[3], q[4]  # the pelvis' tilt: the angle of its z axis from the vertical
+        self.tilt[k] = tilt = math.degrees(
+            math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
+        )
+        self.tau_base[k] = np.abs(step.torque[:6]).max()
+        sol = step.solution
+        if sol is not None and sim.active_constraints():
+            if self.ctl.fresh:  # the QP was solved at this very state
+                dv = self.ctl.last[0]
+                self.consistency[k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
+            forces, i = sol.forces, 0
+            for c in sim.contacts:
+                if c.attached:
+                    weld = c.constraints[0]
+                    self.wrench[c.side][k] = forces[i : i + 6]
+                    i += 6
+                    if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
+                        self.welds[c.side] = (weld, len(self.anchors))
+                        self.anchors.append(weld.anchor)
+                    self.anchor[c.side][k] = self.welds[c.side][1]
         z = step.q[2]
-        if z < 0.8 * self.z_start or s["tilt"][k] > 30.0:
+        if z < 0.8 * self.z_start or tilt > 30.0:
             raise RunFailed(
                 f"fall at t = {t:.3f} s: pelvis {z:.3f} m (start {self.z_start:.3f} m), "
-                f"trunk tilt {s['tilt'][k]:.1f} deg"
+                f"trunk tilt {tilt:.1f} deg"
             )
 
-
-def _check(sim, ctl, t, q, v, series, k, weight, step):
-    """The acceptance quantities at this tick (from the plant's own solve)."""
-    model, data = sim.model, sim.data
-    series["t"][k] = t
-    series["pelvis_z"][k] = q[2]
-    R = pin.Quaternion(q[3:7]).toRotationMatrix()
-    series["tilt"][k] = math.degrees(math.acos(np.clip(R[2, 2], -1.0, 1.0)))
-    series["tau_base"][k] = np.abs(step.torque[:6]).max()
-    c = pin.centerOfMass(model, data, q)
-    series["com_x"][k], series["com_y"][k], series["com_z"][k] = c
-    cr = ctl.com_reference(t)[0]
-    series["com_ref_x"][k], series["com_ref_y"][k] = cr[0], cr[1]
-    sol = step.solution
-    if sol is None or not sim.active_constraints():
-        return
-    if ctl.fresh:  # the QP was solved at this very state
-        dv = ctl.last[0]
-        series["consistency"][k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
-    sim.kinematics(q, v)
-    sim.store_forces(sol)
-    total = np.zeros(6)  # the feet's wrench about the world origin
-    worst_friction, worst_margin, drift = 0.0, np.inf, 0.0
-    for cst in sim.contacts:
-        if not cst.attached:
-            continue
-        w = cst.constraints[0]
-        f, tau = cst.wrench[:3], cst.wrench[3:]
-        series[f"fz_{cst.side}"][k] = f[2] / weight
-        o = data.oMf[cst.sole].translation
-        total += np.concatenate([f, tau + np.cross(o, f)])
-        if f[2] > 0.2 * weight:
-            worst_friction = max(worst_friction, math.hypot(f[0], f[1]) / f[2])
-        if f[2] > COP_MIN_LOAD * weight:  # the CoP of an (almost) unloaded foot is undefined
-            cop = cop_in_sole(cst.wrench, data.oMf[cst.sole].rotation)
-            lo, hi = cst.cop_box
-            worst_margin = min(worst_margin, np.min(cop - lo), np.min(hi - cop))
-        r = w.residual(model, data)
-        drift = max(drift, np.linalg.norm(r[:3]))
-    series["friction"][k] = worst_friction
-    series["cop_margin"][k] = worst_margin if np.isfinite(worst_margin) else np.nan
-    series["drift"][k] = drift
-    if total[2] > 1e-6:  # the zero-moment point: the feet's centre of pressure on the floor
-        series["zmp_x"][k], series["zmp_y"][k] = cop_on_plane(total, np.zeros(3))[:2]
+    def series_until(self, n: int) -> dict:
+        """The checks' time series over the first n ticks (see the class docstring)."""
+        model, sim, ctl, weight = self.sim.model, self.sim, self.ctl, self.weight
+        data = model.createData()
+        s = {k: np.full(n, np.nan) for k in SERIES}
+        s["t"], s["tilt"], s["tau_base"] = self.t[:n], self.tilt[:n], self.tau_base[:n]
+        s["consistency"], s["pelvis_z"] = self.consistency[:n], self.q[:n, 2]
+        com = np.zeros((n, 3))
+        rotation = {side: np.zeros((n, 3, 3)) for side in SIDES}
+        origin = {side: np.zeros((n, 3)) for side in SIDES}
+        drift = np.zeros(n)
+        soles = {c.side: c.sole for c in sim.contacts}
+        for k in range(n):
+            q = self.q[k]
+            com[k] = pin.centerOfMass(model, data, q)  # (the joints' placements too)
+            for side, fid in soles.items():
+                M = pin.updateFramePlacement(model, data, fid)
+                rotation[side][k], origin[side][k] = M.rotation, M.translation
+                a = self.anchor[side][k]
+                if a >= 0:
+                    r = pin.log6(self.anchors[a].actInv(M)).linear
+                    drift[k] = max(drift[k], math.sqrt(r @ r))
+            s["range"][k] = math.degrees(self.ranges.violation(q))
+        s["com_x"], s["com_y"], s["com_z"] = com.T
+        ref = np.array([ctl.com_reference(t)[0][:2] for t in s["t"]]).reshape(n, 2)
+        s["com_ref_x"], s["com_ref_y"] = ref.T
+        total = np.zeros((n, 6))  # the feet's wrench about the world origin
+        friction = np.zeros(n)
+        margin = np.full(n, np.inf)
+        on = np.zeros(n, dtype=bool)
+        for c in sim.contacts:
+            w = self.wrench[c.side][:n]  # LOCAL axes, about the sole's origin
+            attached = np.isfinite(w[:, 0])
+            on |= attached
+            R, o = rotation[c.side], origin[c.side]
+            f = np.einsum("nij,nj->ni", R, w[:, :3])
+            tau = np.einsum("nij,nj->ni", R, w[:, 3:])
+            s[f"fz_{c.side}"] = np.where(attached, f[:, 2] / weight, np.nan)
+            wr = np.where(attached[:, None], np.hstack([f, tau + cross(o, f)]), 0.0)
+            total += wr
+            with np.errstate(invalid="ignore", divide="ignore"):
+                loaded = attached & (f[:, 2] > 0.2 * weight)
+                ratio = np.hypot(f[:, 0], f[:, 1]) / f[:, 2]
+                friction = np.maximum(friction, np.where(loaded, ratio, 0.0))
+                # the centre of pressure in the sole's own axes (the welds' forces are LOCAL);
+                # that of an (almost) unloaded foot is undefined
+                cop = np.stack([-w[:, 4], w[:, 3]], axis=1) / w[:, 2:3]
+                lo, hi = c.cop_box
+                inside = np.minimum((cop - lo).min(axis=1), (hi - cop).min(axis=1))
+                margin = np.minimum(margin, np.where(f[:, 2] > COP_MIN_LOAD * weight, inside,
+                                                     np.inf))  # fmt: skip
+        s["friction"] = np.where(on, friction, np.nan)
+        s["cop_margin"] = np.where(on & np.isfinite(margin), margin, np.nan)
+        s["drift"] = np.where(on, drift, np.nan)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zmp = np.stack([-total[:, 4] / total[:, 2], total[:, 3] / total[:, 2]], axis=1)
+        up = on & (total[:, 2] > 1e-6)  # the zero-moment point: the feet's CoP on the floor
+        s["zmp_x"], s["zmp_y"] = np.where(up, zmp[:, 0], np.nan), np.where(up, zmp[:, 1], np.nan)
+        return s
 
 
 def _acceptance(s, plan, status, message, weight, mu) -> dict:

@@ -1,0 +1,223 @@
+"""``humanoid bench walk``: what a simulated second of walking costs, and where it goes.
+
+The welded walk (``humanoid walk``: the male body, the default gait) is run with its controller
+at the default period and at every step (1 ms). Each run's wall time is split by timing the
+pieces of the one loop: the controller's QP ticks (assembly: kinematics, tasks, constraints;
+the joint ranges' rows; ProxQP's solve), the torques between QP ticks (the held contact
+forces, :meth:`~humanoid.walking.controller.WalkingController.held_torques`), the plant's step
+(the native constrained dynamics and the integrator), the checks (per tick, and the series
+after the run) and the records; "other" is the rest of the loop (the contact schedule, the
+divergence guard). The bare plant is the same ticks through ``pin.constraintDynamics`` and
+``pin.integrate`` alone on the walk's states (both feet welded, then one), measured in the same
+run: the walk's cost is read as a multiple of it.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+__all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
+
+# walk.csv's columns, in the order of the README's table: per simulated second [s]
+WALK_COLUMNS = ["control", "real_time_factor", "wall", "bare_plant", "ratio", "qp_assembly",
+                "joint_ranges", "qp_solve", "held", "plant", "checks", "records", "other",
+                "checks_passed"]  # fmt: skip
+
+
+class _Clock:
+    """Accumulated wall time of wrapped callables, by label."""
+
+    def __init__(self) -> None:
+        self.total: dict[str, float] = {}
+
+    def wrap(self, owner, name: str, label: str) -> None:
+        fn = getattr(owner, name)
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.total[label] = self.total.get(label, 0.0) + time.perf_counter() - start
+
+        setattr(owner, name, timed)
+
+
+def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
+    """One walk with its pieces timed; returns (seconds by piece, result, states for the bare
+    plant: (q, v, welds) samples)."""
+    from ..trajectory import Recorder
+    from ..walking import run as walk_run
+
+    clock = _Clock()
+    samples = []
+    original = Recorder.add
+
+    def add(rec, sim, t, q, v, step):
+        start = time.perf_counter()
+        original(rec, sim, t, q, v, step)
+        clock.total["records"] = clock.total.get("records", 0.0) + time.perf_counter() - start
+        if len(samples) < 400 and rec.n % 5 == 0:
+            samples.append((q.copy(), v.copy(), list(sim.active_constraints())))
+
+    prepare = walk_run.prepare
+
+    def prepared(*args, **kwargs):
+        setup = prepare(*args, **kwargs)
+        ctl, sim = setup.ctl, setup.sim
+        clock.wrap(ctl, "update", "qp_tick")
+        clock.wrap(ctl.qp, "solve", "qp_solve")
+        clock.wrap(ctl.ranges, "rows", "joint_ranges")
+        clock.wrap(ctl, "held_torques", "held")
+        clock.wrap(sim, "step", "plant")
+        return setup
+
+    monitor_cls = walk_run.WalkMonitor
+
+    class Monitor(monitor_cls):
+        def observe(self, *args):
+            start = time.perf_counter()
+            try:
+                return super().observe(*args)
+            finally:
+                clock.total["checks"] = clock.total.get("checks", 0.0) + (
+                    time.perf_counter() - start
+                )
+
+        def series_until(self, n):
+            start = time.perf_counter()
+            out = super().series_until(n)
+            clock.total["checks"] = clock.total.get("checks", 0.0) + time.perf_counter() - start
+            return out
+
+    Recorder.add, walk_run.prepare, walk_run.WalkMonitor = add, prepared, Monitor
+    try:
+        start = time.perf_counter()
+        result = walk_run.walk(h, gait, quiet=True, control_dt=control_dt)
+        wall = time.perf_counter() - start
+    finally:
+        Recorder.add, walk_run.prepare, walk_run.WalkMonitor = original, prepare, monitor_cls
+    seconds = dict(clock.total)
+    seconds["wall"] = wall
+    return seconds, result, samples
+
+
+def _bare_plant(model, samples, dt: float, rounds: int) -> float:
+    """Mean seconds per tick of pin.constraintDynamics + pin.integrate over the walk's states,
+    with its stance welds as Pinocchio's own rigid constraints (best of ``rounds``; a Data is
+    initialised per stance, once, as a run does per active set)."""
+    cases, datas = [], {}
+    for q, v, welds in samples:
+        cms = pin.StdVec_RigidConstraintModel()
+        for w in welds:
+            fr = model.frames[w.frame_id]
+            cms.append(pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, model,
+                                                fr.parentJoint, fr.placement, 0, w.anchor,
+                                                pin.ReferenceFrame.LOCAL))  # fmt: skip
+        cds = pin.StdVec_RigidConstraintData()
+        for cm in cms:
+            cds.append(cm.createData())
+        stance = tuple(w.frame_id for w in welds)
+        if stance not in datas:
+            datas[stance] = model.createData()
+            pin.initConstraintDynamics(model, datas[stance], cms, cds)
+        cases.append((q, v, cms, cds, datas[stance]))
+    prox = pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
+    tau = np.zeros(model.nv)
+    best = float("inf")
+    for _ in range(rounds):
+        start = time.perf_counter()
+        for q, v, cms, cds, data in cases:
+            a = pin.constraintDynamics(model, data, q, v, tau, cms, cds, prox)
+            pin.integrate(model, q, (v + dt * a) * dt)
+        best = min(best, (time.perf_counter() - start) / len(cases))
+    return best
+
+
+def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
+    """Time the welded walk, its pieces and the bare plant; print a table, write ``walk.csv``
+    and ``walk.md``."""
+    import humanoid as hm
+
+    from ..data import BODIES
+    from ..walking.plan import GaitParameters
+    from ..walking.run import CONTROL_PERIOD
+    from .common import machine
+
+    h = hm.load(BODIES / "adult_male.urdf")
+    gait = GaitParameters(steps=4 if quick else 10)
+    rows = []
+    for control in (CONTROL_PERIOD, 1e-3):
+        seconds, result, samples = _timed_walk(h, gait, control)
+        simulated = result.summary["simulated"]
+        bare = _bare_plant(h.model, samples, 1e-3, 3 if quick else 7) * 1000.0  # per sim s
+        per = {k: v / simulated for k, v in seconds.items()}
+        qp = per.get("qp_tick", 0.0)
+        row = {
+            "control": f"{control * 1e3:g} ms",
+            "real_time_factor": simulated / seconds["wall"],
+            "wall": per["wall"],
+            "bare_plant": bare,
+            "ratio": per["wall"] / bare,
+            "qp_assembly": qp - per.get("qp_solve", 0.0) - per.get("joint_ranges", 0.0),
+            "joint_ranges": per.get("joint_ranges", 0.0),
+            "qp_solve": per.get("qp_solve", 0.0),
+            "held": per.get("held", 0.0),
+            "plant": per.get("plant", 0.0),
+            "checks": per.get("checks", 0.0),
+            "records": per.get("records", 0.0),
+            "checks_passed": result.ok,
+        }
+        row["other"] = row["wall"] - sum(
+            row[k] for k in ("qp_assembly", "joint_ranges", "qp_solve", "held", "plant",
+                             "checks", "records")
+        )  # fmt: skip
+        rows.append(row)
+        print(f"control every {row['control']}: {result.summary['simulated']:.2f} s walked in "
+              f"{seconds['wall']:.2f} s ({row['real_time_factor']:.1f}x real time), "
+              f"{row['ratio']:.1f}x the bare plant; every check passed: {result.ok}")  # fmt: skip
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / "walk.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=WALK_COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    text = _markdown(rows, machine(), gait.steps)
+    (folder / "walk.md").write_text(text)
+    print(text)
+    print(f"wrote {folder / 'walk.csv'} and {folder / 'walk.md'}")
+    return 0
+
+
+def _markdown(rows, where: str, steps: int) -> str:
+    ms = [
+        ("wall", "wall"),
+        ("bare_plant", "bare plant"),
+        ("qp_assembly", "QP assembly"),
+        ("joint_ranges", "range rows"),
+        ("qp_solve", "QP solve"),
+        ("held", "held forces"),
+        ("plant", "plant"),
+        ("checks", "checks"),
+        ("records", "records"),
+        ("other", "other"),
+    ]
+    lines = [
+        f"Measured by `humanoid bench walk` on {where}: the male body's welded walk, {steps} "
+        "steps; milliseconds of wall time per simulated second.",
+        "",
+        "| control | real time | x bare plant | " + " | ".join(label for _, label in ms)
+        + " | checks pass |",
+        "|---" * (len(ms) + 4) + "|",
+    ]  # fmt: skip
+    for r in rows:
+        cells = [r["control"], f"{r['real_time_factor']:.1f}x", f"{r['ratio']:.1f}"]
+        cells += [f"{r[k] * 1e3:.1f}" for k, _ in ms]
+        cells.append("yes" if r["checks_passed"] else "no")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
