@@ -205,9 +205,15 @@ class PostureController(Effect):
         else:
             n = int(mask.sum())
             self.kp, self.kd = kp * np.eye(n), kd * np.eye(n)
+        self._gains = np.hstack([self.kp, self.kd])
+        self._x = np.zeros(2 * len(self.kp))
 
     def force(self, model, data, t, q, v):
-        e = pin.difference(model, q, self.q_ref)[self.joints]
+        # tau_j = ff_j + Kp e_j - Kd v_j as one product: [Kp, Kd] @ [e_j; -v_j]
+        x = self._x
+        n = len(x) // 2
+        x[:n] = pin.difference(model, q, self.q_ref)[self.joints]
+        np.negative(v[self.joints], out=x[n:])
         tau = self.feedforward.copy()
-        tau[self.joints] += self.kp @ e - self.kd @ v[self.joints]
+        tau[self.joints] += self._gains @ x
         return tau

@@ -28,7 +28,8 @@ def spd_solve(A: np.ndarray, b: np.ndarray, ridge: float = 0.0) -> np.ndarray:
     """x with (A + ridge * trace(A) / n * I) x = b for a symmetric positive (semi)definite A,
     by Cholesky; least squares if A is numerically singular."""
     if ridge:
-        A = A + (ridge * np.trace(A) / len(A)) * np.eye(len(A))
+        A = A.copy()
+        A.flat[:: len(A) + 1] += ridge * np.trace(A) / len(A)
     potrf, potrs = cholesky_lapack()
     factor, info = potrf(A)
     if info == 0:

@@ -166,11 +166,6 @@ class Simulation:
         """How many steps of dt the scene's duration takes (at least one)."""
         return max(1, int(round(self.scene.duration / self.scene.dt)))
 
-    @property
-    def _forced(self) -> bool:
-        """Whether anything applies a force (else the torques are the shared zero vector)."""
-        return bool(self.effects) or self.controller is not None
-
     def _ground_solver(self, e) -> ContactSolver:
         """The ground contact of the bodies the scene names, and the joint ranges as
         constraints if it asks for them."""
@@ -262,7 +257,7 @@ class Simulation:
         controller: a push that ends exactly at a step boundary would otherwise switch off
         inside the step's last stage, and an adaptive step could never resolve it.
         """
-        if not self._forced:
+        if not self.effects and self.controller is None:
             self.joint_torque = self._zero
             return self._zero
         t, model, data = self._tick, self.model, self.data

@@ -13,9 +13,11 @@ __all__ = [
     "MALE",
     "RECORD_RATE",
     "WALK_STEPS",
+    "best_time",
     "machine",
     "run_scene",
     "state_error",
+    "write_rows",
 ]
 
 MALE = "adult_male"
@@ -65,3 +67,27 @@ def state_error(model, ref, qs, vs) -> float:
         max(np.abs(pin.difference(model, a, b)).max() for a, b in zip(ref.q, qs, strict=True)),
         float(np.abs(np.asarray(vs) - ref.v).max()),
     )
+
+
+def best_time(fn, n: int, rounds: int) -> float:
+    """Best per-call wall time [s] of ``fn()`` over ``rounds`` rounds of ``n`` calls (the
+    machine is shared and noisy: the best round is the least disturbed)."""
+    best = float("inf")
+    for _ in range(rounds):
+        start = time.perf_counter()
+        for _ in range(n):
+            fn()
+        best = min(best, (time.perf_counter() - start) / n)
+    return best
+
+
+def write_rows(path, rows, columns=None) -> None:
+    """``rows`` (dicts) as a CSV file with a header (``columns``, default the first row's keys,
+    in that order; other keys are left out)."""
+    import csv
+
+    columns = list(columns or rows[0])
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)

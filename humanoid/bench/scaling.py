@@ -18,27 +18,17 @@ the native solve: time against the number of constraint rows.
 
 from __future__ import annotations
 
-import csv
-import time
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from .common import best_time, write_rows
+
 __all__ = ["SCALING_COLUMNS", "run_scaling_benchmark"]
 
 SCALING_COLUMNS = ["body", "nv", "aba", "constraint_dynamics", "native"]
 EXTRA = (4, 8, 16, 32)  # extra trunk segments of the synthetic bodies
-
-
-def _best(fn, n: int, rounds: int) -> float:
-    best = float("inf")
-    for _ in range(rounds):
-        start = time.perf_counter()
-        for _ in range(n):
-            fn()
-        best = min(best, (time.perf_counter() - start) / n)
-    return best
 
 
 def _longer_trunk(h, k: int):
@@ -92,8 +82,8 @@ def _case(model, q, frames, n, rounds) -> dict:
         a = solve.acceleration(q, v, tau)
         pin.integrate(model, q, (v + dt * a) * dt)
 
-    return {"aba": _best(aba, n, rounds), "constraint_dynamics": _best(theirs, n, rounds),
-            "native": _best(ours, n, rounds)}  # fmt: skip
+    return {"aba": best_time(aba, n, rounds), "constraint_dynamics": best_time(theirs, n, rounds),
+            "native": best_time(ours, n, rounds)}  # fmt: skip
 
 
 def run_scaling_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
@@ -140,14 +130,8 @@ def run_scaling_benchmark(quick: bool = False, out: str | Path = "results/bench"
               "between the two largest bodies")  # fmt: skip
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "scaling.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=SCALING_COLUMNS)
-        w.writeheader()
-        w.writerows(rows)
-    with open(folder / "scaling_contacts.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=["rows", "native"])
-        w.writeheader()
-        w.writerows(contacts)
+    write_rows(folder / "scaling.csv", rows, SCALING_COLUMNS)
+    write_rows(folder / "scaling_contacts.csv", contacts)
     figure = _plot(rows, contacts, fits, folder / "scaling.png")
     print(f"wrote {folder / 'scaling.csv'}, {folder / 'scaling_contacts.csv'} and {figure}")
     return 0

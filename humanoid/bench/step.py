@@ -17,8 +17,6 @@ fall (see :func:`_ground_steps`).
 
 from __future__ import annotations
 
-import csv
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,22 +24,12 @@ import pinocchio as pin
 
 from ..data import SCENES
 from ..errors import HumanoidError
+from .common import best_time, write_rows
 
 __all__ = ["STEP_COLUMNS", "run_step_benchmark"]
 
 # step.csv's columns (seconds per step), in the order of the README's table
 STEP_COLUMNS = ["scene", "contacts", "pinocchio", "native", "reference", "as shipped"]
-
-
-def _best(fn, n: int, rounds: int) -> float:
-    """Best per-call time [s] over ``rounds`` rounds of ``n`` calls."""
-    best = float("inf")
-    for _ in range(rounds):
-        start = time.perf_counter()
-        for _ in range(n):
-            fn()
-        best = min(best, (time.perf_counter() - start) / n)
-    return best
 
 
 def _pinocchio_step(sim, q, v, dt):
@@ -113,12 +101,12 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
             variants[label] = (sim, q, v)
         sim0, q0, v0 = variants["native"]
         theirs = _pinocchio_step(sim0, q0, v0, scene.dt)
-        times = {"pinocchio": _best(theirs, n, rounds)}
+        times = {"pinocchio": best_time(theirs, n, rounds)}
         for label, (sim, q, v) in variants.items():
-            times[label] = _best(
+            times[label] = best_time(
                 lambda s=sim, q=q, v=v, dt=scene.dt: s.step(0.0, q, v, dt), n, rounds
             )
-            times["pinocchio"] = min(times["pinocchio"], _best(theirs, n, 1))
+            times["pinocchio"] = min(times["pinocchio"], best_time(theirs, n, 1))
         contacts = "+".join(f"{c.foot}:{c.kind}" for c in scene.effects.contacts) or "none"
         rows.append({"scene": scene.name, "contacts": contacts} | times)
 
@@ -139,11 +127,7 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
         raise HumanoidError(f"no scenes to time: none found in {SCENES}")
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "step.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=header)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: r[k] for k in header})
+    write_rows(folder / "step.csv", rows, header)
     print(f"wrote {folder / 'step.csv'}")
     ground_rows = _ground_steps(ground, 0.3 if quick else 2.0, folder)
     report = folder / "speed.md"
@@ -224,9 +208,6 @@ def _ground_steps(paths, duration: float, folder: Path) -> list[dict]:
     for r in rows:
         print(f"{r['scene']:<10} {r['ours'] * 1e6:>10.1f} {r['mujoco'] * 1e6:>10.1f} "
               f"{r['ratio']:>7.1f}")  # fmt: skip
-    with open(folder / "step_ground.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=["scene", "ours", "mujoco", "ratio", "steps"])
-        w.writeheader()
-        w.writerows(rows)
+    write_rows(folder / "step_ground.csv", rows, ["scene", "ours", "mujoco", "ratio", "steps"])
     print(f"wrote {folder / 'step_ground.csv'}")
     return rows

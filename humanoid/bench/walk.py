@@ -14,12 +14,13 @@ run: the walk's cost is read as a multiple of it.
 
 from __future__ import annotations
 
-import csv
 import time
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+
+from .common import write_rows
 
 __all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
 
@@ -183,10 +184,7 @@ def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -
               f"{row['ratio']:.1f}x the bare plant; every check passed: {result.ok}")  # fmt: skip
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "walk.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=WALK_COLUMNS)
-        w.writeheader()
-        w.writerows(rows)
+    write_rows(folder / "walk.csv", rows, WALK_COLUMNS)
     text = _markdown(rows, machine(), gait.steps)
     (folder / "walk.md").write_text(text)
     print(text)

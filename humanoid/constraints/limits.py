@@ -11,7 +11,8 @@ E the map from the angle rates to the joint's angular velocity. Near the triplet
 All ball joints are decomposed at once (batched over the joints): this runs every step. Most
 steps need no decomposition at all: after each one, every ball joint gets a certificate, the
 largest rotation away from its current orientation that cannot bring any of its angles within
-the margin of a limit (see :meth:`JointRanges.rows`), checked with one dot product per joint.
+the margin of a limit (see :meth:`JointRanges.rows`), checked for all of them at once with one
+``pin.difference`` from the configuration certified.
 """
 
 from __future__ import annotations
@@ -106,8 +107,12 @@ class JointRanges:
         self._hJ = np.zeros((2 * nh, self.nv))  # the hinge rows' Jacobian: +-1 on their v
         self._hJ[np.arange(2 * nh), np.concatenate([self.iv, self.iv])] = self._hsign
         self.model = model
-        self._certificate = None  # (margin, reference quaternions, cos of half the rotation)
+        # (margin, the certified q, upper and lower bounds on q (-) q_c per velocity coordinate)
+        self._certificate = None
         self.skipped = False  # whether the last call to rows skipped the decomposition
+        self._no_rows = (np.zeros(0), np.zeros((0, self.nv)))  # (read-only: shared)
+        for a in self._no_rows:
+            a.flags.writeable = False
 
     def angles(self, q, remember: bool = True) -> np.ndarray:
         """Each ball joint's triplet angles [rad], (n_balls, 3).
@@ -190,7 +195,7 @@ class JointRanges:
         clear = self._clear(q, margin) if certified and np.isfinite(margin) else None
         if clear is not None and clear.all():
             self.skipped = True
-            return np.zeros(0), np.zeros((0, self.nv))
+            return self._no_rows
         self.skipped = clear is not None and bool(clear[self._bv3].all())
         r = self._hsign * (q[self._hq] - self._hbound)  # every hinge's lower, then upper rows
         keep = r < margin

@@ -108,15 +108,9 @@ class NativeSolve:
         stacked as the constraints), as :class:`~humanoid.constraints.ConstrainedAcceleration`
         gives them."""
         if self._forces is None:
-            if self.native:
-                self._forces = np.concatenate(
-                    [
-                        cd.contact_force.vector[: c.size]
-                        for c, cd in zip(self.constraints, self.cds, strict=True)
-                    ]  # fmt: skip
-                )
-            else:
-                self._forces = np.array(self.data.lambda_c)
+            # both Pinocchio paths leave the stacked multipliers in data.lambda_c, in the
+            # constraints' own axes (for constraintDynamics: each contact's contact_force)
+            self._forces = np.array(self.data.lambda_c)
         return self._forces
 
     def solution(self) -> NativeSolution:

@@ -202,7 +202,7 @@ def walk(
         record_rate: Records per second in the trajectory [Hz].
         integrator: The simulator's integrator (semi-implicit Euler by default).
         control_dt: The QP's period [s], a whole number of steps (default ``CONTROL_PERIOD``,
-            5 ms, or every step if dt is longer). Between QP ticks the contact forces are held
+            8 ms, or every step if dt is longer). Between QP ticks the contact forces are held
             and the torques follow the state (``WalkingController.held_torques``); the
             consistency check runs on QP ticks.
         rtol, atol: Tolerances of the adaptive integrator (``integrator="adaptive"``), which
