@@ -458,6 +458,9 @@ def _validate(s: Scene) -> None:
             bad(key, f"must be a finite number > 0, got {value!r}")
     if s.dt > s.duration:
         bad("dt", f"the step {s.dt} s is longer than the duration {s.duration} s")
+    if s.stabilisation.backend == "pinocchio":
+        bad("stabilisation.backend", "'pinocchio' is now 'native' (the default): the project's "
+            "constraints solved in Pinocchio's C++")  # fmt: skip
     for registry, value in ((INTEGRATORS, s.integrator), (BALL_JOINTS, s.ball_joints),
                             (MASSLESS, s.massless), (CONTROLLERS, s.controller.kind),
                             (FORMULATIONS, s.stabilisation.quaternions),

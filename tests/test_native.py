@@ -90,3 +90,13 @@ def test_native_solves_redundant_point_contacts(cls):
     assert _close(a, ref.a, 1e-6), np.abs(a - ref.a).max()
     total = solve.forces.reshape(-1, 3).sum(axis=0)
     assert total == pytest.approx(ref.forces.reshape(-1, 3).sum(axis=0), rel=1e-6, abs=1e-6)
+
+
+def test_the_former_pinocchio_backend_is_named_in_the_error():
+    from humanoid.errors import SceneError
+    from humanoid.scene import Scene, Stabilisation
+
+    with pytest.raises(SceneError, match="'pinocchio' is now 'native'"):
+        Scene(stabilisation=Stabilisation(backend="pinocchio")).check(
+            get_model("male", "quaternion")
+        )
