@@ -105,6 +105,7 @@ class WalkingController(Effect):
         self._solved_for = None  # the stance set of the last solve
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
+        self._pyramids = {}  # the friction pyramids' rows by (mu, stance feet, nv)
         self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
         for _ in range(model.njoints):
             self._fext.append(pin.Force.Zero())
@@ -195,16 +196,16 @@ class WalkingController(Effect):
         stance = [s for s in ("left", "right") if s in welds]
         nf = 12 * len(stance)
         n = nv + nf
-        rows, rhs, weights = [], [], []
+        rows, rhs, weights = [], [], []  # the tasks on dv (the posture's is added apart)
 
         def task(J, a, w):
-            rows.append(np.hstack([J, np.zeros((J.shape[0], nf))]))
+            rows.append(J)
             rhs.append(a)
             weights.append(np.full(J.shape[0], w))
 
         # centre of mass
         c_ref, dc_ref, ddc_ref = self.com_reference(t)
-        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
+        c = pin.centerOfMass(model, data, q, v, self._zero)
         dc, drift = data.vcom[0].copy(), data.acom[0].copy()
         Jcom = pin.jacobianCenterOfMass(model, data, q)
         a_com = ddc_ref + g.com_kp * (c_ref - c) + g.com_kd * (dc_ref - dc)
@@ -233,23 +234,24 @@ class WalkingController(Effect):
             yaw = np.arctan2(R[1, 0], R[0, 0])
             err = pin.log3(pin.utils.rotate("z", yaw).T @ R)  # tilt only; yaw left free
             task(J, -g.trunk_kp * (R @ err) - g.trunk_kd * vel - acc, g.w_trunk)
-        # posture
+        # the costs 1/2 sum w |J dv - a|^2 as P, q over x = (dv, f): the tasks' rows, then the
+        # posture (J = the joints' rows of the identity) and the forces' pull added in place
+        B, W = np.vstack(rows), np.concatenate(weights)
+        P = np.zeros((n, n))
+        qv = np.zeros(n)
+        P[:nv, :nv] = B.T @ (W[:, None] * B)
+        qv[:nv] = -B.T @ (W * np.concatenate(rhs))
         e = pin.difference(model, q, self.q_posture)
-        Jp = np.eye(nv)[6:]
-        task(Jp, g.posture_kp * e[6:] - g.posture_kd * v[6:], g.w_posture)
-        A_cost = np.vstack(rows)
-        b_cost = np.concatenate(rhs)
-        W = np.concatenate(weights)
-        P = A_cost.T @ (W[:, None] * A_cost)
-        qv = -A_cost.T @ (W * b_cost)
+        P.flat[6 * (n + 1) : nv * (n + 1) : n + 1] += g.w_posture
+        qv[6:nv] -= g.w_posture * (g.posture_kp * e[6:] - g.posture_kd * v[6:])
         # load sharing: the stance feet share the weight as the ZMP reference says, so that a
         # foot is unloaded when the plan lifts it (forces are in body weights, see below)
         f_ref = np.zeros(nf)
         for k, share in enumerate(self.shares(t, stance, data)):
             f_ref[12 * k + 2 : 12 * k + 12 : 3] = share / 4.0
-        P[nv:, nv:] += g.w_force * np.eye(nf)
+        P.flat[nv * (n + 1) :: n + 1] += g.w_force
         qv[nv:] -= g.w_force * f_ref
-        P[np.diag_indices(n)] += 1e-9
+        P.flat[:: n + 1] += 1e-9
 
         # equalities: base rows of the dynamics, stance-foot accelerations
         Jc = np.zeros((nf, nv))
@@ -268,7 +270,10 @@ class WalkingController(Effect):
         b_eq.append(gamma)
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
         # inequalities: friction pyramids, and the joint ranges' velocity damper
-        G = pyramid_rows(g.mu, 4 * len(stance), n, nv)
+        key = (g.mu, len(stance), nv)
+        if key not in self._pyramids:
+            self._pyramids[key] = pyramid_rows(g.mu, 4 * len(stance), n, nv)
+        G = self._pyramids[key]
         h_ineq = np.zeros(G.shape[0])
         Jr, bound = range_damper(self.ranges, q, v, self.period, RANGE_MARGIN, RANGE_TIME)
         if len(Jr):
