@@ -43,43 +43,21 @@ class LieGroupSpace:
     def __init__(self, model: pin.Model) -> None:
         self.model = model
         self.nq, self.nv = model.nq, model.nv
-        self._blocks = []  # (slice, kind) of joints whose dexp is not the identity
         self._neutral = pin.neutral(model)
-        for jm in model.joints[1:]:
-            s = slice(jm.idx_v, jm.idx_v + jm.nv)
-            name = jm.shortname()
-            if name == "JointModelFreeFlyer":
-                self._blocks.append((s, 6))
-            elif name == "JointModelSpherical":
-                self._blocks.append((s, 3))
-            elif jm.nq != jm.nv and jm.nv > 1:
-                # any other Lie group (planar: SE(2)): Pinocchio's dIntegrate gives the right
-                # Jacobian Jr(d), the same at any base point; the unbounded revolute (SO(2),
-                # cos/sin in q) is abelian and its dexp is the identity
-                self._blocks.append((s, 0))
 
     def integrate(self, q: np.ndarray, d: np.ndarray) -> np.ndarray:
         return pin.integrate(self.model, q, d)
 
     def dexp_inv(self, d: np.ndarray, w: np.ndarray, q=None, qd=None) -> np.ndarray:
         """The rate of the increment d whose end point moves with tangent velocity w:
-        Jr(d)^-1 w, the inverse right Jacobian of the exponential, joint by joint. Given the
-        base point q and qd = q (+) d, one C++ call: Pinocchio's dDifference(q, qd) is
-        Jlog(exp(d)) = Jr(d)^-1 for every joint (block diagonal)."""
-        if q is not None and qd is not None:
-            return pin.dDifference(self.model, q, qd, pin.ARG1) @ w
-        out = w.copy()
-        Jr = None
-        for s, kind in self._blocks:
-            if kind == 6:
-                out[s] = pin.Jlog6(pin.exp6(d[s])) @ w[s]
-            elif kind == 3:
-                out[s] = pin.Jlog3(pin.exp3(d[s])) @ w[s]
-            else:
-                if Jr is None:
-                    Jr = pin.dIntegrate(self.model, self._neutral, d, pin.ARG1)
-                out[s] = np.linalg.solve(Jr[s, s], w[s])
-        return out
+        Jr(d)^-1 w, the inverse right Jacobian of the exponential, joint by joint, in one C++
+        call: Pinocchio's dDifference(q, qd) with qd = q (+) d is Jlog(exp(d)) = Jr(d)^-1 for
+        every joint (block diagonal, the same at any base point q; the neutral configuration
+        when the caller has none)."""
+        if q is None or qd is None:
+            q = self._neutral
+            qd = pin.integrate(self.model, q, d)
+        return pin.dDifference(self.model, q, qd, pin.ARG1) @ w
 
 
 class CoordinateSpace:

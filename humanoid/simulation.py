@@ -384,8 +384,10 @@ class Simulation:
     def step(self, t: float, q, v, dt: float) -> StepResult:
         """Advance (q, v) (or (x, x') in the coordinate formulation) by dt."""
         self._tick = t
+        # nothing but ABA (no contact ever, no effect or controller plugged in): called directly
+        aba_only = self._free and not self.effects and self.controller is None
         if self._euler:  # semi-implicit Euler on the Lie group, inlined (the hot path)
-            if self._free and not self.effects and self.controller is None:
+            if aba_only:
                 a = self._aba(t, q, v)
                 self.last = (self._zero, None)
             else:
@@ -399,8 +401,7 @@ class Simulation:
         if self.ground is not None:
             q_new, v_new = self.ground_step_advance(t, q, v, dt)
             self._first = self.last
-        elif self._free and not self.effects and self.controller is None:
-            # nothing but ABA (and the integrator): evaluated directly, every stage
+        elif aba_only:
             q_new, v_new = self.step_fn(self.space, self._aba, t, q, v, dt)
             self.last = self._first = (self._zero, None)
         elif self.adaptive is not None:

@@ -15,6 +15,7 @@ __all__ = [
     "WALK_STEPS",
     "best_time",
     "machine",
+    "pinocchio_contacts",
     "run_scene",
     "state_error",
     "write_rows",
@@ -79,6 +80,28 @@ def best_time(fn, n: int, rounds: int) -> float:
             fn()
         best = min(best, (time.perf_counter() - start) / n)
     return best
+
+
+def pinocchio_contacts(model, data, welds=(), points=()):
+    """Pinocchio's own rigid constraint models and their datas, built with its API alone (the
+    reference the benchmarks time ours against): each frame id in ``welds`` welded in 6D
+    (LOCAL) where ``data.oMf`` has it, each in ``points`` pinned in 3D (world axes) where it
+    is. ``data`` must hold the frames' placements."""
+    cms = pin.StdVec_RigidConstraintModel()
+    for frames, kind, ref in (
+        (welds, pin.ContactType.CONTACT_6D, pin.LOCAL),
+        (points, pin.ContactType.CONTACT_3D, pin.LOCAL_WORLD_ALIGNED),
+    ):
+        for f in frames:
+            fr = model.frames[f]
+            anchor = data.oMf[f] if kind == pin.ContactType.CONTACT_6D else pin.SE3(
+                np.eye(3), data.oMf[f].translation)  # fmt: skip
+            cms.append(pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0,
+                                                anchor, ref))  # fmt: skip
+    cds = pin.StdVec_RigidConstraintData()
+    for cm in cms:
+        cds.append(cm.createData())
+    return cms, cds
 
 
 def write_rows(path, rows, columns=None) -> None:

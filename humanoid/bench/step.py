@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from ..data import SCENES
 from ..errors import HumanoidError
-from .common import best_time, write_rows
+from .common import best_time, pinocchio_contacts, write_rows
 
 __all__ = ["STEP_COLUMNS", "run_step_benchmark"]
 
@@ -47,22 +47,9 @@ def _pinocchio_step(sim, q, v, dt):
 
         return step
     pin.framesForwardKinematics(model, data, q)
-    cms = pin.StdVec_RigidConstraintModel()
-    for contact in sim.contacts:
-        if contact.spec.kind == "weld":
-            frames, kind, ref = [contact.sole], pin.ContactType.CONTACT_6D, pin.LOCAL
-        else:
-            frames, kind, ref = contact.points, pin.ContactType.CONTACT_3D, pin.LOCAL_WORLD_ALIGNED
-        for f in frames:
-            fr = model.frames[f]
-            anchor = data.oMf[f] if kind == pin.ContactType.CONTACT_6D else pin.SE3(
-                np.eye(3), data.oMf[f].translation
-            )  # fmt: skip
-            cms.append(pin.RigidConstraintModel(kind, model, fr.parentJoint, fr.placement, 0,
-                                                anchor, ref))  # fmt: skip
-    cds = pin.StdVec_RigidConstraintData()
-    for cm in cms:
-        cds.append(cm.createData())
+    welded = [c.sole for c in sim.contacts if c.spec.kind == "weld"]
+    pinned = [p for c in sim.contacts if c.spec.kind != "weld" for p in c.points]
+    cms, cds = pinocchio_contacts(model, data, welded, pinned)
     pin.initConstraintDynamics(model, data, cms, cds)
     redundant = len(cms) > len(sim.contacts)
     prox = pin.ProximalSettings(1e-12, 1e-12, 1e-2 if redundant else 0.0, 50 if redundant else 1)

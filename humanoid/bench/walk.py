@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .common import write_rows
+from .common import pinocchio_contacts, write_rows
 
 __all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
 
@@ -36,8 +36,8 @@ class _Clock:
     def __init__(self) -> None:
         self.total: dict[str, float] = {}
 
-    def wrap(self, owner, name: str, label: str) -> None:
-        fn = getattr(owner, name)
+    def timed(self, fn, label: str):
+        """``fn`` with its wall time added to ``label``'s."""
 
         def timed(*args, **kwargs):
             start = time.perf_counter()
@@ -46,7 +46,11 @@ class _Clock:
             finally:
                 self.total[label] = self.total.get(label, 0.0) + time.perf_counter() - start
 
-        setattr(owner, name, timed)
+        return timed
+
+    def wrap(self, owner, name: str, label: str) -> None:
+        """Time ``owner.name`` under ``label`` from now on."""
+        setattr(owner, name, self.timed(getattr(owner, name), label))
 
 
 def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
@@ -58,11 +62,10 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
     clock = _Clock()
     samples = []
     original = Recorder.add
+    record = clock.timed(original, "records")
 
     def add(rec, sim, t, q, v, step):
-        start = time.perf_counter()
-        original(rec, sim, t, q, v, step)
-        clock.total["records"] = clock.total.get("records", 0.0) + time.perf_counter() - start
+        record(rec, sim, t, q, v, step)
         if len(samples) < 400 and rec.n % 5 == 0:
             samples.append((q.copy(), v.copy(), list(sim.active_constraints())))
 
@@ -81,20 +84,10 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
     monitor_cls = walk_run.WalkMonitor
 
     class Monitor(monitor_cls):
-        def observe(self, *args):
-            start = time.perf_counter()
-            try:
-                return super().observe(*args)
-            finally:
-                clock.total["checks"] = clock.total.get("checks", 0.0) + (
-                    time.perf_counter() - start
-                )
-
-        def series_until(self, n):
-            start = time.perf_counter()
-            out = super().series_until(n)
-            clock.total["checks"] = clock.total.get("checks", 0.0) + time.perf_counter() - start
-            return out
+        def __init__(self, *args) -> None:
+            super().__init__(*args)
+            clock.wrap(self, "observe", "checks")
+            clock.wrap(self, "series_until", "checks")
 
     Recorder.add, walk_run.prepare, walk_run.WalkMonitor = add, prepared, Monitor
     try:
@@ -113,17 +106,12 @@ def _bare_plant(model, samples, dt: float, rounds: int) -> float:
     with its stance welds as Pinocchio's own rigid constraints (best of ``rounds``; a Data is
     initialised per stance, once, as a run does per active set)."""
     cases, datas = [], {}
+    anchors = model.createData()  # the welds' anchors, as oMf of their frames
     for q, v, welds in samples:
-        cms = pin.StdVec_RigidConstraintModel()
         for w in welds:
-            fr = model.frames[w.frame_id]
-            cms.append(pin.RigidConstraintModel(pin.ContactType.CONTACT_6D, model,
-                                                fr.parentJoint, fr.placement, 0, w.anchor,
-                                                pin.ReferenceFrame.LOCAL))  # fmt: skip
-        cds = pin.StdVec_RigidConstraintData()
-        for cm in cms:
-            cds.append(cm.createData())
+            anchors.oMf[w.frame_id] = w.anchor
         stance = tuple(w.frame_id for w in welds)
+        cms, cds = pinocchio_contacts(model, anchors, welds=stance)
         if stance not in datas:
             datas[stance] = model.createData()
             pin.initConstraintDynamics(model, datas[stance], cms, cds)

@@ -197,9 +197,9 @@ class JointRanges:
             self.skipped = True
             return self._no_rows
         self.skipped = clear is not None and bool(clear[self._bv3].all())
-        r = self._hsign * (q[self._hq] - self._hbound)  # every hinge's lower, then upper rows
+        r, J = self.hinge_rows(q)
         keep = r < margin
-        J = self._hJ[keep]
+        J = J[keep]
         if self.skipped:
             return r[keep], J
         th = self._angles(q) if self.balls else None

@@ -73,7 +73,6 @@ class NativeSolve:
         twins = [c.twin(model, baumgarte) for c in self.constraints]
         self.native = all(t is not None for t in twins)
         self.data = model.createData()
-        self.size = sum(c.size for c in self.constraints)
         if self.native:
             self.cms = pin.StdVec_RigidConstraintModel()
             for t in twins:
@@ -84,12 +83,10 @@ class NativeSolve:
             pin.initConstraintDynamics(model, self.data, self.cms, self.cds)
             self.prox = proximal_settings(redundant)
         self.a = np.zeros(model.nv)
-        self._forces = None
 
     def acceleration(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """The constrained acceleration under ``tau`` (joint torques and external forces as
         generalised forces; gravity and velocity terms are the model's), a new array."""
-        self._forces = None
         if self.native:
             self.a = pin.constraintDynamics(
                 self.model, self.data, q, v, tau, self.cms, self.cds, self.prox
@@ -106,17 +103,9 @@ class NativeSolve:
     def forces(self) -> np.ndarray:
         """The constraint forces of the last call (ground on body, in each constraint's axes,
         stacked as the constraints), as :class:`~humanoid.constraints.ConstrainedAcceleration`
-        gives them."""
-        if self._forces is None:
-            # both Pinocchio paths leave the stacked multipliers in data.lambda_c, in the
-            # constraints' own axes (for constraintDynamics: each contact's contact_force)
-            self._forces = np.array(self.data.lambda_c)
-        return self._forces
-
-    def solution(self) -> NativeSolution:
-        """The last call's result, detached from Pinocchio's buffers lazily (see
-        :class:`NativeSolution`)."""
-        return NativeSolution(self)
+        gives them; a new array. Both Pinocchio paths leave the stacked multipliers in
+        data.lambda_c (for constraintDynamics: each contact's contact_force)."""
+        return np.array(self.data.lambda_c)
 
 
 class NativeSolution:
@@ -134,7 +123,7 @@ class NativeSolution:
     @property
     def forces(self) -> np.ndarray:
         if self._forces is None:
-            self._forces = self._solve.forces.copy()
+            self._forces = self._solve.forces
         return self._forces
 
     def freeze(self) -> None:

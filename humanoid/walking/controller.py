@@ -153,9 +153,10 @@ class WalkingController(Effect):
         dv, fext, Jr = self._held
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)  # the welds' residuals read the soles' placements
+        for w in welds:  # the welds' residuals read their soles' placements (only theirs)
+            pin.updateFramePlacement(model, data, w.frame_id)
         J, gamma = stack(model, data, welds, v, self.baumgarte)
-        M = self._mass_matrix(q)
+        M = pin.crba(model, data, q)  # both triangles (tests/test_dynamics.py)
         tau = pin.rnea(model, data, q, v, dv, fext)
         # hinges that dv would drive through their damper in the next step get the damper's
         # bound as their acceleration (r' + dt r'' >= -r / RANGE_TIME; J is constant on a hinge)
@@ -169,10 +170,6 @@ class WalkingController(Effect):
         tau -= M @ d
         tau[:6] = 0.0
         return tau
-
-    def _mass_matrix(self, q) -> np.ndarray:
-        """M(q) (Pinocchio's binding fills both triangles: tests/test_dynamics.py)."""
-        return pin.crba(self.model, self.data, q)
 
     # -- references ----------------------------------------------------------------------
     def com_reference(self, t):
@@ -191,7 +188,7 @@ class WalkingController(Effect):
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        M = self._mass_matrix(q)
+        M = pin.crba(model, data, q)  # both triangles (tests/test_dynamics.py)
         hvec = pin.nle(model, data, q, v)
         stance = [s for s in ("left", "right") if s in welds]
         nf = 12 * len(stance)
