@@ -50,6 +50,8 @@ __all__ = ["ContactState", "Simulation", "StepResult", "Trajectory", "simulate"]
 MAX_SPEED = 1e4  # [m/s or rad/s] beyond this the state counts as diverged
 GIMBAL_TOLERANCE = 1e-3  # |cos(middle angle)| below this: a hinge triplet is at gimbal lock
 GROUND_TOLERANCE = 1e-6  # [m] a sole point this close to z = 0 touches the ground
+# ABA's world-frame variant: the same accelerations (to 1e-12), 10 % faster on the bodies here
+_WORLD = pin.Convention.WORLD
 
 
 class StepResult:
@@ -307,7 +309,8 @@ class Simulation:
             self.counters["aba"] += 1
             self.last = (self.joint_torque, None)
             # a new array (Pinocchio's bindings copy data.ddq out)
-            return pin.aba(self.model, self.data, q, v if self.velocity_terms else self._zero, tau)
+            return pin.aba(self.model, self.data, q, v if self.velocity_terms else self._zero, tau,
+                           _WORLD)  # fmt: skip
         self.counters["kkt"] += 1
         if self._native_backend:
             return self._native(q, v, tau, constraints)
@@ -321,7 +324,7 @@ class Simulation:
     def _aba(self, t, q, v) -> np.ndarray:
         """dv/dt of a scene without contacts, effects or controller: ABA (a new array)."""
         self.counters["aba"] += 1
-        return pin.aba(self.model, self.data, q, v, self._zero)
+        return pin.aba(self.model, self.data, q, v, self._zero, _WORLD)
 
     def _native(self, q, v, tau, constraints):
         """The native backend: the active set solved in Pinocchio's C++ (prepared once per

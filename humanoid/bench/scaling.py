@@ -64,7 +64,7 @@ def _case(model, q, frames, n, rounds) -> dict:
     data = model.createData()
 
     def aba():
-        a = pin.aba(model, data, q, v, tau)
+        a = pin.aba(model, data, q, v, tau, pin.Convention.WORLD)
         pin.integrate(model, q, (v + dt * a) * dt)
 
     welds = _welds(model, frames, q)

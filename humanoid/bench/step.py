@@ -42,7 +42,7 @@ def _pinocchio_step(sim, q, v, dt):
     if not sim.active_constraints():
 
         def step():
-            a = pin.aba(model, data, q, v, tau)
+            a = pin.aba(model, data, q, v, tau, pin.Convention.WORLD)
             pin.integrate(model, q, (v + dt * a) * dt)
 
         return step
