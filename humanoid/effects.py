@@ -50,6 +50,12 @@ class Effect(ABC):
         """Generalised force [N, N m], shape (nv,), or None when the effect adds nothing at
         (t, q, v) (a push outside its window, every joint inside its range)."""
 
+    def implicit(self, nv: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The effect's stiffness and damping, K = -d(force)/dq and D = -d(force)/dv, as
+        constant (nv, nv) matrices, for a step that takes them implicitly (the ground contact's
+        velocity-level step); None if the effect is not a linear spring-damper."""
+        return None
+
 
 class JointDamping(Effect):
     """tau = -c v on the joints [c in N m s/rad]."""
@@ -217,3 +223,13 @@ class PostureController(Effect):
         tau = self.feedforward.copy()
         tau[self.joints] += self._gains @ x
         return tau
+
+    def implicit(self, nv):
+        K, D = np.zeros((nv, nv)), np.zeros((nv, nv))
+        j = (
+            (self.joints,) * 2
+            if isinstance(self.joints, slice)
+            else np.ix_(self.joints, self.joints)
+        )
+        K[j], D[j] = self.kp, self.kd
+        return K, D
