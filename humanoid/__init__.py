@@ -23,6 +23,7 @@ from .errors import (
     HumanoidError,
     ModelError,
     SceneError,
+    StudyError,
     TrajectoryError,
 )
 from .model import Humanoid, example_robot_names, load, load_example
@@ -42,6 +43,7 @@ __all__ = [
     "Scene",
     "SceneError",
     "Segment",
+    "StudyError",
     "Trajectory",
     "TrajectoryError",
     "bias_forces",

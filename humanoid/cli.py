@@ -279,6 +279,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")
+    from .study.commands import add_sweep_parser
+
+    add_sweep_parser(command)
     return p
 
 
@@ -315,6 +318,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "ik": ("output", "figure", "html", "save_markers"),
     "track": ("output", "figure", "html", "mot"),
     "bench": ("output",),
+    "sweep": ("output",),
 }
 
 
@@ -350,7 +354,7 @@ def main(argv: list[str] | None = None) -> int:
             value = getattr(args, name, None)
             if value is not None:
                 option = "--" + name.replace("_", "-") if name != "output" else "-o"
-                check_output(value, option, folder=args.command == "bench")
+                check_output(value, option, folder=args.command in ("bench", "sweep"))
         return _dispatch(args)
     except HumanoidError as exc:
         print(f"humanoid {args.command}: error: {exc}", file=sys.stderr)
@@ -393,6 +397,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_track
 
         return run_track(args)
+    if args.command == "sweep":
+        from .study.commands import run_sweep
+
+        return run_sweep(args)
     if args.command == "bench":
         if args.kind == "motion":
             from .bench.motion import run_motion_benchmark

@@ -29,6 +29,12 @@ class SceneError(HumanoidError, ValueError):
     """A scene file or scene value is invalid (unknown key, wrong type, impossible value)."""
 
 
+class StudyError(HumanoidError, ValueError):
+    """A study file is invalid: it names the file and the key (unknown parameter, wrong type,
+    a body out of range, a scene value the scene refuses), or its output folder holds another
+    study's results."""
+
+
 class TrajectoryError(HumanoidError, ValueError):
     """A saved run (.npz) cannot be read: missing, truncated, corrupt or inconsistent."""
 

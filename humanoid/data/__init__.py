@@ -4,6 +4,8 @@
   (``adult_male``: 1.75 m, 75 kg; ``adult_female``: 1.62 m, 62 kg).
 - **Scenes** (``scenes/*.toml``): ``standing``, ``push``, ``tumble``, ``collapse``, ``drop``,
   ``balance``, ``slide``.
+- **Studies** (``studies/*.toml``, also in the repository's ``models/studies/``):
+  ``push_standing``, ``walk_speed`` (``humanoid sweep NAME``).
 
 Wherever a body is asked for (:func:`humanoid.load`, a scene's ``[body] urdf``, the CLI's
 ``--model``) a shipped body's name or an example-robot-data robot's name (``"talos"``) may
@@ -15,10 +17,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["BODIES", "SCENES", "body_names", "body_path", "scene_names", "scene_path"]
+__all__ = ["BODIES", "SCENES", "STUDIES", "body_names", "body_path", "scene_names", "scene_path",
+           "study_names", "study_path"]  # fmt: skip
 
 BODIES = Path(__file__).resolve().parent / "bodies"
 SCENES = Path(__file__).resolve().parent / "scenes"
+STUDIES = Path(__file__).resolve().parent / "studies"
 
 
 def body_names() -> tuple[str, ...]:
@@ -39,3 +43,13 @@ def body_path(name: str) -> Path | None:
 def scene_path(name: str) -> Path | None:
     """The TOML file of a shipped scene, or None if no shipped scene has that name."""
     return SCENES / f"{name}.toml" if name in scene_names() else None
+
+
+def study_names() -> tuple[str, ...]:
+    """Names of the shipped studies."""
+    return tuple(sorted(p.stem for p in STUDIES.glob("*.toml")))
+
+
+def study_path(name: str) -> Path | None:
+    """The TOML file of a shipped study, or None if no shipped study has that name."""
+    return STUDIES / f"{name}.toml" if name in study_names() else None

@@ -1,0 +1,80 @@
+"""``humanoid sweep``: run a study file (or a shipped study by name) and draw its figure."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import StudyError
+
+__all__ = ["add_sweep_parser", "run_sweep"]
+
+
+def add_sweep_parser(command) -> None:
+    s = command("sweep", help="run a study: many runs on Dask, one Parquet row each, resumable")
+    s.add_argument("study", help="a study file (TOML), or a shipped study: push_standing, "
+                   "walk_speed")  # fmt: skip
+    s.add_argument("-o", "--output", help="the study's folder (default results/studies/NAME)")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786) instead of a local "
+                   "cluster; its workers need humanoid installed")  # fmt: skip
+    s.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    s.add_argument("--serial", action="store_true",
+                   help="run in this process, one run after another (no Dask)")  # fmt: skip
+    s.add_argument("--retry-failed", action="store_true",
+                   help="run again the runs whose rows say failed or error")  # fmt: skip
+    s.add_argument("--fresh", action="store_true",
+                   help="discard the folder's results and start over")  # fmt: skip
+    s.add_argument("--list", action="store_true",
+                   help="list the runs and what each costs so far; run nothing")  # fmt: skip
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def resolve(name: str) -> Path:
+    from ..data import study_names, study_path
+
+    p = Path(name)
+    if p.is_file():
+        return p
+    shipped = study_path(name)
+    if shipped is not None:
+        return shipped
+    raise StudyError(f"no study file {name} (shipped studies: {', '.join(study_names())})")
+
+
+def run_sweep(args) -> int:
+    from .figures import plot_study
+    from .spec import load_study
+    from .store import read_table
+    from .sweep import default_folder, run_study
+
+    study = load_study(resolve(args.study))
+    folder = Path(args.output) if args.output else default_folder(study)
+    runs = study.runs()
+    if args.list:
+        rows = {r["run"]: r for r in read_table(folder)}
+        for run in runs:
+            r = rows.get(run.id)
+            state = f"{r['status']:<10} {r['wall_time']:7.2f} s" if r else "pending"
+            params = ", ".join(f"{k}={v}" for k, v in run.params.items())
+            print(f"{run.index:5d} {run.id} {state:<20} {params}")
+        return 0
+    if args.workers is not None and args.workers < 1:
+        raise StudyError(f"--workers must be at least 1, got {args.workers}")
+    print(f"study {study.name}: {len(runs)} runs ({study.source}) -> {folder}", flush=True)
+    result = run_study(study, folder, scheduler=args.scheduler, workers=args.workers,
+                       serial=args.serial, retry_failed=args.retry_failed, fresh=args.fresh,
+                       quiet=args.quiet)  # fmt: skip
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(result.statuses.items()))
+    print(f"runs         {result.total}: {counts}")
+    print(f"this time    {result.ran} ran, {result.skipped} were already done")
+    if result.ran:
+        print(f"wall time    {result.wall:.1f} s; the runs' own time {result.run_time:.1f} s "
+              f"({result.speedup:.2f} x on {result.workers} worker(s))")  # fmt: skip
+    print(f"table        {result.table}")
+    if result.interrupted:
+        print("interrupted: the rows so far are saved; the same command finishes the rest")
+        return 3
+    figure = plot_study(read_table(result.table), study.figure, folder / "figure.png")
+    if figure is not None:
+        print(f"figure       {figure}")
+    return 0

@@ -1,0 +1,291 @@
+"""Studies (`humanoid sweep`): the Parquet rows from a 2-worker Dask cluster equal a serial run
+of the same study exactly; a study killed half way finishes only the remaining runs when run
+again; a worker killed mid-run is replaced and its run retried, every row present once; a run
+that raises is a failed row with its message; a bad study file is a StudyError naming the key.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from humanoid.errors import StudyError
+from humanoid.study import load_study, parse_study, read_table, run_study
+from humanoid.study.figures import best_per_group, largest_per_group, plot_study
+
+# a small study: the welded standing scene for 0.6 s, 2 bodies x 3 pushes (about 0.5 s a run),
+# and a run whose push names no frame of the body (it raises: a failed row)
+TINY = """
+[study]
+name = "tiny"
+run = "scene"
+scene = "standing"
+
+[set]
+"scene.duration" = 0.6
+"push.start" = 0.1
+"push.duration" = 0.2
+"body.sex" = "female"
+"body.bmi" = 22.0
+
+[grid]
+"body.height" = [1.55, 1.85]
+"push.fraction" = [0.05, 0.1, 0.2]
+"push.frame" = ["thorax"]
+"""
+BROKEN_RUN = TINY.replace('"push.frame" = ["thorax"]', '"push.frame" = ["thorax", "tail"]')
+VOLATILE = ("wall_time", "worker")  # the columns that differ between two runs of one study
+
+
+def _study(tmp_path: Path, text: str = TINY, name: str = "tiny.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return load_study(path)
+
+
+def _same(a: list[dict], b: list[dict]) -> None:
+    """The tables hold the same runs with bitwise the same values (NaN equal to NaN)."""
+    assert [r["run"] for r in a] == [r["run"] for r in b]
+    for x, y in zip(a, b, strict=True):
+        assert set(x) == set(y)
+        for k in x:
+            if k in VOLATILE:
+                continue
+            same = x[k] == y[k] or (
+                isinstance(x[k], float) and math.isnan(x[k]) and math.isnan(y[k])
+            )
+            assert same, (x["run"], k, x[k], y[k])
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A 2-worker LocalCluster (worker processes, as `humanoid sweep` starts) and its client."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
+            Client(c) as client:  # fmt: skip
+        yield client
+
+
+@pytest.fixture(scope="module")
+def serial_rows(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("serial")
+    study = _study(tmp, BROKEN_RUN)
+    result = run_study(study, tmp / "out", serial=True, quiet=True)
+    assert result.ran == 12 and result.skipped == 0
+    return read_table(result.table)
+
+
+def test_a_cluster_gives_the_rows_of_a_serial_run(tmp_path, cluster, serial_rows):
+    study = _study(tmp_path, BROKEN_RUN)
+    result = run_study(study, tmp_path / "out", client=cluster, quiet=True)
+    assert result.ran == 12 and result.workers == 2
+    rows = read_table(result.table)
+    _same(rows, serial_rows)
+    workers = {r["worker"] for r in rows}
+    assert len(workers) == 2  # both workers ran some
+    assert os.getpid() not in {int(w.rsplit(":", 1)[1]) for w in workers}
+
+
+def test_a_run_that_raises_is_a_failed_row_with_its_message(serial_rows):
+    failed = [r for r in serial_rows if r["push.frame"] == "tail"]
+    assert len(failed) == 6 and all(r["status"] == "failed" for r in failed)
+    assert all("no frame 'tail'" in r["message"] for r in failed)
+    assert all(math.isnan(r["pelvis_min"]) for r in failed)
+    good = [r for r in serial_rows if r["push.frame"] == "thorax"]
+    assert all(r["status"] == "completed" and r["message"] == "" for r in good)
+    # the push is the fraction of the run's own body weight, 9.81 m/s^2
+    for r in good:
+        assert abs(r["push_force"] - r["push.fraction"] * r["mass"] * 9.81) < 1e-9 * r["mass"]
+        assert abs(r["mass"] - 22.0 * r["body.height"] ** 2) < 1e-9
+
+
+def test_the_same_study_again_runs_nothing(tmp_path):
+    study = _study(tmp_path)
+    first = run_study(study, tmp_path / "out", serial=True, quiet=True)
+    again = run_study(study, tmp_path / "out", serial=True, quiet=True)
+    assert (first.ran, again.ran, again.skipped) == (6, 0, 6)
+    _same(read_table(first.table), read_table(again.table))
+    assert [r["wall_time"] for r in read_table(first.table)] == [
+        r["wall_time"] for r in read_table(again.table)
+    ]
+
+
+def test_a_killed_study_finishes_the_remaining_runs_only(tmp_path, serial_rows):
+    """`humanoid sweep` killed (SIGKILL, the whole process group: the study and its workers)
+    once some rows are written; the same command again runs the others, and the table equals
+    the serial run's."""
+    path = tmp_path / "tiny.toml"
+    path.write_text(BROKEN_RUN)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "humanoid", "sweep", str(path), "-o", str(out),
+           "--workers", "2", "--quiet"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            start_new_session=True)  # fmt: skip
+    table = out / "results.parquet"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if table.is_file() and 2 <= len(read_table(table)) < 12:
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    before = {r["run"]: r for r in read_table(table)}
+    assert 2 <= len(before) < 12, len(before)
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"{12 - len(before)} ran, {len(before)} were already done" in done.stdout
+    after = read_table(table)
+    _same(after, serial_rows)
+    for r in after:  # the first session's rows are kept as they were
+        if r["run"] in before:
+            assert r["wall_time"] == before[r["run"]]["wall_time"]
+            assert r["worker"] == before[r["run"]]["worker"]
+
+
+def test_a_worker_killed_mid_run_is_replaced_and_the_run_retried(tmp_path, serial_rows):
+    """A worker process is SIGKILLed while it runs a task: the nanny starts a new one, the
+    scheduler reruns the task, and the study ends with every row once, equal to serial."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    study = _study(tmp_path, BROKEN_RUN)
+    box = {}
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
+            Client(c) as client:  # fmt: skip
+        before = set(client.run(os.getpid).values())
+
+        def go():
+            box["result"] = run_study(study, tmp_path / "out", client=client, quiet=True)
+
+        thread = threading.Thread(target=go)
+        thread.start()
+        victim = None
+        deadline = time.monotonic() + 60
+        while victim is None and time.monotonic() < deadline:
+            busy = [w for w, tasks in client.processing().items() if tasks]
+            if busy:
+                time.sleep(0.2)  # inside the run
+                victim = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+            time.sleep(0.02)
+        assert victim is not None
+        os.kill(victim, signal.SIGKILL)
+        thread.join(timeout=240)
+        assert not thread.is_alive()
+        client.wait_for_workers(2, timeout=60)
+        after = set(client.run(os.getpid).values())
+    assert victim in before and victim not in after  # a new worker took its place
+    result = box["result"]
+    assert result.ran == 12
+    rows = read_table(result.table)
+    assert len({r["run"] for r in rows}) == len(rows) == 12
+    _same(rows, serial_rows)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (('"body.bmi" = 22.0', '"body.bmx" = 22.0'), "set.body.bmx: unknown parameter"),
+        (("[1.55, 1.85]", "[1.55, 3.1]"), "grid.body.height: run 3"),
+        (('name = "tiny"', 'name = "a/b"'), "study.name"),
+        (('scene = "standing"', 'scene = "nowhere"'), "study.scene"),
+        (('"scene.duration" = 0.6', '"scene.integrator" = "leapfrog"'), "scene.integrator"),
+        (('"scene.duration" = 0.6', '"walk.speed" = 1.2'), "set.walk.speed: walk.* parameters"),
+        (('"push.start" = 0.1', '"push.start" = "soon"'), "set.push.start: a positive number"),
+        (('"push.fraction" = [0.05, 0.1, 0.2]', '"push.fraction" = []'), "grid.push.fraction"),
+        (('"body.bmi" = 22.0', '"body.mass" = 60.0\n"body.bmi" = 22.0'), "not both"),
+        (("[grid]", "[grids]"), "grids: unknown section"),
+        (('run = "scene"', 'run = "dance"'), "study.run"),
+    ],
+)
+def test_a_bad_study_file_names_the_key(tmp_path, edit, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(TINY.replace(*edit))
+    with pytest.raises(StudyError, match="bad.toml") as err:
+        load_study(path)
+    assert message in str(err.value)
+
+
+def test_bad_samples_and_figures_name_the_key():
+    base = {"study": {"name": "s", "run": "walk"}, "set": {"body.bmi": 22.0, "body.sex": "male"}}
+    cases = [
+        ({"sample": {"n": 3, "body.height": {"gauss": [1.7, 0.1]}}}, "sample.body.height"),
+        ({"sample": {"n": 0, "body.height": {"normal": [1.7, 0.1]}}}, "sample.n"),
+        ({"sample": {"n": 2, "body.height": {"uniform": [1.9, 1.7]}}}, "uniform"),
+        (
+            {
+                "grid": {"body.height": [1.7]},
+                "figure": {"kind": "best", "value": "speed", "of": "joy", "x": "body.height"},
+            },
+            "figure.of",
+        ),  # fmt: skip
+    ]
+    for extra, message in cases:
+        with pytest.raises(StudyError, match=message):
+            parse_study({**base, **extra}, source="s.toml")
+
+
+def test_samples_are_seeded_and_clipped():
+    doc = {"study": {"name": "s", "run": "walk", "seed": 7},
+           "set": {"body.bmi": 22.0},
+           "grid": {"walk.speed_ratio": [0.9, 1.1]},
+           "sample": {"n": 50, "body.height": {"normal": [1.7, 0.2], "clip": [1.5, 1.9]},
+                      "body.sex": {"choice": ["male", "female"]}}}  # fmt: skip
+    a, b = parse_study(doc).runs(), parse_study(doc).runs()
+    assert len(a) == 100 and [r.params for r in a] == [r.params for r in b]
+    assert [r.id for r in a] == [r.id for r in b] and len({r.id for r in a}) == 100
+    heights = [r.params["body.height"] for r in a]
+    assert min(heights) == 1.5 and max(heights) == 1.9  # clipped (a 0.2 m spread reaches both)
+    assert {r.params["body.sex"] for r in a} == {"male", "female"}
+    doc["study"]["seed"] = 8
+    assert [r.params for r in parse_study(doc).runs()] != [r.params for r in a]
+
+
+def test_the_figures_reduce_the_table_as_stated(tmp_path):
+    rows = []
+    for sex in ("female", "male"):
+        for h in (1.6, 1.8):
+            for f in (0.1, 0.2, 0.3):
+                survived = f < (0.25 if h == 1.8 else 0.15) + (0.1 if sex == "male" else 0)
+                rows.append({"body.sex": sex, "body.height": h, "push.fraction": f,
+                             "survived": survived, "status": "completed",
+                             "speed": f, "cost": (f - h / 9) ** 2})  # fmt: skip
+    fig = {"kind": "largest", "value": "push.fraction", "where": "survived",
+           "x": "body.height", "panels": "body.sex"}  # fmt: skip
+    largest = largest_per_group(rows, fig)
+    assert largest == {("female", None, 1.6): 0.1, ("female", None, 1.8): 0.2,
+                       ("male", None, 1.6): 0.2, ("male", None, 1.8): 0.3}  # fmt: skip
+    best = best_per_group(rows, {"kind": "best", "value": "speed", "of": "cost",
+                                 "x": "body.height", "series": "body.sex"})  # fmt: skip
+    assert best[(None, "female", 1.6)][0] == 0.2 and best[(None, "male", 1.8)][0] == 0.2
+    for f in (fig, {"kind": "best", "value": "speed", "of": "cost", "x": "body.height"}):
+        path = plot_study(rows, f, tmp_path / f"{f['kind']}.png")
+        assert path.stat().st_size > 10_000
+
+
+def test_the_shipped_studies_load_and_their_folders_are_guarded(tmp_path):
+    """Both shipped studies load (every run's body and scene checked) with the run counts
+    the README gives; a folder holding another study's results is refused."""
+    from humanoid.study.commands import resolve
+
+    push, walk = load_study(resolve("push_standing")), load_study(resolve("walk_speed"))
+    assert len(push.runs()) == 5 * 5 * 2 * 15 and len(walk.runs()) == 5 * 2 * 5
+    repo = Path(__file__).resolve().parents[1] / "models" / "studies"
+    assert (repo / "push_standing.toml").read_text() == resolve("push_standing").read_text()
+    tiny = _study(tmp_path)
+    run_study(tiny, tmp_path / "out", serial=True, quiet=True)
+    with pytest.raises(StudyError, match="another study"):
+        run_study(push, tmp_path / "out", serial=True, quiet=True)
