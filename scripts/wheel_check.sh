@@ -49,5 +49,11 @@ echo "ik and id of a BVH: $(grep -c . stand_id.sto) lines of generalised forces"
 rows=$(($(wc -l < bench/step.csv) - 1))
 if [ "$rows" -lt 1 ]; then echo "bench step wrote no rows" >&2; exit 1; fi
 echo "bench step --quick: $rows scenes timed"
+runs=$("$BIN/humanoid" sweep push_standing --list | wc -l)
+if [ "$runs" -ne 750 ]; then echo "the shipped push_standing study lists $runs runs" >&2; exit 1; fi
+printf '[study]\nname = "tiny"\nscene = "standing"\n[set]\n"scene.duration" = 0.2\n[grid]\n"scene.dt" = [0.001, 0.002]\n' > tiny.toml
+"$BIN/humanoid" sweep tiny.toml --workers 2 --quiet > sweep.txt
+grep -q "runs         2: 2 completed" sweep.txt || { cat sweep.txt >&2; exit 1; }
+echo "sweep: a 2-run study on a 2-worker Dask cluster; the shipped study lists $runs runs"
 "$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md"
 echo "== wheel check passed"

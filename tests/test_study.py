@@ -19,7 +19,12 @@ import pytest
 
 from humanoid.errors import StudyError
 from humanoid.study import load_study, parse_study, read_table, run_study
-from humanoid.study.figures import best_per_group, largest_per_group, plot_study
+from humanoid.study.figures import (
+    best_per_group,
+    mean_per_group,
+    plot_study,
+    threshold_per_group,
+)
 
 # a small study: the welded standing scene for 0.6 s, 2 bodies x 3 pushes (about 0.5 s a run),
 # and a run whose push names no frame of the body (it raises: a failed row)
@@ -258,20 +263,27 @@ def test_the_figures_reduce_the_table_as_stated(tmp_path):
     rows = []
     for sex in ("female", "male"):
         for h in (1.6, 1.8):
-            for f in (0.1, 0.2, 0.3):
+            for f in (0.1, 0.2, 0.3, 0.4):
                 survived = f < (0.25 if h == 1.8 else 0.15) + (0.1 if sex == "male" else 0)
+                survived |= (sex, h, f) == ("female", 1.6, 0.3)  # survived again above
                 rows.append({"body.sex": sex, "body.height": h, "push.fraction": f,
                              "survived": survived, "status": "completed",
                              "speed": f, "cost": (f - h / 9) ** 2})  # fmt: skip
-    fig = {"kind": "largest", "value": "push.fraction", "where": "survived",
+    fig = {"kind": "threshold", "value": "push.fraction", "where": "survived",
            "x": "body.height", "panels": "body.sex"}  # fmt: skip
-    largest = largest_per_group(rows, fig)
-    assert largest == {("female", None, 1.6): 0.1, ("female", None, 1.8): 0.2,
-                       ("male", None, 1.6): 0.2, ("male", None, 1.8): 0.3}  # fmt: skip
+    found = threshold_per_group(rows, fig)
+    assert found == {("female", None, 1.6): (0.1, [0.3]), ("female", None, 1.8): (0.2, []),
+                     ("male", None, 1.6): (0.2, []), ("male", None, 1.8): (0.3, [])}  # fmt: skip
     best = best_per_group(rows, {"kind": "best", "value": "speed", "of": "cost",
                                  "x": "body.height", "series": "body.sex"})  # fmt: skip
     assert best[(None, "female", 1.6)][0] == 0.2 and best[(None, "male", 1.8)][0] == 0.2
-    for f in (fig, {"kind": "best", "value": "speed", "of": "cost", "x": "body.height"}):
+    line = {"kind": "line", "value": "speed", "reference": "cost", "x": "body.height",
+            "series": "body.sex"}  # fmt: skip
+    rows[0]["status"] = "fell"  # left out of the mean
+    mean = mean_per_group(rows, line)
+    assert mean[(None, "female", 1.6)] == pytest.approx(0.3)  # (0.2 + 0.3 + 0.4) / 3
+    assert mean[(None, "male", 1.8)] == pytest.approx(0.25)
+    for f in (fig, line, {"kind": "best", "value": "speed", "of": "cost", "x": "body.height"}):
         path = plot_study(rows, f, tmp_path / f"{f['kind']}.png")
         assert path.stat().st_size > 10_000
 
@@ -282,10 +294,36 @@ def test_the_shipped_studies_load_and_their_folders_are_guarded(tmp_path):
     from humanoid.study.commands import resolve
 
     push, walk = load_study(resolve("push_standing")), load_study(resolve("walk_speed"))
-    assert len(push.runs()) == 5 * 5 * 2 * 15 and len(walk.runs()) == 5 * 2 * 5
+    assert len(push.runs()) == 5 * 5 * 2 * 15 and len(walk.runs()) == 5 * 2 * 3
     repo = Path(__file__).resolve().parents[1] / "models" / "studies"
     assert (repo / "push_standing.toml").read_text() == resolve("push_standing").read_text()
     tiny = _study(tmp_path)
     run_study(tiny, tmp_path / "out", serial=True, quiet=True)
     with pytest.raises(StudyError, match="another study"):
         run_study(push, tmp_path / "out", serial=True, quiet=True)
+
+
+def test_sweep_on_an_existing_scheduler_and_its_report(tmp_path, cluster, serial_rows):
+    """`humanoid sweep --scheduler ADDRESS` runs the study on that cluster unchanged; the
+    report counts the runs by status; a second invocation runs nothing; --list shows each
+    run's state; bad input is one line on stderr with exit code 2."""
+    path = tmp_path / "tiny.toml"
+    path.write_text(BROKEN_RUN)
+    out = tmp_path / "out"
+    address = cluster.scheduler.address
+    base = [sys.executable, "-m", "humanoid", "sweep", str(path), "-o", str(out), "--quiet"]
+    first = subprocess.run([*base, "--scheduler", address], capture_output=True, text=True,
+                           timeout=300)  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    assert "runs         12: 6 completed, 6 failed" in first.stdout
+    assert "12 ran, 0 were already done" in first.stdout
+    _same(read_table(out), serial_rows)
+    again = subprocess.run(base + ["--serial"], capture_output=True, text=True, timeout=120)
+    assert "0 ran, 12 were already done" in again.stdout
+    listed = subprocess.run(base + ["--list"], capture_output=True, text=True, timeout=120)
+    lines = listed.stdout.splitlines()
+    assert len(lines) == 12 and sum("failed" in line for line in lines) == 6
+    bad = subprocess.run([sys.executable, "-m", "humanoid", "sweep", str(tmp_path / "no.toml")],
+                         capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert bad.returncode == 2 and bad.stderr.startswith("humanoid sweep: error: no study file")
+    assert "Traceback" not in bad.stderr

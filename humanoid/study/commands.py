@@ -42,7 +42,7 @@ def resolve(name: str) -> Path:
 
 
 def run_sweep(args) -> int:
-    from .figures import plot_study
+    from .figures import plot_study, result_table
     from .spec import load_study
     from .store import read_table
     from .sweep import default_folder, run_study
@@ -74,7 +74,15 @@ def run_sweep(args) -> int:
     if result.interrupted:
         print("interrupted: the rows so far are saved; the same command finishes the rest")
         return 3
-    figure = plot_study(read_table(result.table), study.figure, folder / "figure.png")
+    rows = read_table(result.table)
+    figure = plot_study(rows, study.figure, folder / "figure.png")
     if figure is not None:
         print(f"figure       {figure}")
+        fig = study.figure
+        what = {
+            "threshold": f"largest {fig['value']} with {fig['where']} at every smaller one",
+            "line": f"mean {fig['value']} of the completed runs",
+            "best": f"{fig['value']} at the least {fig.get('of')}",
+        }[fig["kind"]]
+        print(f"\n{what}:\n{result_table(rows, fig)}")
     return 0

@@ -1,8 +1,14 @@
 """A study's main result as a figure, from its results table and its ``[figure]`` section.
 
-- ``largest``: for each group (``panels`` x ``series`` x ``x``), the largest ``value`` among the
-  runs where the column ``where`` is true (the largest push survived); drawn against ``x``, a
-  line per ``series``, a panel per ``panels``. A group with no such run is left out.
+- ``threshold``: for each group (``panels`` x ``series`` x ``x``), the largest ``value`` up to
+  which the column ``where`` is true in every run of the group (the largest push survived
+  with no fall at any smaller one), drawn against ``x``, a line per ``series``, a panel per
+  ``panels``; runs above it where ``where`` holds again (a rocking body can survive a larger
+  push that a smaller one topples) are drawn as open markers. A group whose smallest value
+  already fails is left out.
+- ``line``: for each group, the mean ``value`` of its completed runs against ``x`` (a line per
+  ``series``, a panel per ``panels``), and the mean of a ``reference`` column dashed (the
+  speed a walk was fitted for beside the speed it walked).
 - ``best``: for each group, the ``value`` at which the column ``of`` is smallest among the
   completed runs (the speed of least cost of transport), against ``x``; beside it, ``of``
   against ``value`` for every group (the curves the minima come from).
@@ -13,7 +19,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-__all__ = ["best_per_group", "largest_per_group", "plot_study"]
+__all__ = ["best_per_group", "mean_per_group", "plot_study", "result_table",
+           "threshold_per_group"]  # fmt: skip
 
 
 def _key(row: dict, name: str | None):
@@ -28,12 +35,33 @@ def _groups(rows, fig) -> dict:
     return out
 
 
-def largest_per_group(rows: list[dict], fig: dict) -> dict:
-    """(panel, series, x) -> the largest ``value`` where ``where`` holds (NaN if nowhere)."""
+def threshold_per_group(rows: list[dict], fig: dict) -> dict:
+    """(panel, series, x) -> (threshold, islands): the largest ``value`` up to which ``where``
+    holds in every run of the group (NaN if it fails at the smallest), and the larger values
+    where it holds again."""
     out = {}
     for k, group in _groups(rows, fig).items():
-        ok = [float(r[fig["value"]]) for r in group if r.get(fig["where"])]
-        out[k] = max(ok) if ok else math.nan
+        ordered = sorted((float(r[fig["value"]]), bool(r.get(fig["where"]))) for r in group)
+        threshold, failed, islands = math.nan, False, []
+        for value, ok in ordered:
+            if not ok:
+                failed = True
+            elif failed:
+                islands.append(value)
+            else:
+                threshold = value
+        out[k] = (threshold, islands)
+    return out
+
+
+def mean_per_group(rows: list[dict], fig: dict, column: str | None = None) -> dict:
+    """(panel, series, x) -> the mean of ``column`` (default ``value``) over the group's
+    completed runs (NaN if none completed)."""
+    column = column or fig["value"]
+    out = {}
+    for k, group in _groups(rows, fig).items():
+        vals = [float(r[column]) for r in group if r["status"] == "completed"]
+        out[k] = sum(vals) / len(vals) if vals else math.nan
     return out
 
 
@@ -51,6 +79,29 @@ def best_per_group(rows: list[dict], fig: dict) -> dict:
     return out
 
 
+def result_table(rows: list[dict], fig: dict) -> str:
+    """The figure's numbers as a Markdown table: a row per ``x``, a column per panel and
+    series (``threshold``: the threshold; ``line``: the mean; ``best``: the value at the least
+    ``of``)."""
+    if fig.get("kind", "none") == "none" or not rows:
+        return ""
+    if fig["kind"] == "threshold":
+        data = {k: v[0] for k, v in threshold_per_group(rows, fig).items()}
+    elif fig["kind"] == "line":
+        data = mean_per_group(rows, fig)
+    else:
+        data = {k: v[0] for k, v in best_per_group(rows, fig).items()}
+    columns = sorted({(k[0], k[1]) for k in data}, key=str)
+    xs = sorted({k[2] for k in data}, key=lambda v: (str(type(v)), v))
+    names = [" ".join(str(v) for v in c if v is not None) or fig["value"] for c in columns]
+    head = [fig["x"], *names]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for x in xs:
+        cells = [data.get((c[0], c[1], x), math.nan) for c in columns]
+        lines.append("| " + " | ".join([str(x), *(f"{v:.4g}" for v in cells)]) + " |")
+    return "\n".join(lines)
+
+
 def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -> Path | None:
     """Draw the figure the study asks for (None if it asks for none or no row has finished)."""
     if fig.get("kind", "none") == "none" or not rows:
@@ -63,14 +114,35 @@ def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -
     path = Path(path)
     panels = sorted({_key(r, fig.get("panels")) for r in rows}, key=str)
     label = fig.get("label", fig["value"])
-    if fig["kind"] == "largest":
-        data = largest_per_group(rows, fig)
+    if fig["kind"] == "threshold":
+        found = threshold_per_group(rows, fig)
         f, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False,
                                sharey=True, constrained_layout=True)  # fmt: skip
         for ax, panel in zip(axes[0], panels, strict=True):
-            _lines(ax, data, panel)
+            lines = _lines(ax, {k: v[0] for k, v in found.items()}, panel)
+            for (p, series, x), (_, islands) in found.items():
+                if p == panel and islands and series in lines:
+                    ax.plot([x] * len(islands), islands, "o", mfc="none", ms=5,
+                            color=lines[series].get_color())  # fmt: skip
             ax.set(xlabel=fig["x"], title=_title(fig.get("panels"), panel))
-            ax.set_ylabel(f"largest {label} where {fig['where']}")
+            ax.set_ylabel(f"largest {label} with {fig['where']} at every smaller one")
+    elif fig["kind"] == "line":
+        data = mean_per_group(rows, fig)
+        ref = mean_per_group(rows, fig, fig["reference"]) if fig.get("reference") else {}
+        f, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False,
+                               sharey=True, constrained_layout=True)  # fmt: skip
+        for ax, panel in zip(axes[0], panels, strict=True):
+            lines = _lines(ax, data, panel)
+            for series, line in lines.items():
+                pts = sorted((k[2], v) for k, v in ref.items()
+                             if k[0] == panel and k[1] == series and not _nan(v))  # fmt: skip
+                if pts:
+                    xs, ys = zip(*pts, strict=True)
+                    ax.plot(xs, ys, "--", color=line.get_color(), lw=1,
+                            label=f"{fig['reference']} {series or ''}".strip())  # fmt: skip
+            if ref:
+                ax.legend(fontsize=7)
+            ax.set(xlabel=fig["x"], ylabel=label, title=_title(fig.get("panels"), panel))
     else:
         data = best_per_group(rows, fig)
         f, axes = plt.subplots(1, 2, figsize=(11, 4.2), squeeze=False, constrained_layout=True)
@@ -100,17 +172,19 @@ def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -
     return path
 
 
-def _lines(ax, data: dict, panel, prefix: str = "") -> None:
-    series = sorted({k[1] for k in data if k[0] == panel}, key=str)
-    for s in series:
+def _lines(ax, data: dict, panel, prefix: str = "") -> dict:
+    """A line per series of a panel's (x, value) points; returns series -> line."""
+    out = {}
+    for s in sorted({k[1] for k in data if k[0] == panel}, key=str):
         pts = sorted((k[2], v) for k, v in data.items()
                      if k[0] == panel and k[1] == s and not _nan(v))  # fmt: skip
         if pts:
             xs, ys = zip(*pts, strict=True)
             name = " ".join(p for p in (prefix, "" if s is None else str(s)) if p)
-            ax.plot(xs, ys, "o-", ms=4, label=name or None)
+            (out[s],) = ax.plot(xs, ys, "o-", ms=4, label=name or None)
     if any(line.get_label()[:1] != "_" for line in ax.get_lines()):
         ax.legend(fontsize=7, title=None)
+    return out
 
 
 def _nan(v) -> bool:

@@ -28,8 +28,8 @@ A study is a TOML file (shipped ones in ``models/studies/``)::
     "body.sex" = { choice = ["male", "female"] }
 
     [figure]                    # the study's main result (see humanoid.study.figures)
-    kind = "largest"            # largest: the largest value of a parameter where a column
-    value = "push.force"        #   is true, per group (here: the largest push survived)
+    kind = "threshold"          # threshold: the largest value up to which a column is true
+    value = "push_force"        #   in every run, per group (the largest push survived)
     where = "survived"
     x = "body.height"
     series = "body.bmi"
@@ -74,7 +74,7 @@ PUSH_KEYS = ("force", "fraction", "direction", "frame", "start", "duration")
 WALK_KEYS = ("speed", "speed_ratio", "steps", "dt", "mu")
 # push directions by name: degrees from forward (+x) towards the left (+y)
 DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
-FIGURE_KINDS = ("largest", "best", "none")
+FIGURE_KINDS = ("threshold", "line", "best", "none")
 
 # the summary numbers of a run, by kind: name -> (unit, what)
 OUTPUTS = {
@@ -393,17 +393,19 @@ def _figure(doc: dict, columns: set, bad) -> dict:
     kind = doc.get("kind", "none")
     if kind not in FIGURE_KINDS:
         bad("figure.kind", f"one of {', '.join(FIGURE_KINDS)}, got {kind!r}")
-    allowed = {"kind", "value", "where", "of", "x", "series", "panels", "title", "label"}
+    allowed = {"kind", "value", "where", "of", "reference", "x", "series", "panels", "title",
+               "label"}  # fmt: skip
     for key in doc:
         if key not in allowed:
             bad(f"figure.{key}", f"unknown key ({', '.join(sorted(allowed))})")
     if kind == "none":
         return dict(doc, kind="none")
-    need = ("value", "where", "x") if kind == "largest" else ("value", "of", "x")
+    need = {"threshold": ("value", "where", "x"), "line": ("value", "x"),
+            "best": ("value", "of", "x")}[kind]  # fmt: skip
     for key in need:
         if not isinstance(doc.get(key), str):
             bad(f"figure.{key}", f"figure kind {kind!r} needs {key} (a column name)")
-    for key in ("value", "where", "of", "x", "series", "panels"):
+    for key in ("value", "where", "of", "reference", "x", "series", "panels"):
         col = doc.get(key)
         if col is not None and col not in columns:
             bad(

@@ -75,17 +75,21 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
     result = StudyRun(folder, store.path, len(runs), len(runs) - len(pending))
     payload = study.payload()
     bar = _bar(len(runs), result.skipped, quiet, study.name)
-    failed = sum(1 for k, r in store.rows.items() if k in done and r["status"] != "completed")
+    counts: dict[str, int] = {}  # the finished rows by status, for the progress bar
+    for k, r in store.rows.items():
+        if k in done:
+            counts[r["status"]] = counts.get(r["status"], 0) + 1
+    bar.set_postfix_str(_tally(counts), refresh=False)
     last_flush = time.perf_counter()
     start = time.perf_counter()
 
     def finished(row: dict) -> None:
-        nonlocal failed, last_flush
+        nonlocal last_flush
         store.add(row)
         result.ran += 1
         result.run_time += float(row.get("wall_time", 0.0))
-        failed += row["status"] != "completed"
-        bar.set_postfix_str(f"{failed} not completed", refresh=False)
+        counts[row["status"]] = counts.get(row["status"], 0) + 1
+        bar.set_postfix_str(_tally(counts), refresh=False)
         bar.update(1)
         if time.perf_counter() - last_flush >= FLUSH_SECONDS:
             store.write()
@@ -114,6 +118,12 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
         statuses[r["status"]] = statuses.get(r["status"], 0) + 1
     result.statuses = statuses
     return result
+
+
+def _tally(counts: dict) -> str:
+    """The progress bar's note: how many runs fell or failed so far."""
+    parts = [f"{n} {s}" for s, n in sorted(counts.items()) if s != "completed"]
+    return ", ".join(parts) if parts else "none failed"
 
 
 def _submit_all(client, study, payload, pending, folder: str, finished) -> None:
