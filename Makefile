@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models bench bench-accuracy wheel-check clean
+.PHONY: demo test lint format models bench bench-accuracy studies wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,6 +39,16 @@ bench: $(STAMP)
 	$(PY) -m humanoid bench step -o docs/bench
 	$(PY) -m humanoid bench walk -o docs/bench
 	$(PY) -m humanoid bench scaling -o docs/bench
+	$(PY) scripts/readme_tables.py
+
+studies: $(STAMP)
+	mkdir -p docs/studies
+	for s in push_standing walk_speed; do \
+		$(PY) -m humanoid sweep $$s --quiet && \
+		cp results/studies/$$s/figure.png docs/studies/$$s.png && \
+		cp results/studies/$$s/result.md docs/studies/$$s.md && \
+		cp results/studies/$$s/results.parquet docs/studies/$$s.parquet || exit 1; \
+	done
 	$(PY) scripts/readme_tables.py
 
 bench-accuracy: $(STAMP)

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Put the speed tables that ``humanoid bench step -o docs/bench`` and ``humanoid bench walk -o
-docs/bench`` wrote (docs/bench/speed.md, docs/bench/walk.md) into the README, between its
-``<!-- speed: begin -->`` / ``<!-- speed: end -->`` and ``<!-- walk-speed: begin -->`` /
-``<!-- walk-speed: end -->`` markers.
+"""Put the tables that the benchmarks and the studies wrote into the README, between its
+``<!-- NAME: begin -->`` / ``<!-- NAME: end -->`` markers: the speed tables of ``humanoid bench
+step|walk -o docs/bench`` (docs/bench/speed.md, walk.md) and the results of ``humanoid sweep
+push_standing|walk_speed`` (copied to docs/studies/*.md).
 
-``make bench`` runs all three. tests/test_readme.py checks that the README carries the files'
-text and that the tables' columns are the benchmarks' CSV columns.
+``make bench`` and ``make studies`` run it. tests/test_readme.py checks that the README carries
+the files' text and that the speed tables' columns are the benchmarks' CSV columns.
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ from __future__ import annotations
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BLOCKS = {"speed": "speed.md", "walk-speed": "walk.md"}
+BLOCKS = {"speed": "bench/speed.md", "walk-speed": "bench/walk.md",
+          "study-push": "studies/push_standing.md", "study-walk": "studies/walk_speed.md"}
 
 
 def paste(text: str, name: str, tables: str) -> str:
@@ -28,9 +29,11 @@ def main() -> None:
     readme = ROOT / "README.md"
     text = readme.read_text()
     for name, file in BLOCKS.items():
-        text = paste(text, name, (ROOT / "docs" / "bench" / file).read_text())
+        path = ROOT / "docs" / file
+        if path.is_file() and f"<!-- {name}: begin -->" in text:
+            text = paste(text, name, path.read_text())
     readme.write_text(text)
-    print(f"updated {readme} from docs/bench/{', docs/bench/'.join(BLOCKS.values())}")
+    print(f"updated {readme} from docs/{', docs/'.join(BLOCKS.values())}")
 
 
 if __name__ == "__main__":

@@ -94,3 +94,26 @@ def test_the_speed_tables_are_the_benchmark_output():
         assert shown[2] == f"{float(row['ratio']):.1f}"
         assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
         assert shown[-1] == ("yes" if row["checks_passed"] == "True" else "no")
+
+
+def test_the_study_results_are_the_sweeps_output():
+    """The README's study results are the text `humanoid sweep push_standing|walk_speed` wrote
+    (`make studies` copies it to docs/studies/ and pastes it), with the machine and the date;
+    their figures are there; their tables are the reductions of the Parquet tables copied
+    beside them, by the study files' figure sections."""
+    from humanoid.study import load_study, read_table
+    from humanoid.study.commands import resolve
+    from humanoid.study.figures import result_table
+
+    for name, study in (("study-push", "push_standing"), ("study-walk", "walk_speed")):
+        block = README.split(f"<!-- {name}: begin -->\n", 1)[1].split(f"<!-- {name}: end -->")[0]
+        written = (ROOT / "docs" / "studies" / f"{study}.md").read_text()
+        assert block == written, f"README {name} differs from docs/studies/{study}.md"
+        assert written.startswith(f"`humanoid sweep {study}`: ")
+        assert "UTC" in written and "| body.height |" in written
+        assert f"docs/studies/{study}.png" in README
+        assert (ROOT / "docs" / "studies" / f"{study}.png").stat().st_size > 10_000
+        rows = read_table(ROOT / "docs" / "studies" / f"{study}.parquet")
+        spec = load_study(resolve(study))
+        assert len(rows) == len(spec.runs())
+        assert result_table(rows, spec.figure) in written

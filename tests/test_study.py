@@ -127,6 +127,21 @@ def test_the_same_study_again_runs_nothing(tmp_path):
     ]
 
 
+def test_kept_trajectories_are_saved_beside_the_table(tmp_path):
+    import humanoid as hm
+
+    text = TINY.replace('name = "tiny"', 'name = "kept"\nkeep = "trajectory"')
+    text = text.replace('"scene.duration" = 0.6', '"scene.duration" = 0.1')
+    study = _study(tmp_path, text.replace("[0.05, 0.1, 0.2]", "[0.1]"))
+    result = run_study(study, tmp_path / "out", serial=True, quiet=True)
+    rows = read_table(result.table)
+    assert len(rows) == 2
+    for r in rows:
+        traj = hm.Trajectory.load(tmp_path / "out" / r["trajectory"])
+        assert traj.status == "completed" and abs(traj.t[-1] - 0.1) < 1e-9
+    assert not list((tmp_path / "out" / "trajectories").glob("*.part*"))
+
+
 def test_a_killed_study_finishes_the_remaining_runs_only(tmp_path, serial_rows):
     """`humanoid sweep` killed (SIGKILL, the whole process group: the study and its workers)
     once some rows are written; the same command again runs the others, and the table equals
@@ -318,6 +333,8 @@ def test_sweep_on_an_existing_scheduler_and_its_report(tmp_path, cluster, serial
     assert "runs         12: 6 completed, 6 failed" in first.stdout
     assert "12 ran, 0 were already done" in first.stdout
     _same(read_table(out), serial_rows)
+    report = (out / "result.md").read_text()
+    assert report.startswith("`humanoid sweep tiny`: 12 runs (6 completed, 6 failed); a run")
     again = subprocess.run(base + ["--serial"], capture_output=True, text=True, timeout=120)
     assert "0 ran, 12 were already done" in again.stdout
     listed = subprocess.run(base + ["--list"], capture_output=True, text=True, timeout=120)

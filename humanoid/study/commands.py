@@ -42,7 +42,7 @@ def resolve(name: str) -> Path:
 
 
 def run_sweep(args) -> int:
-    from .figures import plot_study, result_table
+    from .figures import plot_study
     from .spec import load_study
     from .store import read_table
     from .sweep import default_folder, run_study
@@ -76,13 +76,33 @@ def run_sweep(args) -> int:
         return 3
     rows = read_table(result.table)
     figure = plot_study(rows, study.figure, folder / "figure.png")
+    report = summary(study, rows, result)
+    (folder / "result.md").write_text(report)
     if figure is not None:
         print(f"figure       {figure}")
-        fig = study.figure
-        what = {
-            "threshold": f"largest {fig['value']} with {fig['where']} at every smaller one",
-            "line": f"mean {fig['value']} of the completed runs",
-            "best": f"{fig['value']} at the least {fig.get('of')}",
-        }[fig["kind"]]
-        print(f"\n{what}:\n{result_table(rows, fig)}")
+    print(f"result       {folder / 'result.md'}\n\n{report}", end="")
     return 0
+
+
+def summary(study, rows: list[dict], result) -> str:
+    """The study's result in Markdown: its runs by status, what a run costs, and the figure's
+    numbers as a table."""
+    import statistics
+
+    from ..bench.common import machine
+    from .figures import result_table
+
+    counts = ", ".join(f"{n} {s}" for s, n in sorted(result.statuses.items()))
+    walls = [float(r["wall_time"]) for r in rows if r.get("wall_time")] or [0.0]
+    text = [f"`humanoid sweep {study.name}`: {len(rows)} runs ({counts}); a run takes "
+            f"{statistics.mean(walls):.2f} s on average (median {statistics.median(walls):.2f} "
+            f"s, the longest {max(walls):.1f} s) of one worker's time; {machine()}."]  # fmt: skip
+    fig = study.figure
+    if fig.get("kind", "none") != "none":
+        what = {
+            "threshold": f"the largest {fig['value']} with {fig['where']} at every smaller one",
+            "line": f"the mean {fig['value']} of the completed runs",
+            "best": f"the {fig['value']} at the least {fig.get('of')}",
+        }[fig["kind"]]
+        text.append(f"{what[0].upper()}{what[1:]}:\n\n{result_table(rows, fig)}")
+    return "\n\n".join(text) + "\n"

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, RunFailed
+from ..errors import HumanoidError, RunFailed, SceneError
 from .spec import OUTPUTS, body_parameters, push_vector
 
 __all__ = ["FALL_HEIGHT", "OUTPUTS", "execute", "scene_for"]
@@ -77,8 +77,6 @@ def scene_for(payload: dict, params: dict, check: bool = True, weight: float | N
             for part in path:
                 node = node.setdefault(part, {})
                 if not isinstance(node, dict):
-                    from ..errors import SceneError
-
                     raise SceneError(f"{key}: {part} is not a table")
             node[last] = value
     body = body_parameters(params)
