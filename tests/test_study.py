@@ -310,8 +310,10 @@ def test_the_shipped_studies_load_and_their_folders_are_guarded(tmp_path):
 
     push, walk = load_study(resolve("push_standing")), load_study(resolve("walk_speed"))
     assert len(push.runs()) == 5 * 5 * 2 * 15 and len(walk.runs()) == 5 * 2 * 3
+    assert len(load_study(resolve("push_slice")).runs()) == 24
     repo = Path(__file__).resolve().parents[1] / "models" / "studies"
-    assert (repo / "push_standing.toml").read_text() == resolve("push_standing").read_text()
+    for name in ("push_standing", "walk_speed", "push_slice"):
+        assert (repo / f"{name}.toml").read_text() == resolve(name).read_text()
     tiny = _study(tmp_path)
     run_study(tiny, tmp_path / "out", serial=True, quiet=True)
     with pytest.raises(StudyError, match="another study"):

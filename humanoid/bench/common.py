@@ -14,7 +14,6 @@ __all__ = [
     "RECORD_RATE",
     "WALK_STEPS",
     "best_time",
-    "machine",
     "pinocchio_contacts",
     "run_scene",
     "state_error",
@@ -27,28 +26,6 @@ MALE = "adult_male"
 RECORD_RATE = 25.0
 WALK_STEPS = 2  # the walking segment: two steps, about 4.4 s
 CONTROL_DT = 2e-3  # the walking controller's fixed rate in the benchmark [s]
-
-
-def machine() -> str:
-    """Where and when a benchmark ran: CPU, cores, the date, and the versions that matter."""
-    import datetime
-    import os
-    import platform
-
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            cpu = next(
-                line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")
-            )
-    except (OSError, StopIteration):
-        pass
-    from .. import __version__
-
-    date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()}; {date}; humanoid "
-            f"{__version__}, Pinocchio {pin.__version__}, NumPy {np.__version__}, Python "
-            f"{platform.python_version()}")  # fmt: skip
 
 
 def run_scene(scene, h):

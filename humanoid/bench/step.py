@@ -126,7 +126,7 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
 def _markdown(rows, ground_rows, n, rounds, duration) -> str:
     """The two speed tables as Markdown, with where and when they were measured (the README
     carries this file's text: ``make bench``)."""
-    from .common import machine
+    from ..provenance import machine
 
     lines = [
         f"Measured by `humanoid bench step` on {machine()}. Microseconds per step, best of "

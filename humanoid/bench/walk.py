@@ -134,9 +134,9 @@ def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -
     import humanoid as hm
 
     from ..data import BODIES
+    from ..provenance import machine
     from ..walking.plan import GaitParameters
     from ..walking.run import CONTROL_PERIOD
-    from .common import machine
 
     h = hm.load(BODIES / "adult_male.urdf")
     gait = GaitParameters(steps=4 if quick else 10)

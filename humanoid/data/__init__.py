@@ -5,7 +5,7 @@
 - **Scenes** (``scenes/*.toml``): ``standing``, ``push``, ``tumble``, ``collapse``, ``drop``,
   ``balance``, ``slide``.
 - **Studies** (``studies/*.toml``, also in the repository's ``models/studies/``):
-  ``push_standing``, ``walk_speed`` (``humanoid sweep NAME``).
+  ``push_standing``, ``walk_speed``, ``push_slice`` (``humanoid sweep NAME``).
 
 Wherever a body is asked for (:func:`humanoid.load`, a scene's ``[body] urdf``, the CLI's
 ``--model``) a shipped body's name or an example-robot-data robot's name (``"talos"``) may

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ..errors import StudyError
@@ -12,7 +13,7 @@ __all__ = ["add_sweep_parser", "run_sweep"]
 def add_sweep_parser(command) -> None:
     s = command("sweep", help="run a study: many runs on Dask, one Parquet row each, resumable")
     s.add_argument("study", help="a study file (TOML), or a shipped study: push_standing, "
-                   "walk_speed")  # fmt: skip
+                   "walk_speed, push_slice")  # fmt: skip
     s.add_argument("-o", "--output", help="the study's folder (default results/studies/NAME)")
     s.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing Dask scheduler (tcp://host:8786) instead of a local "
@@ -89,7 +90,7 @@ def summary(study, rows: list[dict], result) -> str:
     numbers as a table."""
     import statistics
 
-    from ..bench.common import machine
+    from ..provenance import machine
     from .figures import result_table
 
     counts = ", ".join(f"{n} {s}" for s, n in sorted(result.statuses.items()))
@@ -97,12 +98,27 @@ def summary(study, rows: list[dict], result) -> str:
     text = [f"`humanoid sweep {study.name}`: {len(rows)} runs ({counts}); a run takes "
             f"{statistics.mean(walls):.2f} s on average (median {statistics.median(walls):.2f} "
             f"s, the longest {max(walls):.1f} s) of one worker's time; {machine()}."]  # fmt: skip
+    hours = 1e4 * statistics.mean(walls) / 3600.0
+    cores = os.cpu_count() or 1
+    cost = (
+        f"10,000 such runs take {hours:.1f} h of one worker's time: "
+        f"{hours / cores:.1f} h on this machine's {cores} cores, "
+        f"{hours / 16 * 60:.0f} min on 16 workers, {hours / 64 * 60:.0f} min on 64"
+    )
+    if result.ran and result.workers > 1:
+        cost += (
+            f" (this invocation: {result.ran} runs in {result.wall:.0f} s on "
+            f"{result.workers} workers, {result.speedup:.2f} times one worker's pace)"
+        )
+    text.append(cost + ".")
     fig = study.figure
     if fig.get("kind", "none") != "none":
-        what = {
-            "threshold": f"the largest {fig['value']} with {fig['where']} at every smaller one",
-            "line": f"the mean {fig['value']} of the completed runs",
-            "best": f"the {fig['value']} at the least {fig.get('of')}",
-        }[fig["kind"]]
+        if fig["kind"] == "threshold":
+            what = f"the largest {fig['value']} with {fig['where']} at every smaller one"
+        elif fig["kind"] == "line":
+            names = ", ".join([fig["value"], *fig.get("also", [])])
+            what = f"the means over the completed runs: {names}"
+        else:
+            what = f"the {fig['value']} at the least {fig['of']}"
         text.append(f"{what[0].upper()}{what[1:]}:\n\n{result_table(rows, fig)}")
     return "\n\n".join(text) + "\n"

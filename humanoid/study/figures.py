@@ -81,23 +81,28 @@ def best_per_group(rows: list[dict], fig: dict) -> dict:
 
 def result_table(rows: list[dict], fig: dict) -> str:
     """The figure's numbers as a Markdown table: a row per ``x``, a column per panel and
-    series (``threshold``: the threshold; ``line``: the mean; ``best``: the value at the least
-    ``of``)."""
+    series (``threshold``: the threshold; ``line``: the mean, and the means of the columns
+    ``also`` names; ``best``: the value at the least ``of``)."""
     if fig.get("kind", "none") == "none" or not rows:
         return ""
     if fig["kind"] == "threshold":
-        data = {k: v[0] for k, v in threshold_per_group(rows, fig).items()}
+        tables = {"": {k: v[0] for k, v in threshold_per_group(rows, fig).items()}}
     elif fig["kind"] == "line":
-        data = mean_per_group(rows, fig)
+        tables = {c: mean_per_group(rows, fig, c) for c in [fig["value"], *fig.get("also", [])]}
+        if len(tables) == 1:
+            tables = {"": tables[fig["value"]]}
     else:
-        data = {k: v[0] for k, v in best_per_group(rows, fig).items()}
-    columns = sorted({(k[0], k[1]) for k in data}, key=str)
-    xs = sorted({k[2] for k in data}, key=lambda v: (str(type(v)), v))
-    names = [" ".join(str(v) for v in c if v is not None) or fig["value"] for c in columns]
+        tables = {"": {k: v[0] for k, v in best_per_group(rows, fig).items()}}
+    first = next(iter(tables.values()))
+    groups = sorted({(k[0], k[1]) for k in first}, key=str)
+    xs = sorted({k[2] for k in first}, key=lambda v: (str(type(v)), v))
+    columns = [(name, g) for name in tables for g in groups]
+    names = [" ".join(str(v) for v in (name or None, *g) if v is not None) or fig["value"]
+             for name, g in columns]  # fmt: skip
     head = [fig["x"], *names]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for x in xs:
-        cells = [data.get((c[0], c[1], x), math.nan) for c in columns]
+        cells = [tables[name].get((g[0], g[1], x), math.nan) for name, g in columns]
         lines.append("| " + " | ".join([str(x), *(f"{v:.4g}" for v in cells)]) + " |")
     return "\n".join(lines)
 
@@ -119,7 +124,12 @@ def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -
         f, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False,
                                sharey=True, constrained_layout=True)  # fmt: skip
         for ax, panel in zip(axes[0], panels, strict=True):
-            lines = _lines(ax, {k: v[0] for k, v in found.items()}, panel)
+            lines = _lines(
+                ax,
+                {k: v[0] for k, v in found.items()},
+                panel,
+                title=(fig.get("series") or "").split(".")[-1] or None,
+            )
             for (p, series, x), (_, islands) in found.items():
                 if p == panel and islands and series in lines:
                     ax.plot([x] * len(islands), islands, "o", mfc="none", ms=5,
@@ -129,7 +139,8 @@ def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -
     elif fig["kind"] == "line":
         data = mean_per_group(rows, fig)
         ref = mean_per_group(rows, fig, fig["reference"]) if fig.get("reference") else {}
-        f, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False,
+        f, axes = plt.subplots(1, len(panels), figsize=(max(6.5, 5.2 * len(panels)), 4.2),
+                               squeeze=False,
                                sharey=True, constrained_layout=True)  # fmt: skip
         for ax, panel in zip(axes[0], panels, strict=True):
             lines = _lines(ax, data, panel)
@@ -166,13 +177,13 @@ def plot_study(rows: list[dict], fig: dict, path: str | Path, title: str = "") -
     for ax in f.axes:
         ax.grid(alpha=0.3)
     if title or fig.get("title"):
-        f.suptitle(fig.get("title", title))
+        f.suptitle(fig.get("title", title), fontsize=11)
     f.savefig(path, dpi=90)
     plt.close(f)
     return path
 
 
-def _lines(ax, data: dict, panel, prefix: str = "") -> dict:
+def _lines(ax, data: dict, panel, prefix: str = "", title: str | None = None) -> dict:
     """A line per series of a panel's (x, value) points; returns series -> line."""
     out = {}
     for s in sorted({k[1] for k in data if k[0] == panel}, key=str):
@@ -183,7 +194,7 @@ def _lines(ax, data: dict, panel, prefix: str = "") -> dict:
             name = " ".join(p for p in (prefix, "" if s is None else str(s)) if p)
             (out[s],) = ax.plot(xs, ys, "o-", ms=4, label=name or None)
     if any(line.get_label()[:1] != "_" for line in ax.get_lines()):
-        ax.legend(fontsize=7, title=None)
+        ax.legend(fontsize=7, title=title, title_fontsize=7)
     return out
 
 

@@ -7,7 +7,6 @@ failed controller or a bug is a row with its status (``completed``, ``fell``, ``
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 import socket
@@ -18,17 +17,16 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, RunFailed, SceneError
-from .spec import OUTPUTS, body_parameters, push_vector
+from ..errors import HumanoidError, RunFailed
+from .build import PUSH_DEFAULTS, G, body_parameters, push_vector, scene_for
+from .spec import OUTPUTS
 
-__all__ = ["FALL_HEIGHT", "OUTPUTS", "execute", "scene_for"]
+__all__ = ["FALL_HEIGHT", "execute"]
 
 # a run on the ground has fallen once its pelvis is below this fraction of its start height
 # (a statue-like hold tipping over its toes is past recovery long before)
 FALL_HEIGHT = 0.6
-PUSH_DEFAULTS = {"push.start": 0.5, "push.duration": 0.2}
 WALK_DEFAULTS = {"walk.steps": 10, "walk.dt": 1e-3, "walk.mu": 0.8}
-G = 9.81
 
 
 def execute(payload: dict, run: dict, folder: str | None = None) -> dict:
@@ -61,42 +59,6 @@ def execute(payload: dict, run: dict, folder: str | None = None) -> dict:
     row.update({"wall_time": time.perf_counter() - start, "trajectory": path,
                 "worker": f"{socket.gethostname()}:{os.getpid()}"})  # fmt: skip
     return row
-
-
-def scene_for(payload: dict, params: dict, check: bool = True, weight: float | None = None):
-    """The run's :class:`~humanoid.scene.Scene`: the base scene with the run's ``scene.*``
-    keys, body and push. ``weight`` [N] turns push.fraction into newtons (the body's own
-    weight when None and the body is the run's; 1 N when only checking)."""
-    from ..scene import Scene
-
-    doc = copy.deepcopy(payload["scene"])
-    for key, value in params.items():
-        if key.startswith("scene."):
-            *path, last = key[len("scene.") :].split(".")
-            node = doc
-            for part in path:
-                node = node.setdefault(part, {})
-                if not isinstance(node, dict):
-                    raise SceneError(f"{key}: {part} is not a table")
-            node[last] = value
-    body = body_parameters(params)
-    if body is not None:
-        joints = doc.get("body", {}).get("ball_joints", "quaternion")
-        doc["body"] = {"height": body.height, "mass": body.mass, "sex": body.sex,
-                       "ball_joints": joints}  # fmt: skip
-    if any(k.startswith("push.") for k in params):
-        p = {**PUSH_DEFAULTS, **params}
-        if weight is None:
-            weight = body.mass * G if body is not None else 1.0
-        push = {"frame": p.get("push.frame", "thorax"),
-                "force": [float(x) for x in push_vector(p, weight)],
-                "start": float(p["push.start"]), "duration": float(p["push.duration"])}  # fmt: skip
-        effects = doc.setdefault("effects", {})
-        effects["pushes"] = [*effects.get("pushes", []), push]
-    scene = Scene.from_dict(doc, source=f"study {payload['name']}")
-    if check:
-        scene.check()
-    return scene
 
 
 class _FallMonitor:

@@ -63,8 +63,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BodyParameterError, HumanoidError, SceneError, StudyError
+from .build import DIRECTIONS, body_parameters, scene_for
 
-__all__ = ["DIRECTIONS", "OUTPUTS", "Run", "Study", "body_parameters", "load_study", "push_vector"]
+__all__ = ["OUTPUTS", "Run", "Study", "load_study", "parse_study"]
 
 RUN_KINDS = ("scene", "walk")
 KEEP = ("summary", "trajectory")
@@ -72,8 +73,6 @@ DISTRIBUTIONS = ("normal", "uniform", "lognormal", "choice")
 BODY_KEYS = ("height", "mass", "bmi", "sex")
 PUSH_KEYS = ("force", "fraction", "direction", "frame", "start", "duration")
 WALK_KEYS = ("speed", "speed_ratio", "steps", "dt", "mu")
-# push directions by name: degrees from forward (+x) towards the left (+y)
-DIRECTIONS = {"forward": 0.0, "left": 90.0, "backward": 180.0, "right": 270.0}
 FIGURE_KINDS = ("threshold", "line", "best", "none")
 
 # the summary numbers of a run, by kind: name -> (unit, what)
@@ -393,8 +392,8 @@ def _figure(doc: dict, columns: set, bad) -> dict:
     kind = doc.get("kind", "none")
     if kind not in FIGURE_KINDS:
         bad("figure.kind", f"one of {', '.join(FIGURE_KINDS)}, got {kind!r}")
-    allowed = {"kind", "value", "where", "of", "reference", "x", "series", "panels", "title",
-               "label"}  # fmt: skip
+    allowed = {"kind", "value", "where", "of", "reference", "also", "x", "series", "panels",
+               "title", "label"}  # fmt: skip
     for key in doc:
         if key not in allowed:
             bad(f"figure.{key}", f"unknown key ({', '.join(sorted(allowed))})")
@@ -405,8 +404,12 @@ def _figure(doc: dict, columns: set, bad) -> dict:
     for key in need:
         if not isinstance(doc.get(key), str):
             bad(f"figure.{key}", f"figure kind {kind!r} needs {key} (a column name)")
-    for key in ("value", "where", "of", "reference", "x", "series", "panels"):
-        col = doc.get(key)
+    also = doc.get("also", [])
+    if not isinstance(also, list) or not all(isinstance(c, str) for c in also):
+        bad("figure.also", f"a list of column names, got {also!r}")
+    for key, col in [*((k, doc.get(k)) for k in ("value", "where", "of", "reference", "x",
+                                                  "series", "panels")),
+                     *(("also", c) for c in also)]:  # fmt: skip
         if col is not None and col not in columns:
             bad(
                 f"figure.{key}",
@@ -416,36 +419,9 @@ def _figure(doc: dict, columns: set, bad) -> dict:
     return dict(doc)
 
 
-# -- building a run's body and push ----------------------------------------------------------
-
-
-def body_parameters(params: dict):
-    """The run's :class:`~humanoid.anthropometry.BodyParameters`, or None (the base's body)."""
-    from ..anthropometry import BodyParameters
-
-    if "body.height" not in params:
-        return None
-    height = float(params["body.height"])
-    mass = params.get("body.mass")
-    mass = float(mass) if mass is not None else float(params["body.bmi"]) * height**2
-    return BodyParameters(height, mass, params["body.sex"])
-
-
-def push_vector(params: dict, weight: float) -> np.ndarray:
-    """The push's force [N], world axes, from push.force or push.fraction (of ``weight``)
-    and push.direction (default forward)."""
-    magnitude = (float(params["push.force"]) if "push.force" in params
-                 else float(params["push.fraction"]) * weight)  # fmt: skip
-    d = params.get("push.direction", "forward")
-    angle = math.radians(DIRECTIONS[d] if isinstance(d, str) else float(d))
-    return magnitude * np.array([math.cos(angle), math.sin(angle), 0.0])
-
-
 def check_runs(study: Study) -> None:
     """Every run's body is valid and (run = scene) its scene builds; raises StudyError naming
     the key. (Bodies and scenes are checked without loading models: cheap for 10^4 runs.)"""
-    from .runner import scene_for
-
     for run in study.runs():
         params = study.parameters(run)
         try:
