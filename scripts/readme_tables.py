@@ -13,8 +13,12 @@ from __future__ import annotations
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BLOCKS = {"speed": "bench/speed.md", "walk-speed": "bench/walk.md",
-          "study-push": "studies/push_standing.md", "study-walk": "studies/walk_speed.md"}
+BLOCKS = {
+    "speed": "bench/speed.md",
+    "walk-speed": "bench/walk.md",
+    "study-push": "studies/push_standing.md",
+    "study-walk": "studies/walk_speed.md",
+}
 
 
 def paste(text: str, name: str, tables: str) -> str:

@@ -346,3 +346,8 @@ def test_sweep_on_an_existing_scheduler_and_its_report(tmp_path, cluster, serial
                          capture_output=True, text=True, timeout=120)  # fmt: skip
     assert bad.returncode == 2 and bad.stderr.startswith("humanoid sweep: error: no study file")
     assert "Traceback" not in bad.stderr
+    nowhere = subprocess.run([*base, "--fresh", "--scheduler", "nowhere"], capture_output=True,
+                             text=True, timeout=120)  # fmt: skip
+    assert nowhere.returncode == 2 and "cannot reach the Dask scheduler at 'nowhere'" in (
+        nowhere.stderr
+    )

@@ -18,6 +18,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from ..errors import StudyError
 from .runner import execute
 from .spec import Study
 from .store import ResultStore
@@ -25,6 +26,7 @@ from .store import ResultStore
 __all__ = ["StudyRun", "default_folder", "run_study"]
 
 FLUSH_SECONDS = 2.0  # the table is rewritten at most this often (and at the end)
+CONNECT_SECONDS = 10  # how long to wait for a --scheduler to answer
 
 
 def default_folder(study: Study) -> Path:
@@ -166,7 +168,12 @@ def _cluster(scheduler: str | None, workers: int | None, client=None):
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler) as c:
+        try:
+            client = Client(scheduler, timeout=CONNECT_SECONDS)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise StudyError(f"cannot reach the Dask scheduler at {scheduler!r} within "
+                             f"{CONNECT_SECONDS} s: {exc}") from None  # fmt: skip
+        with client as c:
             yield c
         return
     n = workers or os.cpu_count() or 1
