@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cholesky_inverse", "cholesky_lapack", "cross", "spd_solve"]
+__all__ = ["cholesky_lapack", "cross", "spd_solve"]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -22,14 +22,6 @@ def cholesky_lapack():
     from scipy.linalg import lapack
 
     return lapack.dpotrf, lapack.dpotrs
-
-
-def cholesky_inverse():
-    """LAPACK's Cholesky factor and inverse from it, ``dpotrf`` and ``dpotri`` (the inverse in
-    the factor's triangle only)."""
-    from scipy.linalg import lapack
-
-    return lapack.dpotrf, lapack.dpotri
 
 
 def spd_solve(A: np.ndarray, b: np.ndarray, ridge: float = 0.0) -> np.ndarray:

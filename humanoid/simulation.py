@@ -40,7 +40,7 @@ from .effects import (
 )
 from .errors import DivergenceError, HumanoidError, SceneError
 from .integrators import STEPPERS, CoordinateSpace, DormandPrince, LieGroupSpace
-from .linalg import cholesky_inverse
+from .linalg import cholesky_lapack
 from .model import Humanoid
 from .scene import Contact, Scene, load_body
 from .trajectory import Progress, Recorder, Trajectory
@@ -151,6 +151,7 @@ class Simulation:
         self.joint_torque = self._zero
         self._solve = None  # the native backend's prepared active set
         self._implicit = None  # (controller, effects) -> the ground step's implicit terms
+        self._eye = np.eye(self.model.nv)
         # the native backend needs the full bias b(q, v) (Pinocchio's); a scene without the
         # velocity terms is solved by the reference
         self._native_backend = scene.stabilisation.backend == "native" and e.coriolis
@@ -231,13 +232,12 @@ class Simulation:
             K, D = implicit
             tau = self.applied(t, q, v)
             Mt = pin.crba(model, data, q) + dt * D + (dt * dt) * K
-            potrf, potri = cholesky_inverse()
+            potrf, potrs = cholesky_lapack()
             factor, info = potrf(Mt, lower=True)
             if info:
                 raise DivergenceError(f"the mass matrix with the implicit gains is not "
                                       f"positive definite at t = {t:.6f} s")  # fmt: skip
-            Minv = potri(factor, lower=True)[0]
-            Minv = np.tril(Minv) + np.tril(Minv, -1).T
+            Minv = potrs(factor, self._eye, lower=True)[0]
             v_free = v + dt * (Minv @ (tau - self.bias(q, v) - dt * (K @ v)))
             self.counters["implicit"] = self.counters.get("implicit", 0) + 1
             pin.computeJointJacobians(model, data, q)
