@@ -14,6 +14,7 @@ __all__ = [
     "RECORD_RATE",
     "WALK_STEPS",
     "best_time",
+    "best_times",
     "pinocchio_contacts",
     "run_scene",
     "state_error",
@@ -56,6 +57,17 @@ def best_time(fn, n: int, rounds: int) -> float:
         for _ in range(n):
             fn()
         best = min(best, (time.perf_counter() - start) / n)
+    return best
+
+
+def best_times(fns: dict, n: int, rounds: int) -> dict:
+    """:func:`best_time` of several functions with their rounds interleaved (round 1 of each,
+    then round 2 of each...): a machine that slows down for a while slows them all, and the
+    ratios between them stay what they are."""
+    best = dict.fromkeys(fns, float("inf"))
+    for _ in range(rounds):
+        for name, fn in fns.items():
+            best[name] = min(best[name], best_time(fn, n, 1))
     return best
 
 

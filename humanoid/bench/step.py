@@ -7,8 +7,8 @@ the same run, interleaved: ``pin.aba`` + ``pin.integrate`` for contact-free scen
 models built here with Pinocchio's API alone). Three variants of ours: the dynamics only (no
 effects, the like-for-like comparison) with the default native backend, the same through the
 NumPy reference KKT solve, and the scene as shipped (with its effects and controller, native).
-Each figure is the best of several rounds (the machine is shared and noisy); ratios are what
-to read.
+Each figure is the best of several rounds, the variants' rounds interleaved (the machine is
+shared and noisy: a slow spell slows them all); ratios are what to read.
 
 Scenes with ground contact (one frictional contact solve per step, whose size changes as the
 body moves) are timed apart, over their first seconds, against MuJoCo's ``mj_step`` on the same
@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from ..data import SCENES
 from ..errors import HumanoidError
-from .common import best_time, pinocchio_contacts, write_rows
+from .common import best_times, pinocchio_contacts, write_rows
 
 __all__ = ["STEP_COLUMNS", "run_step_benchmark"]
 
@@ -87,13 +87,10 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
             sim.update_contacts(0.0, q, v)
             variants[label] = (sim, q, v)
         sim0, q0, v0 = variants["native"]
-        theirs = _pinocchio_step(sim0, q0, v0, scene.dt)
-        times = {"pinocchio": best_time(theirs, n, rounds)}
+        fns = {"pinocchio": _pinocchio_step(sim0, q0, v0, scene.dt)}
         for label, (sim, q, v) in variants.items():
-            times[label] = best_time(
-                lambda s=sim, q=q, v=v, dt=scene.dt: s.step(0.0, q, v, dt), n, rounds
-            )
-            times["pinocchio"] = min(times["pinocchio"], best_time(theirs, n, 1))
+            fns[label] = lambda s=sim, q=q, v=v, dt=scene.dt: s.step(0.0, q, v, dt)
+        times = best_times(fns, n, rounds)
         contacts = "+".join(f"{c.foot}:{c.kind}" for c in scene.effects.contacts) or "none"
         rows.append({"scene": scene.name, "contacts": contacts} | times)
 
