@@ -14,11 +14,11 @@ def add_sweep_parser(command) -> None:
     s = command("sweep", help="run a study: many runs on Dask, one Parquet row each, resumable")
     s.add_argument("study", help="a study file (TOML), or a shipped study: push_standing, "
                    "walk_speed, push_slice")  # fmt: skip
-    s.add_argument("-o", "--output", help="the study's folder (default results/studies/NAME)")
+    s.add_argument("-o", "--output", help="the study's folder (None: results/studies/NAME)")
     s.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing Dask scheduler (tcp://host:8786) instead of a local "
                    "cluster; its workers need humanoid installed")  # fmt: skip
-    s.add_argument("--workers", type=int, help="local worker processes (default: one per core)")
+    s.add_argument("--workers", type=int, help="local worker processes (None: one per core)")
     s.add_argument("--serial", action="store_true",
                    help="run in this process, one run after another (no Dask)")  # fmt: skip
     s.add_argument("--retry-failed", action="store_true",
