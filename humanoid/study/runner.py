@@ -112,6 +112,7 @@ def _scene_run(payload: dict, params: dict):
         "push_force": float(np.linalg.norm(push[-1].force)) if push else 0.0,
         "mass": float(h.mass),
         "energy_change": float(traj.energy[-1] - traj.energy[0]),
+        "final_speed": float(np.abs(traj.v[-1]).max()) if len(traj.v) else math.nan,
         "max_penetration": float(traj.metadata.get("max_penetration", math.nan)),
     }
     return status, message, values, traj

@@ -87,6 +87,7 @@ OUTPUTS = {
         "push_force": ("N", "the push's magnitude (0: none)"),
         "mass": ("kg", "the body's mass"),
         "energy_change": ("J", "total energy at the end minus at the start"),
+        "final_speed": ("m/s, rad/s", "largest entry of the velocity at the end (0: at rest)"),
         "max_penetration": ("m", "deepest point below the floor (ground scenes)"),
     },
     "walk": {
