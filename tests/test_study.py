@@ -215,6 +215,43 @@ def test_a_worker_killed_mid_run_is_replaced_and_the_run_retried(tmp_path, seria
     _same(rows, serial_rows)
 
 
+def test_a_run_whose_workers_keep_dying_is_an_error_row(tmp_path):
+    """With no retries allowed (`distributed.scheduler.allowed-failures` = 0), the run whose
+    worker is SIGKILLed becomes a row with status error and says why; the study finishes
+    with every other row."""
+    import logging
+
+    import dask
+    from distributed import Client, LocalCluster
+
+    study = _study(tmp_path)
+    box = {}
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                         dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
+            Client(c) as client:  # fmt: skip
+        thread = threading.Thread(
+            target=lambda: box.update(
+                result=run_study(study, tmp_path / "out", client=client, quiet=True)
+            )  # fmt: skip
+        )
+        thread.start()
+        victim, deadline = None, time.monotonic() + 60
+        while victim is None and time.monotonic() < deadline:
+            busy = [w for w, tasks in client.processing().items() if tasks]
+            if busy:
+                time.sleep(0.2)
+                victim = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+            time.sleep(0.02)
+        os.kill(victim, signal.SIGKILL)
+        thread.join(timeout=240)
+    rows = read_table(box["result"].table)
+    assert len(rows) == 6 and len({r["run"] for r in rows}) == 6
+    errors = [r for r in rows if r["status"] == "error"]
+    assert len(errors) >= 1 and all("worker died" in r["message"] for r in errors)
+    assert sum(r["status"] == "completed" for r in rows) == 6 - len(errors)
+
+
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
