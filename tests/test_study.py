@@ -6,6 +6,7 @@ that raises is a failed row with its message; a bad study file is a StudyError n
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -70,16 +71,47 @@ def _same(a: list[dict], b: list[dict]) -> None:
             assert same, (x["run"], k, x[k], y[k])
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    """A 2-worker LocalCluster (worker processes, as `humanoid sweep` starts) and its client."""
+@contextlib.contextmanager
+def _local_client(config=None):
+    """A 2-worker LocalCluster (worker processes, as `humanoid sweep` starts) and its client,
+    under a Dask ``config`` if given."""
     import logging
 
+    import dask
     from distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
+    with dask.config.set(config or {}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                         dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
             Client(c) as client:  # fmt: skip
+        yield client
+
+
+def _study_with_a_worker_killed(client, study, folder):
+    """Run ``study`` on ``client`` while SIGKILLing the process of a worker inside a run;
+    returns (the StudyRun, the killed pid)."""
+    box = {}
+    thread = threading.Thread(
+        target=lambda: box.update(result=run_study(study, folder, client=client, quiet=True))
+    )
+    thread.start()
+    victim, deadline = None, time.monotonic() + 60
+    while victim is None and time.monotonic() < deadline:
+        busy = [w for w, tasks in client.processing().items() if tasks]
+        if busy:
+            time.sleep(0.2)  # inside the run
+            victim = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+        time.sleep(0.02)
+    assert victim is not None
+    os.kill(victim, signal.SIGKILL)
+    thread.join(timeout=240)
+    assert not thread.is_alive()
+    return box["result"], victim
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with _local_client() as client:
         yield client
 
 
@@ -177,38 +209,13 @@ def test_a_killed_study_finishes_the_remaining_runs_only(tmp_path, serial_rows):
 def test_a_worker_killed_mid_run_is_replaced_and_the_run_retried(tmp_path, serial_rows):
     """A worker process is SIGKILLed while it runs a task: the nanny starts a new one, the
     scheduler reruns the task, and the study ends with every row once, equal to serial."""
-    import logging
-
-    from distributed import Client, LocalCluster
-
     study = _study(tmp_path, BROKEN_RUN)
-    box = {}
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
-            Client(c) as client:  # fmt: skip
+    with _local_client() as client:
         before = set(client.run(os.getpid).values())
-
-        def go():
-            box["result"] = run_study(study, tmp_path / "out", client=client, quiet=True)
-
-        thread = threading.Thread(target=go)
-        thread.start()
-        victim = None
-        deadline = time.monotonic() + 60
-        while victim is None and time.monotonic() < deadline:
-            busy = [w for w, tasks in client.processing().items() if tasks]
-            if busy:
-                time.sleep(0.2)  # inside the run
-                victim = client.run(os.getpid, workers=[busy[0]])[busy[0]]
-            time.sleep(0.02)
-        assert victim is not None
-        os.kill(victim, signal.SIGKILL)
-        thread.join(timeout=240)
-        assert not thread.is_alive()
+        result, victim = _study_with_a_worker_killed(client, study, tmp_path / "out")
         client.wait_for_workers(2, timeout=60)
         after = set(client.run(os.getpid).values())
     assert victim in before and victim not in after  # a new worker took its place
-    result = box["result"]
     assert result.ran == 12
     rows = read_table(result.table)
     assert len({r["run"] for r in rows}) == len(rows) == 12
@@ -219,33 +226,10 @@ def test_a_run_whose_workers_keep_dying_is_an_error_row(tmp_path):
     """With no retries allowed (`distributed.scheduler.allowed-failures` = 0), the run whose
     worker is SIGKILLed becomes a row with status error and says why; the study finishes
     with every other row."""
-    import logging
-
-    import dask
-    from distributed import Client, LocalCluster
-
     study = _study(tmp_path)
-    box = {}
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
-            LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                         dashboard_address=":0", silence_logs=logging.CRITICAL) as c, \
-            Client(c) as client:  # fmt: skip
-        thread = threading.Thread(
-            target=lambda: box.update(
-                result=run_study(study, tmp_path / "out", client=client, quiet=True)
-            )  # fmt: skip
-        )
-        thread.start()
-        victim, deadline = None, time.monotonic() + 60
-        while victim is None and time.monotonic() < deadline:
-            busy = [w for w, tasks in client.processing().items() if tasks]
-            if busy:
-                time.sleep(0.2)
-                victim = client.run(os.getpid, workers=[busy[0]])[busy[0]]
-            time.sleep(0.02)
-        os.kill(victim, signal.SIGKILL)
-        thread.join(timeout=240)
-    rows = read_table(box["result"].table)
+    with _local_client({"distributed.scheduler.allowed-failures": 0}) as client:
+        result, _ = _study_with_a_worker_killed(client, study, tmp_path / "out")
+    rows = read_table(result.table)
     assert len(rows) == 6 and len({r["run"] for r in rows}) == 6
     errors = [r for r in rows if r["status"] == "error"]
     assert len(errors) >= 1 and all("worker died" in r["message"] for r in errors)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -77,10 +78,8 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
     result = StudyRun(folder, store.path, len(runs), len(runs) - len(pending))
     payload = study.payload()
     bar = _bar(len(runs), result.skipped, quiet, study.name)
-    counts: dict[str, int] = {}  # the finished rows by status, for the progress bar
-    for k, r in store.rows.items():
-        if k in done:
-            counts[r["status"]] = counts.get(r["status"], 0) + 1
+    # the finished rows by status, for the progress bar
+    counts = Counter(r["status"] for k, r in store.rows.items() if k in done)
     bar.set_postfix_str(_tally(counts), refresh=False)
     last_flush = time.perf_counter()
     start = time.perf_counter()
@@ -90,7 +89,7 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
         store.add(row)
         result.ran += 1
         result.run_time += float(row.get("wall_time", 0.0))
-        counts[row["status"]] = counts.get(row["status"], 0) + 1
+        counts[row["status"]] += 1
         bar.set_postfix_str(_tally(counts), refresh=False)
         bar.update(1)
         if time.perf_counter() - last_flush >= FLUSH_SECONDS:
@@ -115,10 +114,7 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
         bar.close()
         store.write()
         result.wall = time.perf_counter() - start
-    statuses: dict[str, int] = {}
-    for r in store.rows.values():
-        statuses[r["status"]] = statuses.get(r["status"], 0) + 1
-    result.statuses = statuses
+    result.statuses = dict(Counter(r["status"] for r in store.rows.values()))
     return result
 
 
