@@ -1,0 +1,16 @@
+"""Optimal control of the body: its dynamics as casadi expressions (:mod:`.dynamics`).
+
+Needs casadi (``pip install 'humanoid-toolkit[optimal]'``); ``import humanoid`` does not import
+this package.
+"""
+
+try:
+    import casadi  # noqa: F401
+except ImportError as exc:  # pragma: no cover - the test environment has casadi
+    raise ImportError(
+        "humanoid.optimal needs casadi: pip install 'humanoid-toolkit[optimal]' (or casadi)"
+    ) from exc
+
+from .dynamics import Kinematics, SymbolicModel
+
+__all__ = ["Kinematics", "SymbolicModel"]
