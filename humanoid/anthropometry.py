@@ -46,8 +46,10 @@ __all__ = [
     "BodyParameters",
     "Segment",
     "SegmentRow",
+    "FootParts",
     "body_dimensions",
     "segments",
+    "split_foot",
 ]
 
 HEIGHT_RANGE = (0.5, 2.5)  # [m]
@@ -145,6 +147,21 @@ STATURE_FRACTIONS = MappingProxyType({
 # fraction of the foot length in front of the heel.
 HEEL_TO_ANKLE_FRACTION = 0.25
 
+# The toes segment of a body built with ``toes=True`` (:func:`split_foot`), with sources.
+# OPENSIM: gait2392 and Rajagopal 2016 (opensim-org/opensim-models): the mtp joint at
+# x = 0.1788 m in the calcaneus frame, whose foot runs 0.2655 m from the heel (x = -0.0098) to
+# the toe tip (0.2557, from the meshes; the scale marker set's heel and toe-tip markers give the
+# same 0.71); toes 0.2166 kg of the calcaneus and toes' 1.4666 kg. Foot scans place the first
+# MTP joint at 70-79 % of foot length.
+# fmt: off
+TOES = MappingProxyType({
+    "mtp_fraction": 0.71,      # MTP joint from the heel, of the foot length: OPENSIM
+    "mass_fraction": 0.148,    # toes' share of the foot mass: OPENSIM (0.2166 / 1.4666)
+    "height_fraction": 0.5,    # toes' height, of the ankle height: design choice (their box
+                               # and the MTP axis at its mid-height; the sole stays one plane)
+})
+# fmt: on
+
 # The vertical chain from the sole to the vertex, bottom to top; see the closure rule above.
 CHAIN = ("ankle_height", "shank", "thigh", "pelvis", "abdomen", "thorax", "head")
 SEGMENT_NAMES = tuple(DE_LEVA_1996["male"])
@@ -179,6 +196,8 @@ class BodyParameters:
             segment name (``head``, ``thorax``, ``abdomen``, ``pelvis``, ``upper_arm``,
             ``forearm``, ``hand``, ``thigh``, ``shank``, ``foot``) or ``ankle_height``.
             Measured chain lengths are kept; the others close the chain to the stature.
+        toes: Split each foot at the metatarsophalangeal joint into a rearfoot and a toes
+            segment on a hinge (:func:`split_foot`); the two together keep de Leva's foot.
 
     Raises:
         BodyParameterError: a value is out of range, not finite, or of an unknown name.
@@ -188,8 +207,11 @@ class BodyParameters:
     mass: float
     sex: str = "male"
     segment_lengths: Mapping[str, float] = field(default_factory=dict)
+    toes: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.toes, bool):
+            raise BodyParameterError(f"toes must be True or False, got {self.toes!r}")
         object.__setattr__(
             self, "height", _check_finite_range("height", self.height, *HEIGHT_RANGE, "m")
         )
@@ -217,7 +239,8 @@ class BodyParameters:
         body_dimensions(self)  # raises if the measured lengths cannot close the chain
 
     def __hash__(self) -> int:
-        return hash((self.height, self.mass, self.sex, tuple(sorted(self.segment_lengths.items()))))
+        lengths = tuple(sorted(self.segment_lengths.items()))
+        return hash((self.height, self.mass, self.sex, lengths, self.toes))
 
 
 @dataclass(frozen=True)
@@ -315,3 +338,67 @@ def mass_fraction_sum(sex: str) -> float:
     """Sum of de Leva's mass fractions over the whole body (bilateral segments twice) [-]."""
     table = DE_LEVA_1996[sex]
     return sum(row.mass * (2 if name in BILATERAL else 1) for name, row in table.items())
+
+
+@dataclass(frozen=True)
+class FootParts:
+    """De Leva's foot split at the metatarsophalangeal (MTP) joint, in a frame at the heel on
+    the sole (x forward along the foot, y left, z up) [m, kg, kg m^2].
+
+    The toes are a uniform box from the MTP joint to the toe tip, the foot's width and
+    ``toes_height`` tall; the rearfoot is the rest: its mass, CoM and inertia are what the whole
+    foot's minus the toes' leave, so that at an MTP angle of zero the two parts have exactly de
+    Leva's foot mass, CoM and inertia about its CoM.
+
+    Attributes:
+        mtp_x: The MTP joint (the metatarsal heads) from the heel.
+        joint_z: The MTP axis above the sole (the toes' mid-height).
+        toes_height: The toes box's height.
+        rear_mass, rear_com, rear_inertia: The rearfoot (inertia 3x3 about its CoM).
+        toes_mass, toes_com, toes_inertia: The toes (inertia 3x3 about their CoM).
+    """
+
+    mtp_x: float
+    joint_z: float
+    toes_height: float
+    rear_mass: float
+    rear_com: np.ndarray
+    rear_inertia: np.ndarray
+    toes_mass: float
+    toes_com: np.ndarray
+    toes_inertia: np.ndarray
+
+
+def _parallel_axis(mass: float, d: np.ndarray) -> np.ndarray:
+    """The inertia of a point mass at offset d: m (|d|^2 E - d d^T)."""
+    return mass * (float(d @ d) * np.eye(3) - np.outer(d, d))
+
+
+def split_foot(foot: Segment, width: float, ankle_height: float) -> FootParts:
+    """The foot split into a rearfoot and toes (see :class:`FootParts` and :data:`TOES`).
+
+    Args:
+        foot: The de Leva foot (heel to toe tip; its CoM ``ankle_height / 2`` above the sole,
+            as the body places it).
+        width: Foot width [m].
+        ankle_height: Sole to ankle joint centre [m].
+    """
+    L, m = foot.length, foot.mass
+    mtp_x = TOES["mtp_fraction"] * L
+    toes_len, toes_h = L - mtp_x, TOES["height_fraction"] * ankle_height
+    m_t = TOES["mass_fraction"] * m
+    c = np.array([foot.com_fraction * L, 0.0, ankle_height / 2])
+    c_t = np.array([mtp_x + toes_len / 2, 0.0, toes_h / 2])
+    I_t = (m_t / 12.0) * np.diag(
+        [width**2 + toes_h**2, toes_len**2 + toes_h**2, toes_len**2 + width**2]
+    )
+    m_r = m - m_t
+    c_r = (m * c - m_t * c_t) / m_r
+    # about the whole foot's CoM: I = I_r + m_r d_r^2-terms + I_t + m_t d_t^2-terms
+    I_r = np.diag(foot.inertia) - _parallel_axis(m_r, c_r - c) - I_t - _parallel_axis(m_t, c_t - c)
+    if np.linalg.eigvalsh(I_r).min() <= 0.0:
+        raise BodyParameterError(
+            f"the rearfoot's inertia is not positive definite ({np.linalg.eigvalsh(I_r)}): "
+            "the toes take more of the foot's inertia than it has"
+        )
+    return FootParts(mtp_x, toes_h / 2, toes_h, m_r, c_r, I_r, m_t, c_t, I_t)

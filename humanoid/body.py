@@ -44,6 +44,7 @@ from .anthropometry import (
     Segment,
     body_dimensions,
     segments,
+    split_foot,
 )
 
 __all__ = ["JOINT_RANGES", "SIDES", "build_urdf", "contact_point_names", "write_urdf"]
@@ -89,6 +90,8 @@ JOINT_RANGES = MappingProxyType({
     "elbow":              JointRange(0.0, 145.0, "ROM-SHEET: flexion 145"),
     "wrist_flexion":      JointRange(-70.0, 80.0, "ROM-SHEET: flexion 80, extension 70"),
     "wrist_deviation":    JointRange(-45.0, 20.0, "ROM-SHEET: radial 20, ulnar 45"),
+    "mtp":                JointRange(-45.0, 70.0, "AAOS normal first MTP: flexion 45, "
+                                                   "extension 70 (OrthopaedicsOne)"),
 })
 
 # Left-side joint axes for a positive anatomical angle; the right side mirrors them.
@@ -117,6 +120,25 @@ AXES = MappingProxyType({
     "elbow":              ((0.0, -1.0, 0.0), 70.0, 18.0),
     "wrist_flexion":      ((-1.0, 0.0, 0.0), 20.0, 15.0),
     "wrist_deviation":    ((0.0, -1.0, 0.0), 20.0, 15.0),
+    "mtp":                ((0.0, -1.0, 0.0), 30.0, 15.0),
+})
+
+@dataclass(frozen=True)
+class PassiveJoint:
+    """A joint's passive torque -stiffness q - damping dq [N m/rad, N m s/rad] for a 75 kg
+    adult (scaled with body mass, as the efforts are)."""
+
+    stiffness: float
+    damping: float
+    source: str
+
+
+# FALISSE2022: Falisse, Afschrift & De Groote 2022, PLoS One 17:e0256311, "Modeling toes
+# contributes to realistic stance knee mechanics in three-dimensional predictive simulations of
+# walking": a linear passive MTP torque, 25 N m/rad and 2 N m s/rad (their code, predictsim_mtp:
+# stiffnessMtp = 25; dampingMtp 1.9 plus 0.1 from the limit torque's damping).
+PASSIVE_JOINTS = MappingProxyType({
+    "mtp": PassiveJoint(25.0, 2.0, "FALISSE2022: stiffness 25 N m/rad, damping 2 N m s/rad"),
 })
 # fmt: on
 
@@ -183,9 +205,12 @@ class _Builder:
             for k, c in COLORS.items()
         ]
 
-    def link(self, name, segment: Segment | None = None, com=None, visuals=(), collisions=()):
+    def link(
+        self, name, segment: Segment | None = None, com=None, visuals=(), collisions=(), mass=None
+    ):
         """A link; its collision geometry is its visual geometry unless given (the feet give
-        their sole boxes), so that every segment can touch the ground."""
+        their sole boxes), so that every segment can touch the ground. ``mass`` = (mass,
+        3x3 inertia about the CoM) instead of a segment's."""
         if not collisions:
             collisions = [
                 _urdf().Collision(name=v.name, origin=v.origin, geometry=v.geometry)
@@ -193,10 +218,9 @@ class _Builder:
             ]
         inertial = None
         if segment is not None:
-            T = _pose(com)
-            inertial = _urdf().Inertial(
-                origin=T, mass=segment.mass, inertia=np.diag(segment.inertia)
-            )
+            mass = (segment.mass, np.diag(segment.inertia))
+        if mass is not None:
+            inertial = _urdf().Inertial(origin=_pose(com), mass=mass[0], inertia=mass[1])
         self.links.append(
             _urdf().Link(
                 name=name, inertial=inertial, visuals=list(visuals), collisions=list(collisions)
@@ -206,6 +230,10 @@ class _Builder:
     def revolute(self, name, kind, side, parent, child, xyz):
         axis, effort, velocity = AXES[kind]
         rng = JOINT_RANGES[kind]
+        passive = PASSIVE_JOINTS.get(kind)
+        dynamics = None
+        if passive is not None:  # the damping in the URDF; the stiffness in PASSIVE_JOINTS
+            dynamics = _urdf().Dynamics(damping=passive.damping * self.mass_scale, friction=0.0)
         self.joints.append(
             _urdf().Joint(
                 name=name,
@@ -220,6 +248,7 @@ class _Builder:
                     lower=math.radians(rng.lower),
                     upper=math.radians(rng.upper),
                 ),
+                dynamics=dynamics,
             )
         )
 
@@ -435,6 +464,9 @@ def _leg(b: _Builder, seg, d, side):
     length, width, ah = foot.length, d["foot_width"], d["ankle_height"]
 
     heel_x = -HEEL_TO_ANKLE_FRACTION * length
+    if b.params.toes:
+        _foot_with_toes(b, side, foot, width, ah, heel_x)
+        return
     centre = (heel_x + length / 2, 0.0, -ah / 2)
     com = (heel_x + foot.com_fraction * length, 0.0, -ah / 2)
     b.link(
@@ -453,6 +485,61 @@ def _leg(b: _Builder, seg, d, side):
         b.fixed(f"{name}_joint", f"{side}_foot", name, _mirror((x, y, -ah), side))
 
 
+def _foot_with_toes(b: _Builder, side, foot: Segment, width, ah, heel_x):
+    """The rearfoot (heel to the metatarsal heads) and the toes on the ``{side}_mtp`` hinge.
+
+    Contact frames: ``heel_inner|heel_outer`` on the rearfoot; ``meta_inner|meta_outer``
+    (under the first and fifth metatarsal heads, the toes' rear corners, directly below the MTP
+    axis) and ``toe_inner|toe_outer`` (the toe tip) on the toes, so that the rearfoot rolls
+    over the metatarsal heads about the MTP axis while the toes lie flat; ``{side}_sole`` at
+    the centre of the rearfoot's sole and ``{side}_toes_sole`` at the centre of the toes'. At
+    an MTP angle of zero every frame is where the one-piece foot has it, and the two parts have
+    the one-piece foot's mass, CoM and inertia.
+    """
+    parts = split_foot(foot, width, ah)
+    sole_z = -ah  # in the foot frame (at the ankle joint centre)
+
+    def at(x, z):  # a point given from the heel on the sole, in the foot frame
+        return np.array([heel_x + x, 0.0, sole_z + z])
+
+    rear_len, toes_len = parts.mtp_x, foot.length - parts.mtp_x
+    rear_centre = at(rear_len / 2, ah / 2)
+    b.link(
+        f"{side}_foot",
+        com=at(parts.rear_com[0], parts.rear_com[2]),
+        mass=(parts.rear_mass, parts.rear_inertia),
+        visuals=[_visual(f"{side}_foot", _box(rear_len, width, ah), rear_centre, "feet")],
+        collisions=[_visual(f"{side}_sole_box", _box(rear_len, width, ah), rear_centre, "", True)],
+    )
+    joint = at(parts.mtp_x, parts.joint_z)  # the toes' frame sits on the MTP axis
+    b.revolute(f"{side}_mtp", "mtp", side, f"{side}_foot", f"{side}_toes", joint)
+    toes_centre = np.array([toes_len / 2, 0.0, parts.toes_height / 2 - parts.joint_z])
+    toes_box = _box(toes_len, width, parts.toes_height)
+    b.link(
+        f"{side}_toes",
+        com=parts.toes_com - np.array([parts.mtp_x, 0.0, parts.joint_z]),
+        mass=(parts.toes_mass, parts.toes_inertia),
+        visuals=[_visual(f"{side}_toes", toes_box, toes_centre, "feet")],
+        collisions=[_visual(f"{side}_toes_box", toes_box, toes_centre, "", True)],
+    )
+    b.link(f"{side}_sole")
+    b.fixed(f"{side}_sole_joint", f"{side}_foot", f"{side}_sole", at(rear_len / 2, 0.0))
+    b.link(f"{side}_toes_sole")
+    b.fixed(
+        f"{side}_toes_sole_joint",
+        f"{side}_toes",
+        f"{side}_toes_sole",
+        (toes_len / 2, 0.0, -parts.joint_z),
+    )
+    for part, x in (("heel", 0.0), ("meta", parts.mtp_x), ("toe", foot.length)):
+        parent, origin = (f"{side}_foot", 0.0) if part == "heel" else (f"{side}_toes", joint)
+        for edge, y in (("inner", -width / 2), ("outer", width / 2)):
+            name = f"{side}_{part}_{edge}"
+            b.link(name)
+            xyz = at(x, 0.0) + np.array([0.0, y, 0.0]) - origin
+            b.fixed(f"{name}_joint", parent, name, _mirror(xyz, side))
+
+
 def build_urdf(params: BodyParameters) -> str:
     """URDF text of the body of a person.
 
@@ -469,7 +556,8 @@ def build_urdf(params: BodyParameters) -> str:
     return (
         '<?xml version="1.0"?>\n'
         f"<!-- humanoid body: height {params.height} m, mass {params.mass} kg, sex {params.sex}"
-        f"{lengths}. Segment parameters: de Leva (1996) Table 4. Written by humanoid.build_urdf."
+        f"{lengths}{', toes' if params.toes else ''}. Segment parameters: de Leva (1996)"
+        " Table 4. Written by humanoid.build_urdf."
         " -->\n" + text
     )
 

@@ -57,6 +57,11 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=LENGTH",
         help="a measured segment length [m], e.g. thigh=0.45 (repeatable)",
     )
+    b.add_argument(
+        "--toes",
+        action="store_true",
+        help="split each foot at the metatarsophalangeal joint: a toes segment on a hinge",
+    )
     b.add_argument("-o", "--output", required=True, help="URDF file to write")
 
     i = command("info", help="summarise a model: DoF, joints, segments, mass, CoM, feet")
@@ -428,9 +433,10 @@ def _build(args) -> int:
     from .anthropometry import BodyParameters
     from .body import write_urdf
 
-    params = BodyParameters(args.height, args.mass, args.sex, dict(args.segment))
+    params = BodyParameters(args.height, args.mass, args.sex, dict(args.segment), args.toes)
     path = write_urdf(params, args.output)
-    print(f"wrote {path} ({params.sex}, {params.height} m, {params.mass} kg)")
+    toes = ", toes" if params.toes else ""
+    print(f"wrote {path} ({params.sex}, {params.height} m, {params.mass} kg{toes})")
     return 0
 
 

@@ -13,7 +13,7 @@ What loading does, in order:
 2. Builds the Pinocchio model with a ``JointModelFreeFlyer`` root at the URDF's root link (the
    pelvis of a human), and its visual and collision geometry.
 3. Finds the feet by name (``sole`` before ``foot`` before ``ankle``, with ``left``/``l`` and
-   ``right``/``r`` tokens) unless the caller names them.
+   ``right``/``r`` tokens; a toes segment's frames last) unless the caller names them.
 4. Turns a model whose URDF is not Z-up (example-robot-data's human is Y-up, ISB) so that it
    stands along +Z: the free-flyer's joint placement gets the fixed rotation.
 5. With ``ball_joints="quaternion"``, fuses hinge triplets into spherical joints
@@ -800,7 +800,9 @@ def _find_feet(model: pin.Model, feet, label: str) -> tuple[str, str]:
                 continue
             for rank, word in enumerate(FOOT_WORDS):
                 if word in n:
-                    key = (rank, -f.parentJoint, f.type == pin.FrameType.JOINT, len(n))
+                    # a toes segment's frames only where nothing else names the foot
+                    toe = "toe" in n
+                    key = (toe, rank, -f.parentJoint, f.type == pin.FrameType.JOINT, len(n))
                     if best is None or key < best[0]:
                         best = (key, f.name)
                     break

@@ -304,7 +304,7 @@ def test_knee_and_elbow_limits_in_degrees():
 
 
 def test_joint_ranges_have_sources():
-    assert len(body.JOINT_RANGES) == 21
+    assert len(body.JOINT_RANGES) == 22  # 21 and the toes body's mtp
     for name, rng in body.JOINT_RANGES.items():
         assert isinstance(rng.source, str) and rng.source.strip(), name
         assert rng.lower < rng.upper, name

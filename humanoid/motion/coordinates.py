@@ -35,7 +35,9 @@ wrist_flex_r, wrist_dev_r  *_wrist_flexion,        +1, -1 (their hand is in the 
                            *_wrist_deviation       position, palm forward; ours palm in)
 =========================  ======================  =========================================
 
-Not mapped, listed in a warning: ``mtp_angle`` (the body's foot is one segment), ``pro_sup``
+``mtp_angle_r`` / ``_l`` go to ``*_mtp`` on a body built with toes (gait2392: +1, both
+dorsiflexion; Rajagopal: -1, its axis is the opposite); on a one-piece foot they are left out
+with a warning. Not mapped, listed in a warning: ``pro_sup``
 (no forearm rotation), Rajagopal's knee ``_beta`` and anything else. The body's own extras are
 written with names of the same form and read back: ``thoracic_extension, _bending,
 _rotation`` and ``neck_extension, _bending, _rotation`` (-y, x, z). A body's coordinates written
@@ -198,22 +200,27 @@ _IGNORED = ("mtp_angle_r", "mtp_angle_l", "pro_sup_r", "pro_sup_l", "knee_angle_
             "knee_angle_l_beta")  # fmt: skip
 
 
-def _map(name: str, knee_sign: float, hips: tuple[float, float, float]):
+def _map(name: str, knee_sign: float, hips: tuple[float, float, float], mtp_sign: float):
     # hips: the hip centres' midpoint in the unscaled model's pelvis frame (theirs, Y up)
     offset = tuple(float(x) for x in np.array([hips[0], -hips[2], hips[1]]))
+    toes = tuple(JointMap((f"{_side(s)}_mtp",), (f"mtp_angle_{s}",), signs=(mtp_sign,))
+                 for s in "rl")  # used only where the body has toes  # fmt: skip
     return CoordinateMap(
         name, RootMap(offset=offset, **_ROOT_COLUMNS),
         tuple(_legs(knee_sign) + [JointMap(("lumbar", "thoracic"), _BACK, _SEQ)] + _arms()),
-        _IGNORED, _EXTRAS,
+        _IGNORED, _EXTRAS + toes,
     )  # fmt: skip
 
 
 # hip offsets from the models' .osim files (opensim-models: gait2354/gait2392 pelvis
-# (-0.0707, -0.0661, +-0.0835), Rajagopal2016 (-0.056276, -0.07849, +-0.07726))
+# (-0.0707, -0.0661, +-0.0835), Rajagopal2016 (-0.056276, -0.07849, +-0.07726)). mtp_angle:
+# gait2392 turns the toes about (-0.581, 0, 0.814) in the calcaneus frame (positive lifts the
+# toe tip: dorsiflexion); Rajagopal's pin joint's frame turns its Z onto (0.581, 0, -0.814),
+# the opposite axis (positive is plantarflexion), read from the two .osim files.
 MAPS = {
-    "gait2392": _map("gait2392", -1.0, (-0.0707, -0.0661, 0.0)),
-    "gait2354": _map("gait2354", -1.0, (-0.0707, -0.0661, 0.0)),
-    "rajagopal": _map("rajagopal", 1.0, (-0.056276, -0.07849, 0.0)),
+    "gait2392": _map("gait2392", -1.0, (-0.0707, -0.0661, 0.0), 1.0),
+    "gait2354": _map("gait2354", -1.0, (-0.0707, -0.0661, 0.0), 1.0),
+    "rajagopal": _map("rajagopal", 1.0, (-0.056276, -0.07849, 0.0), -1.0),
 }
 
 
@@ -359,7 +366,11 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
     n = len(table.time)
     q = np.tile(h.standing_configuration(), (n, 1))
     used = set(cmap.root.rotation) | set(cmap.root.translation)
-    extras = {j.joints[0]: j for j in cmap.extras if all(c in cols for c in j.columns)}
+    extras = {
+        j.joints[0]: j
+        for j in cmap.extras  # a body without toes skips mtp_angle
+        if all(c in cols for c in j.columns) and all(map(model.existJointName, j.joints))
+    }
     for jm in (*cmap.joints, *extras.values()):
         present = [c in cols for c in jm.columns]
         if not any(present):
