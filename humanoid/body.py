@@ -26,6 +26,8 @@ the left and rotate positively to the left.
 Each foot carries a collision box (the sole box, from the sole to the ankle height), a fixed
 ``{side}_sole`` frame at the centre of the sole, and four fixed contact points at the sole's
 corners: ``{side}_heel_inner``, ``{side}_heel_outer``, ``{side}_toe_inner``, ``{side}_toe_outer``.
+With ``BodyParameters(..., toes=True)`` each foot is a rearfoot and a toes segment on a
+``{side}_mtp`` hinge (35 joint DoF; see :func:`_foot_with_toes`).
 """
 
 from __future__ import annotations
@@ -122,6 +124,7 @@ AXES = MappingProxyType({
     "wrist_deviation":    ((0.0, -1.0, 0.0), 20.0, 15.0),
     "mtp":                ((0.0, -1.0, 0.0), 30.0, 15.0),
 })
+
 
 @dataclass(frozen=True)
 class PassiveJoint:

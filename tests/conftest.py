@@ -123,3 +123,16 @@ def walk_1khz():
     walk = walk_on_ground(h, speed=0.8, steps=2, record_rate=1000.0)
     assert walk.trajectory.status == "completed"
     return h, walk.trajectory
+
+
+def clean_library_path() -> dict:
+    """This process's environment without the OpenSim folder that ``import opensim`` puts on
+    LD_LIBRARY_PATH (its bundled casadi breaks casadi's Python package in a child)."""
+    import os
+
+    env = dict(os.environ)
+    parts = [
+        p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p and "opensim" not in p
+    ]
+    env["LD_LIBRARY_PATH"] = os.pathsep.join(parts)
+    return env

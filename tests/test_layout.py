@@ -103,6 +103,8 @@ def test_no_module_is_shadowed_by_a_function():
         parent, _, leaf = name.rpartition(".")
         if not parent or leaf == "__init__":
             continue
+        if name.startswith("humanoid.optimal"):  # casadi: checked in tests/casadi_checks.py,
+            continue  # in a process without OpenSim (their casadi libraries clash)
         obj = getattr(importlib.import_module(parent), leaf, None)
         if obj is not None and not isinstance(obj, type(importlib)):
             clashes.append(f"{parent}.{leaf} is a {type(obj).__name__}, not the module")

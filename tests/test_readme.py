@@ -8,14 +8,18 @@ import sys
 import tomllib
 from pathlib import Path
 
+from conftest import clean_library_path
+
 ROOT = Path(__file__).resolve().parent.parent
 RUNNER = ROOT / "scripts" / "readme_snippets.py"
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 
 
 def _run(readme: Path):
+    # without OpenSim's LD_LIBRARY_PATH (set when another test imported it): its bundled casadi
+    # would break the optimal-control snippet's
     return subprocess.run([sys.executable, str(RUNNER), str(readme)], capture_output=True,
-                          text=True, timeout=600)  # fmt: skip
+                          text=True, timeout=600, env=clean_library_path())  # fmt: skip
 
 
 def test_the_readme_python_snippets_run_as_written():

@@ -4,6 +4,13 @@ Needs casadi (``pip install 'humanoid-toolkit[optimal]'``); ``import humanoid`` 
 this package.
 """
 
+import sys
+
+if "opensim" in sys.modules:
+    raise ImportError(
+        "humanoid.optimal needs casadi, which cannot share a process with opensim (OpenSim's "
+        "wheel bundles its own casadi libraries): use them in separate processes"
+    )
 try:
     import casadi  # noqa: F401
 except ImportError as exc:  # pragma: no cover - the test environment has casadi
