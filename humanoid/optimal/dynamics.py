@@ -141,7 +141,7 @@ def _joint(jm, name: str) -> _Joint:
     # The motion subspace as Pinocchio computes it (constant in the joint's frame for these
     # types); the one-dof joints' axis is read from it (the bindings do not expose every axis).
     jd = jm.createData()
-    jm.calc(jd, np.array([1.0, 0.0]) if kind == "unbounded" else np.zeros(jm.nq) + _neutral(kind))
+    jm.calc(jd, jm.lieGroup().neutral)
     S = np.array(jd.S).reshape(6, jm.nv)
     axis = None
     if jm.nv == 1:
@@ -149,23 +149,17 @@ def _joint(jm, name: str) -> _Joint:
     return _Joint(kind, jm.idx_q, jm.idx_v, jm.nq, jm.nv, axis, S)
 
 
-def _neutral(kind: str) -> np.ndarray | float:
-    """The joint's neutral configuration, where its motion subspace is read."""
-    if kind == "free":
-        return np.array([0, 0, 0, 0, 0, 0, 1.0])
-    if kind == "spherical":
-        return np.array([0, 0, 0, 1.0])
-    return 0.0
-
-
 @dataclass(frozen=True)
 class Kinematics:
     """The forward pass at (q, v, a): per joint (index 0 is the universe), the world placement
-    (R, p), and the spatial velocity and acceleration (a without gravity) in the joint's frame.
+    (R, p), the placement in its parent's frame (R_parent, p_parent), and the spatial velocity
+    and acceleration (a without gravity) in the joint's frame.
     """
 
     R: list
     p: list
+    R_parent: list
+    p_parent: list
     v: list
     a: list
 
@@ -234,6 +228,7 @@ class SymbolicModel:
         """The forward pass: placements, and velocities and accelerations when given."""
         n = len(self.joints)
         R, p = [ca.SX.eye(3)] + [None] * (n - 1), [ca.SX.zeros(3, 1)] + [None] * (n - 1)
+        R_parent, p_parent = [None] * n, [None] * n
         vel = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if v is not None else None
         acc = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if a is not None else None
         for i in range(1, n):
@@ -241,6 +236,7 @@ class SymbolicModel:
             Rj, pj = self._joint_transform(j, q[j.idx_q : j.idx_q + j.nq])
             Rp, pp = self.placements[i]
             Rl, pl = ca.SX(Rp) @ Rj, ca.SX(Rp) @ pj + ca.SX(pp)  # liMi
+            R_parent[i], p_parent[i] = Rl, pl
             R[i], p[i] = R[lam] @ Rl, R[lam] @ pl + p[lam]
             if vel is None:
                 continue
@@ -253,7 +249,7 @@ class SymbolicModel:
                     + S @ a[j.idx_v : j.idx_v + j.nv]
                     + motion_cross(vel[i], vj)
                 )
-        return Kinematics(R, p, vel, acc)
+        return Kinematics(R, p, R_parent, p_parent, vel, acc)
 
     def frame(self, name_or_id) -> tuple[int, np.ndarray, np.ndarray]:
         """A frame's parent joint and its placement (R, p) in that joint's frame."""
@@ -317,9 +313,7 @@ class SymbolicModel:
             j, lam = self.joints[i], self.parents[i]
             tau[i] = ca.SX(j.S).T @ f[i]
             if lam > 0:
-                Rj, pj = self._joint_transform(j, q[j.idx_q : j.idx_q + j.nq])
-                Rp, pp = self.placements[i]
-                f[lam] = f[lam] + force_act(ca.SX(Rp) @ Rj, ca.SX(Rp) @ pj + ca.SX(pp), f[i])
+                f[lam] = f[lam] + force_act(kin.R_parent[i], kin.p_parent[i], f[i])
         return ca.vertcat(*tau[1:])
 
     def mass_matrix(self, q) -> ca.SX:
@@ -327,14 +321,6 @@ class SymbolicModel:
         a = ca.SX.sym("a", self.nv)
         zero = ca.SX.zeros(self.nv, 1)
         return ca.substitute(ca.jacobian(self.rnea(q, zero, a), a), a, zero)
-
-    def function(self, name: str, **outputs) -> ca.Function:
-        """A casadi Function of (q, v, a) with the named outputs, each a callable of
-        (self, q, v, a) returning an expression; e.g.
-        ``function("id", tau=lambda m, q, v, a: m.rnea(q, v, a))``."""
-        q, v, a = (ca.SX.sym(s, n) for s, n in (("q", self.nq), ("v", self.nv), ("a", self.nv)))
-        exprs = [fn(self, q, v, a) for fn in outputs.values()]
-        return ca.Function(name, [q, v, a], exprs, ["q", "v", "a"], list(outputs))
 
 
 def motion_act_inv(R, p, m) -> ca.SX:
