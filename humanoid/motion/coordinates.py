@@ -393,15 +393,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         else:
             for j, s in zip(ids, jm.signs, strict=False):
                 q[:, model.joints[j].idx_q] = s * values[:, 0]
-    # the root: its rotation, and its position (the file's pelvis origin, moved to ours)
-    rot = np.column_stack([cols[c] for c in cmap.root.rotation]) * scale
-    axes_t = np.array([_axis(a) for a in cmap.root.translation_axes])
-    trans = np.column_stack([cols[c] for c in cmap.root.translation]) @ axes_t
-    offset = np.array(cmap.root.offset)
-    for i in range(n):
-        R = _sequence(rot[i], cmap.root.rotation_axes)
-        q[i, :3] = trans[i] + R @ offset
-        q[i, 3:7] = pin.Quaternion(R).coeffs()
+    _set_root(q, cols, cmap.root, scale)
     if floor:
         q[:, 2] -= lowest_sole_point(h, q)
     unmapped = [x for x in cols if x not in used and x not in cmap.ignored]
@@ -414,6 +406,19 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
             stacklevel=2,
         )
     return table.time.copy(), q, skipped + unmapped
+
+
+def _set_root(q: np.ndarray, cols: dict, root: RootMap, scale: float) -> None:
+    """The root's rows of q: its rotation, and its position (the file's pelvis origin, moved to
+    ours)."""
+    rot = np.column_stack([cols[c] for c in root.rotation]) * scale
+    axes_t = np.array([_axis(a) for a in root.translation_axes])
+    trans = np.column_stack([cols[c] for c in root.translation]) @ axes_t
+    offset = np.array(root.offset)
+    for i in range(len(q)):
+        R = _sequence(rot[i], root.rotation_axes)
+        q[i, :3] = trans[i] + R @ offset
+        q[i, 3:7] = pin.Quaternion(R).coeffs()
 
 
 def lowest_sole_point(h, q: np.ndarray) -> float:
