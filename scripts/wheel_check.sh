@@ -55,5 +55,10 @@ printf '[study]\nname = "tiny"\nscene = "standing"\n[set]\n"scene.duration" = 0.
 "$BIN/humanoid" sweep tiny.toml --workers 2 --quiet > sweep.txt
 grep -q "runs         2: 2 completed" sweep.txt || { cat sweep.txt >&2; exit 1; }
 echo "sweep: a 2-run study on a 2-worker Dask cluster; the shipped study lists $runs runs"
+# without the optimal extra, humanoid.optimal says which pip install to run; with it, the
+# README's snippets (the optimal-control one among them) run as a user following it would
+"$BIN/python" -c 'import humanoid.optimal' 2> optimal.txt && { echo "humanoid.optimal imported without casadi" >&2; exit 1; }
+grep -q "pip install 'humanoid-toolkit\[optimal\]'" optimal.txt || { cat optimal.txt >&2; exit 1; }
+"$BIN/pip" install --quiet "$WHEEL[optimal]" 2> >(quiet)
 "$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md"
 echo "== wheel check passed"
