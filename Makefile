@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models bench bench-accuracy studies wheel-check clean
+.PHONY: demo test lint format models gaits bench bench-accuracy studies wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +34,10 @@ lint: $(STAMP)
 format: $(STAMP)
 	$(VENV)/bin/ruff format humanoid tests scripts
 	$(VENV)/bin/ruff check --fix humanoid tests scripts
+
+# The optimised gait cycles shipped as package data (a few minutes per body and objective).
+gaits: $(STAMP)
+	$(PY) scripts/make_gaits.py
 
 bench: $(STAMP)
 	$(PY) -m humanoid bench step -o docs/bench

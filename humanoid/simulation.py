@@ -182,7 +182,11 @@ class Simulation:
             if spec.bodies == "all":
                 chosen = range(geometry.ngeoms)
             else:
+                # a foot and what hangs below it (its toes)
                 feet = {self.model.frames[h.frame_id(f)].parentJoint for f in h.feet}
+                for j in range(1, self.model.njoints):
+                    if self.model.parents[j] in feet:
+                        feet.add(j)
                 chosen = [i for i, g in enumerate(geometry.geometryObjects)
                           if g.parentJoint in feet]  # fmt: skip
         else:

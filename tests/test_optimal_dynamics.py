@@ -12,12 +12,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from conftest import clean_library_path
 
 HERE = Path(__file__).resolve().parent
 
 
-def test_the_symbolic_model_equals_pinocchio():
+@pytest.mark.parametrize("checks", ["casadi_checks.py", "casadi_gait_checks.py"])
+def test_the_optimal_control_layer_in_its_own_process(checks):
     done = subprocess.run(
         [
             sys.executable,
@@ -26,7 +28,7 @@ def test_the_symbolic_model_equals_pinocchio():
             "-q",
             "-p",
             "no:cacheprovider",
-            str(HERE / "casadi_checks.py"),
+            str(HERE / checks),
         ],
         capture_output=True,
         text=True,

@@ -198,3 +198,22 @@ def test_opensim_mtp_angle_goes_to_the_toes_and_is_left_out_with_a_warning_witho
     with pytest.warns(UnmappedWarning, match="mtp_angle_r, mtp_angle_l"):
         _, _, unmapped = configurations(plain, table, MAPS["gait2392"], floor=False)
     assert unmapped == ["mtp_angle_r", "mtp_angle_l"]
+
+
+def test_the_feet_ground_contact_includes_the_toes():
+    """A scene's ``ground.bodies = "feet"`` is each foot and what hangs below it: the toes'
+    geometry touches the floor too."""
+    from humanoid.scene import Effects, GroundSpec, Scene
+    from humanoid.simulation import Simulation
+
+    h = hm.load(hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male", toes=True)))
+    scene = Scene(name="toes", body=h.source, ball_joints=h.ball_joints, duration=0.01,
+                  integrator="semi_implicit_euler",
+                  effects=Effects(ground=GroundSpec(bodies="feet")))  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    model = sim.model
+    floor_pairs = sim.ground.ground.geometry_model.geometryObjects[1:]  # after the floor
+    joints = {g.parentJoint for g in floor_pairs}
+    names = {model.names[j] for j in joints}
+    assert {"left_mtp", "right_mtp"} <= names
+    assert {model.names[model.frames[h.sole_id(s)].parentJoint] for s in SIDES} <= names

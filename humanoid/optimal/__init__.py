@@ -1,4 +1,6 @@
-"""Optimal control of the body: its dynamics as casadi expressions (:mod:`.dynamics`).
+"""Optimal control of the body: its dynamics as casadi expressions (:mod:`.dynamics`), the body
+in vector-space coordinates (:mod:`.coordinates`), direct collocation through its rigid contact
+dynamics (:mod:`.problem`) and a person's gait cycle optimised with it (:mod:`.gait`).
 
 Needs casadi (``pip install 'humanoid-toolkit[optimal]'``); ``import humanoid`` does not import
 this package.

@@ -85,6 +85,13 @@ class Norms:
         sd = (1 - w) * np.asarray(a["sd"]) + w * np.asarray(b["sd"])
         return mean, sd
 
+    def event(self, name: str, speed: float) -> tuple[float, float]:
+        """(mean, sd) of a cycle event [fraction of the cycle] at a dimensionless speed."""
+        table = self.events[name]
+        i, j, w = self._weights(speed)
+        a, b = table[CLASSES[i]], table[CLASSES[j]]
+        return (1 - w) * a["mean"] + w * b["mean"], (1 - w) * a["sd"] + w * b["sd"]
+
     def scalar(self, name: str, speed: float) -> float:
         """Mean of a scalar parameter (a cycle event or an ANOVA parameter) at a speed."""
         table = self.events.get(name) or self.scalars[name]

@@ -1,0 +1,507 @@
+"""A person's gait cycle, optimised through the body's rigid contact dynamics.
+
+One half stride, from the right heel strike to the left heel strike, with left-right symmetry:
+the state at its end is the mirror image (through y = 0) of the state at its start, moved one
+step forward, so the whole stride repeats it mirrored. Three phases whose durations are
+optimised:
+
+1. **loading** (double support): the right heel down (its two heel points), the left foot on
+   its toes (the metatarsal heads and the toe tips) until the left toe-off;
+2. **foot flat**: the right foot's heel, metatarsal heads and toe tips down, the left foot in
+   swing;
+3. **heel off**: the right foot on its toes, the rearfoot rolling about the metatarsal heads,
+   until the left heel strikes.
+
+A body without toes rolls over its toe tips in phase 3 and carries its weight on the heel and
+toe points in phase 2.
+
+Two objectives (:data:`OBJECTIVES`):
+
+- ``"tracking"``: the published joint angles and ground forces at the speed (Schwartz et al.
+  2008, at the body's dimensionless speed, weighted by their standard deviations), the cycle
+  time of :func:`~humanoid.walking.norms.choose_gait`; plus a small effort.
+- ``"predictive"``: effort only, as the predictive-simulation literature writes it (Falisse et
+  al. 2019, J R Soc Interface 16:20190402: torques squared, joint accelerations squared as a
+  regulariser), plus the torques' rate; the cycle time, hence cadence and step length, free.
+
+Joints no curve follows (the trunk's, the arms', the hips' rotation, the ankles' inversion) stay
+near standing (a small weight).
+
+Both keep the mean speed. :func:`optimise_gait` builds and solves one; a :class:`GaitSolution`
+maps it back to the body (quaternions) and to a full stride.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ..errors import HumanoidError
+from .coordinates import OcpModel, build_ocp_model
+from .problem import Collocation, Phase, Solution
+
+__all__ = [
+    "OBJECTIVES", "GaitSolution", "cache_dir", "fourier", "gait_cycle", "gait_phases",
+    "load_gait", "optimise_gait", "save_gait",
+]  # fmt: skip
+
+OBJECTIVES = ("tracking", "predictive")
+HARMONICS = 8  # Fourier terms of a normative curve over the cycle
+NODES = (5, 12, 8)  # collocation intervals in the three phases
+MU = 0.8
+
+# Weights of the tracking objective's terms (each a mean of squares over the half cycle, in
+# the curves' standard deviations), and of the regularisers.
+W_ANGLE = 1.0
+W_FORCE = 1.0
+W_EVENT = 10.0  # per SD of the opposite foot's toe-off [fraction of the cycle]
+W_POSTURE = 0.1  # per rad^2 from standing, joints no curve tracks
+W_EFFORT = 0.01
+W_ACCELERATION = 1e-4  # per (rad/s^2)^2
+W_FORCE_REG = 1e-3  # per point force, in body weights^2
+W_RATE = 1e-3  # per ((tau / limit) / s)^2
+
+
+def fourier(values: np.ndarray, harmonics: int = HARMONICS) -> np.ndarray:
+    """Least-squares Fourier coefficients (a0, a1, b1, ...) of a periodic curve sampled over
+    0-100 % (the last sample repeats the first)."""
+    y = np.asarray(values, dtype=float)[:-1]
+    phi = np.arange(len(y)) / len(y)
+    return np.linalg.lstsq(_basis(phi, harmonics), y, rcond=None)[0]
+
+
+def fourier_eval(coefficients, phi):
+    """The curve at phase ``phi`` [fraction of the cycle] (numbers or casadi)."""
+    n = (len(coefficients) - 1) // 2
+    out = coefficients[0]
+    for i in range(1, n + 1):
+        w = 2 * math.pi * i * phi
+        out = out + coefficients[2 * i - 1] * _cos(w) + coefficients[2 * i] * _sin(w)
+    return out
+
+
+def _cos(w):
+    return ca.cos(w) if isinstance(w, ca.MX | ca.SX) else np.cos(w)
+
+
+def _sin(w):
+    return ca.sin(w) if isinstance(w, ca.MX | ca.SX) else np.sin(w)
+
+
+def _basis(phi, harmonics):
+    cols = [np.ones_like(phi)]
+    for i in range(1, harmonics + 1):
+        cols += [np.cos(2 * np.pi * i * phi), np.sin(2 * np.pi * i * phi)]
+    return np.column_stack(cols)
+
+
+def _points(om: OcpModel, side: str) -> dict:
+    """A side's contact points: heel, meta (metatarsal heads; None without toes), toe."""
+    model = om.model
+
+    def pair(kind):
+        names = (f"{side}_{kind}_inner", f"{side}_{kind}_outer")
+        return names if all(model.existFrame(n) for n in names) else None
+
+    heel, meta, toe = pair("heel"), pair("meta"), pair("toe")
+    if heel is None or toe is None:
+        raise HumanoidError(
+            f"the gait needs {side}_heel_inner|outer and {side}_toe_inner|outer contact frames"
+        )
+    return {"heel": heel, "meta": meta, "toe": toe}
+
+
+def gait_phases(om: OcpModel, durations, nodes=NODES, free=None) -> list[Phase]:
+    """The half stride's three phases (see the module)."""
+    r, l = _points(om, "right"), _points(om, "left")
+    r_toes = (r["meta"] or ()) + r["toe"]
+    l_toes = (l["meta"] or ()) + l["toe"]
+    contacts = (r["heel"] + l_toes, r["heel"] + (r["meta"] or ()) + r["toe"], r_toes)
+    free = free or [None] * 3
+    return [Phase(float(d), c, n, f) for d, c, n, f in zip(durations, contacts, nodes, free,
+                                                           strict=True)]  # fmt: skip
+
+
+@dataclass
+class GaitSolution:
+    """An optimised half stride and what it was asked.
+
+    Attributes:
+        solution: The collocation's :class:`~humanoid.optimal.problem.Solution` (the OCP
+            model's coordinates).
+        om: The :class:`OcpModel`.
+        speed: [m/s] the mean speed. objective: ``"tracking"`` or ``"predictive"``.
+        points: per side, its contact points by kind (heel, meta, toe).
+        nodes: collocation intervals per phase.
+    """
+
+    solution: Solution
+    om: OcpModel
+    speed: float
+    objective: str
+    points: dict
+    nodes: tuple = NODES
+
+    @property
+    def period(self) -> float:
+        """[s] the whole stride's duration (two half strides)."""
+        return 2.0 * float(self.solution.t[-1])
+
+    @property
+    def step_length(self) -> float:
+        return float(self.solution.x[-1, 0] - self.solution.x[0, 0])
+
+    @property
+    def cadence(self) -> float:
+        """[steps/min]."""
+        return 120.0 / self.period
+
+    def stride(self):
+        """The whole stride: (t, x, v, forces) over both halves (the second mirrored), x in
+        the OCP model's coordinates, forces per contact frame [N]."""
+        s, om = self.solution, self.om
+        T = s.t[-1]
+        x2 = om.reflect(s.x[1:])
+        x2[:, 0] += self.step_length
+        t = np.concatenate([s.t, T + s.t[1:]])
+        x = np.vstack([s.x, x2])
+        v = np.vstack([s.v, om.reflect(s.v[1:])])
+        n = len(s.t)
+        zero = np.zeros((n, 3))
+        names = set(s.forces) | {_mirror_name(p) for p in s.forces}
+        forces = {}
+        for p in sorted(names):
+            mirrored = s.forces.get(_mirror_name(p), zero)[1:] * np.array([1.0, -1.0, 1.0])
+            forces[p] = np.vstack([s.forces.get(p, zero), mirrored])
+        return t, x, v, forces
+
+    def foot_forces(self):
+        """(t, {side: (N, 3) summed force [N]}) over the stride."""
+        t, _, _, forces = self.stride()
+        out = {}
+        for side in ("left", "right"):
+            out[side] = sum(f for p, f in forces.items() if p.startswith(side))
+        return t, out
+
+
+def _mirror_name(p: str) -> str:
+    if p.startswith("left"):
+        return "right" + p[4:]
+    return "left" + p[5:]
+
+
+class _Targets:
+    """The normative curves the tracking objective follows, as Fourier series."""
+
+    def __init__(self, dimensionless_speed: float) -> None:
+        from ..walking.norms import norms
+
+        n = norms()
+        mean, sd = {}, {}
+        for name in ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
+                     "hip_adduction", "knee_flexion", "ankle_dorsiflexion", "grf_vertical",
+                     "grf_anterior"):  # fmt: skip
+            m, s = n.curve(name, dimensionless_speed)
+            mean[name], sd[name] = m, s
+        # The norms' pelvic tilt is the ASIS-PSIS line's, tilted forward at rest; the model's
+        # pelvis is upright standing: its offset is the norm's mean tilt, which the hip's
+        # flexion carries too (hip = thigh + tilt).
+        self.tilt_offset = float(np.mean(mean["pelvis_tilt"][:-1]))
+        self.coefficients = {k: fourier(v) for k, v in mean.items()}
+        self.sd = {k: float(np.mean(v)) for k, v in sd.items()}
+        self.events = {"opposite_foot_off": n.event("opposite_foot_off", dimensionless_speed)}
+
+    def __call__(self, name, phi):
+        return fourier_eval(self.coefficients[name], phi)
+
+
+def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=NODES,
+                  verbose: bool = False, max_iter: int = 3000) -> GaitSolution:  # fmt: skip
+    """Optimise a half stride of ``h`` (see the module).
+
+    Args:
+        h: The body (:class:`humanoid.Humanoid`, with heel and toe contact frames).
+        speed: [m/s] mean speed; default the body's free speed (to the cm/s).
+        objective: One of :data:`OBJECTIVES`.
+        warm: A :class:`GaitSolution` to start from (a neighbouring speed or body, the same
+            nodes); default a kinematic fit of the norms (``walking.reference.fit_cycle``).
+        nodes: Collocation intervals per phase.
+    """
+    from ..walking.norms import choose_gait
+    from ..walking.reference import fit_cycle, leg_length
+
+    if objective not in OBJECTIVES:
+        raise HumanoidError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    om = build_ocp_model(h) if warm is None or warm.om.body is not h else warm.om
+    ell = leg_length(h)
+    if speed is None:  # the body's free speed, to the cm/s (the cache's resolution)
+        from ..walking.norms import free_speed
+
+        speed = round(free_speed(ell), 2)
+    speed = float(speed)
+    gait = choose_gait(speed, ell)
+    half = gait["cycle"] / 2
+    flat_at = gait["opposite_foot_off"] * gait["cycle"]
+    heel_off = 0.65 * gait["foot_off"] * gait["cycle"]
+    guess_d = [flat_at, heel_off - flat_at, half - heel_off]
+    bounds = [(0.3 * d, 2.5 * d) for d in guess_d]
+    phases = gait_phases(om, guess_d, nodes, bounds)
+    c = Collocation(om, phases, mu=MU, periodic=True)
+    opti, N = c.opti, c.N
+    T = c.total_duration()
+    # symmetry and speed
+    perm, sign = om.mirror
+    step = opti.variable()
+    opti.subject_to(c.X[0, 0] == 0)
+    opti.subject_to(c.X[:, N] == sign * c.X[perm, 0] + ca.vertcat(step, ca.DM.zeros(om.n - 1)))
+    opti.subject_to(c.V[:, N] == sign * c.V[perm, 0])
+    opti.subject_to(step == speed * T)
+    if objective == "tracking":
+        opti.subject_to(T == half)
+    else:
+        opti.subject_to(opti.bounded(0.3, T, 1.0))
+    # guess
+    if warm is None:
+        x_guess, v_guess, a_guess = _kinematic_guess(om, fit_cycle(h, speed), c, guess_d)
+        c.guess(x_guess, v_guess, a_guess, durations=guess_d)
+        opti.set_initial(step, x_guess[-1, 0] - x_guess[0, 0])
+    else:
+        c.warm_start(warm.solution)
+        opti.set_initial(step, warm.step_length * speed / warm.speed)
+    standing = om.from_body(h.standing_configuration())
+    terms = _objective(c, om, objective, gait, standing)
+    sol = c.solve(sum(terms.values()), terms=terms, verbose=verbose, max_iter=max_iter)
+    points = {s: _points(om, s) for s in ("left", "right")}
+    return GaitSolution(sol, om, speed, objective, points, tuple(nodes))
+
+
+def _kinematic_guess(om, cycle, c, durations):
+    """The fitted cycle's first half at the node times: x, v and a (N + 1, n)."""
+    frames = len(cycle.phase)
+    half = frames // 2
+    x = om.from_body(cycle.q[: half + 1] if half + 1 <= frames else cycle.q)
+    if len(x) < half + 1:  # the cycle's end is its start one stride on
+        x = np.vstack([x, x[0]])
+    t_fit = np.arange(half + 1) * cycle.period / frames
+    t_nodes = [0.0]
+    for ph, d in zip(c.phases, durations, strict=True):
+        t_nodes += list(t_nodes[-1] + d * np.arange(1, ph.intervals + 1) / ph.intervals)
+    t_nodes = np.array(t_nodes) * t_fit[-1] / t_nodes[-1]
+    xs = np.column_stack([np.interp(t_nodes, t_fit, x[:, i]) for i in range(om.n)])
+    vs = np.gradient(xs, t_nodes, axis=0)
+    return xs, vs, np.gradient(vs, t_nodes, axis=0)
+
+
+def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standing) -> dict:
+    """The objective's terms (``standing``: the posture the untracked joints stay near: a
+    fixed target, so that the optimum does not depend on the initial guess)."""
+    N, w = c.N, c.node_weights()
+    T = c.total_duration()
+    times = c.node_times()
+    limits = np.maximum(om.model.effortLimit[6:], 1.0)
+    terms = {}
+    terms["effort"] = W_EFFORT * c.effort() / T
+    acc = sum(w[k] * ca.sumsqr(c.A[6:, k]) for k in range(N + 1))
+    terms["acceleration"] = W_ACCELERATION * acc / T
+    terms["force_regulariser"] = W_FORCE_REG * c.force_regulariser() / (N + 1)
+    rate = 0
+    for k in range(N):
+        dt = times[k + 1] - times[k]
+        rate = rate + ca.sumsqr((c.tau[k + 1] - c.tau[k]) / limits) / dt
+    terms["torque_rate"] = W_RATE * rate / T
+    if objective == "predictive":
+        # the trunk's and arms' posture stays near the guess's (nothing else pins it)
+        upper = [i for i, n in enumerate(om.names) if any(
+            k in n for k in ("lumbar", "thoracic", "shoulder", "elbow"))]  # fmt: skip
+        posture = sum(w[k] * ca.sumsqr(c.X[upper, k] - standing[upper]) for k in range(N + 1))
+        terms["posture"] = W_POSTURE * posture / T
+        return terms
+    targets = _Targets(gait["dimensionless_speed"])
+    cycle = 2 * T
+    idx = om.index
+    rd = math.radians
+    tracked = set()
+    angle, force = 0, 0
+    right, left = _points(om, "right"), _points(om, "left")
+    right_all = sum((v for v in right.values() if v), ())
+    left_all = sum((v for v in left.values() if v), ())
+    for k in range(N + 1):
+        phi = times[k] / cycle
+        e = []
+        for side, phase in (("right", phi), ("left", phi + 0.5)):
+            for coord, curve, offset in (
+                (f"{side}_hip_flexion", "hip_flexion", targets.tilt_offset),
+                (f"{side}_knee", "knee_flexion", 0.0),
+                (f"{side}_ankle_flexion", "ankle_dorsiflexion", 0.0),
+                (f"{side}_hip_adduction", "hip_adduction", 0.0),
+            ):
+                target = rd(1) * (targets(curve, phase) - offset)
+                e.append((c.X[idx(coord), k] - target) / rd(targets.sd[curve]))
+                tracked.add(coord)
+        tilt = rd(1) * (targets("pelvis_tilt", phi) - targets.tilt_offset)
+        e.append((c.X[idx("root_pitch"), k] - tilt) / rd(targets.sd["pelvis_tilt"]))
+        e.append((c.X[idx("root_roll"), k] + rd(1) * targets("pelvis_obliquity", phi))
+                 / rd(targets.sd["pelvis_obliquity"]))  # fmt: skip
+        e.append((c.X[idx("root_yaw"), k] - rd(1) * targets("pelvis_rotation", phi))
+                 / rd(targets.sd["pelvis_rotation"]))  # fmt: skip
+        angle = angle + w[k] * ca.sumsqr(ca.vertcat(*e))
+        f = []
+        for pts, phase in ((right_all, phi), (left_all, phi + 0.5)):
+            F = c.foot_force(k, pts) / c.weight
+            f.append((F[2] - targets("grf_vertical", phase)) / targets.sd["grf_vertical"])
+            f.append((F[0] - targets("grf_anterior", phase)) / targets.sd["grf_anterior"])
+        force = force + w[k] * ca.sumsqr(ca.vertcat(*f))
+    # the double support: the first phase lasts until the opposite foot's toe-off
+    events = targets.events
+    loading = (c.durations[0] / cycle - events["opposite_foot_off"][0]) / events[
+        "opposite_foot_off"
+    ][1]
+    terms["events"] = W_EVENT * loading**2
+    terms["angles"] = W_ANGLE * angle / T
+    terms["forces"] = W_FORCE * force / T
+    rest = [i for i in range(6, om.n) if om.names[i] not in tracked]
+    posture = sum(w[k] * ca.sumsqr(c.X[rest, k] - standing[rest]) for k in range(N + 1))
+    terms["posture"] = W_POSTURE * posture / T
+    return terms
+
+
+# -- storage -------------------------------------------------------------------------------
+FORMAT = 1
+DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
+
+
+def body_key(om: OcpModel) -> str:
+    """A digest of the model's numbers (joints, placements, inertias, limits, frames): two
+    bodies with one key have one optimal gait."""
+    m = om.model
+    parts = []
+    for j in range(1, m.njoints):
+        M, inertia = m.jointPlacements[j], m.inertias[j]
+        parts += [m.names[j], m.joints[j].shortname(), M.homogeneous.ravel(), inertia.mass,
+                  inertia.lever, inertia.inertia.ravel()]  # fmt: skip
+    parts += [m.lowerPositionLimit, m.upperPositionLimit, m.effortLimit, m.damping]
+    for f in m.frames:
+        parts += [f.name, f.parentJoint, f.placement.homogeneous.ravel()]
+    text = "|".join(
+        np.array2string(np.round(np.asarray(p, dtype=float), 9), threshold=10**6)
+        if not isinstance(p, str) else p
+        for p in parts
+    )  # fmt: skip
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def gait_file(om: OcpModel, speed: float, objective: str) -> str:
+    """The cache's file name of a body's gait at a speed (to the cm/s) and objective."""
+    return f"{body_key(om)}-{objective}-{round(100 * speed):03d}.npz"
+
+
+def save_gait(g: GaitSolution, path) -> Path:
+    """Write ``g`` to ``path`` (npz); :func:`load_gait` reads it."""
+    s = g.solution
+    points = sorted(s.forces)
+    meta = {
+        "format": FORMAT, "speed": g.speed, "objective": g.objective, "status": s.status,
+        "success": s.success, "iterations": s.iterations, "seconds": s.seconds,
+        "defect": s.defect, "dynamics": s.dynamics, "objective_value": s.objective,
+        "terms": s.terms, "points": points, "names": list(g.om.names),
+        "body": body_key(g.om), "nodes": list(g.nodes),
+    }  # fmt: skip
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    with open(tmp, "wb") as fh:
+        np.savez_compressed(
+            fh, t=s.t, x=s.x, v=s.v, a=s.a, tau=s.tau, durations=s.durations,
+            forces=np.stack([s.forces[p] for p in points]), meta=json.dumps(meta),
+        )  # fmt: skip
+    tmp.replace(path)
+    return path
+
+
+def load_gait(path, h) -> GaitSolution:
+    """Read a gait :func:`save_gait` wrote, for the body ``h`` it was optimised for.
+
+    Raises:
+        HumanoidError: the file is not such a gait, or it belongs to another body.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(str(arrays.pop("meta")))
+    except (OSError, ValueError, KeyError) as exc:
+        raise HumanoidError(f"{path}: not a saved gait ({exc})") from exc
+    if meta.get("format") != FORMAT:
+        raise HumanoidError(f"{path}: gait format {meta.get('format')}, expected {FORMAT}")
+    om = build_ocp_model(h)
+    if meta["body"] != body_key(om):
+        raise HumanoidError(f"{path}: the gait of another body ({meta['body']})")
+    forces = dict(zip(meta["points"], arrays["forces"], strict=True))
+    sol = Solution(
+        arrays["t"], arrays["x"], arrays["v"], arrays["a"], arrays["tau"], forces,
+        arrays["durations"], meta["success"], meta["status"], meta["iterations"],
+        meta["seconds"], meta["defect"], meta["dynamics"], meta["objective_value"],
+        meta["terms"],
+    )  # fmt: skip
+    points = {s: _points(om, s) for s in ("left", "right")}
+    return GaitSolution(sol, om, meta["speed"], meta["objective"], points, tuple(meta["nodes"]))
+
+
+def cache_dir() -> Path:
+    """Where optimised gaits are kept: ``$HUMANOID_CACHE/gaits``, or ``~/.cache/humanoid/gaits``."""
+    root = os.environ.get("HUMANOID_CACHE")
+    return (Path(root) if root else Path.home() / ".cache" / "humanoid") / "gaits"
+
+
+def _stored(om: OcpModel, objective: str):
+    """Saved gaits of this body and objective: {speed: path}, the package's first."""
+    key = body_key(om)
+    out = {}
+    for folder in (cache_dir(), DATA):
+        for path in sorted(folder.glob(f"{key}-{objective}-*.npz")) if folder.is_dir() else ():
+            out[int(path.stem.rsplit("-", 1)[1]) / 100] = path
+    return out
+
+
+def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True,
+               verbose: bool = False) -> GaitSolution:  # fmt: skip
+    """A body's optimised half stride at ``speed``: from the package's data or the user's cache
+    (:func:`cache_dir`) if it is there, else optimised (warm-started from the nearest speed
+    stored for the body, or for the predictive objective from the tracking one) and, with
+    ``cache``, stored.
+
+    Raises:
+        HumanoidError: IPOPT did not converge (the message names its status).
+    """
+    from ..walking.norms import free_speed
+    from ..walking.reference import leg_length
+
+    om = build_ocp_model(h)
+    speed = free_speed(leg_length(h)) if speed is None else float(speed)
+    speed = round(speed, 2)
+    stored = _stored(om, objective)
+    if speed in stored:
+        return load_gait(stored[speed], h)
+    warm = None
+    if stored:
+        nearest = min(stored, key=lambda s: abs(s - speed))
+        warm = load_gait(stored[nearest], h)
+    elif objective != "tracking":
+        tracking = _stored(om, "tracking")
+        if tracking:
+            warm = load_gait(tracking[min(tracking, key=lambda s: abs(s - speed))], h)
+    g = optimise_gait(h, speed, objective, warm=warm, verbose=verbose)
+    if not g.solution.success:
+        raise HumanoidError(
+            f"the {objective} gait at {speed} m/s did not converge: IPOPT {g.solution.status} "
+            f"after {g.solution.iterations} iterations"
+        )
+    if cache:
+        save_gait(g, cache_dir() / gait_file(om, speed, objective))
+    return g

@@ -1,0 +1,37 @@
+"""Optimise the gait cycles the package ships (``make gaits``): the default bodies with toes at
+their free speed, the tracking objective, into ``humanoid/data/gaits`` (the predictive
+objective's cycles do not ship yet).
+
+Run from the repository: ``python scripts/make_gaits.py``. Each line printed says what was
+solved, in how many iterations and seconds, and the collocation's largest defect.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import humanoid as hm
+from humanoid.optimal.gait import DATA, gait_file, optimise_gait, save_gait
+
+BODIES = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
+
+
+def main() -> int:
+    for name, (height, mass, sex) in BODIES.items():
+        h = hm.load(hm.build_urdf(hm.BodyParameters(height, mass, sex, toes=True)))
+        for objective in ("tracking",):
+            g = optimise_gait(h, None, objective)
+            s = g.solution
+            print(
+                f"{name} {objective}: {g.speed:.2f} m/s, {s.status}, {s.iterations} "
+                f"iterations, {s.seconds:.0f} s, defect {s.defect:.1e}",
+                flush=True,
+            )
+            if not s.success:
+                return 1
+            save_gait(g, DATA / gait_file(g.om, round(g.speed, 2), objective))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
