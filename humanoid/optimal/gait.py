@@ -56,6 +56,10 @@ OBJECTIVES = ("tracking", "predictive")
 HARMONICS = 8  # Fourier terms of a normative curve over the cycle
 NODES = (5, 12, 8)  # collocation intervals in the three phases
 MU = 0.8
+# [rad] the cycle keeps this far inside the joints' ranges: a walk tracks it on a plant that
+# enforces them (riding them, the trunk's bending and the elbows' extension at their limits,
+# the tracker's QP met the plant's range constraints and had no solution)
+RANGE_MARGIN = 0.05
 
 # Weights of the tracking objective's terms (each a mean of squares over the half cycle, in
 # the curves' standard deviations), and of the regularisers.
@@ -182,6 +186,13 @@ class GaitSolution:
             forces[p] = np.vstack([s.forces.get(p, zero), mirrored])
         return t, x, v, forces
 
+    def contact_sets(self) -> list:
+        """The contact points down in each collocation interval of the whole stride (the
+        second half's mirrored)."""
+        phases = gait_phases(self.om, self.solution.durations, self.nodes)
+        half = [set(ph.contacts) for ph in phases for _ in range(ph.intervals)]
+        return half + [{_mirror_name(p) for p in c} for c in half]
+
     def foot_forces(self):
         """(t, {side: (N, 3) summed force [N]}) over the stride."""
         t, _, _, forces = self.stride()
@@ -253,7 +264,7 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
     guess_d = [flat_at, heel_off - flat_at, half - heel_off]
     bounds = [(0.3 * d, 2.5 * d) for d in guess_d]
     phases = gait_phases(om, guess_d, nodes, bounds)
-    c = Collocation(om, phases, mu=MU, periodic=True)
+    c = Collocation(om, phases, mu=MU, periodic=True, range_margin=RANGE_MARGIN)
     opti, N = c.opti, c.N
     T = c.total_duration()
     # symmetry and speed

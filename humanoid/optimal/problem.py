@@ -100,6 +100,8 @@ class Collocation:
             mirrored motion): the last node then writes no contact, clearance or range
             constraints, which would repeat the first node's (IPOPT needs independent
             equality constraints).
+        range_margin: [rad or m] the joints stay this far inside their ranges (a motion to
+            be tracked on a plant that enforces the ranges must not ride them).
 
     Contacts are written with independent rows only: of the (x, y, z) of the points in
     contact at a node, the largest set whose Jacobian rows are independent at the standing
@@ -108,11 +110,13 @@ class Collocation:
     A point's (x, y) anchor is one variable over the consecutive phases it stays down in.
     """
 
-    def __init__(self, om, phases, mu: float = 0.8, clearance=None, periodic=False) -> None:
+    def __init__(self, om, phases, mu: float = 0.8, clearance=None, periodic=False,
+                 range_margin: float = 0.0) -> None:  # fmt: skip
         if not phases:
             raise HumanoidError("a collocation needs at least one phase")
         self.om, self.phases, self.mu = om, tuple(phases), float(mu)
         self.periodic = bool(periodic)
+        self.range_margin = float(range_margin)
         self.n = om.n
         self.weight = float(sum(i.mass for i in om.model.inertias)) * G
         points = sorted({p for ph in self.phases for p in ph.contacts})
@@ -171,6 +175,10 @@ class Collocation:
         sets = self._contact_sets()
         lo, hi = model.lowerPositionLimit, model.upperPositionLimit
         ranged = np.flatnonzero(np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 100))
+        margin = np.minimum(self.range_margin, 0.25 * (hi[ranged] - lo[ranged]))
+        lo, hi = lo.copy(), hi.copy()
+        lo[ranged] += margin
+        hi[ranged] -= margin
         c = self.mu / math.sqrt(2.0)
         for k in range(self.N + 1):
             acting, held, landing = sets[k]

@@ -144,7 +144,7 @@ class ContactQP:
 
 def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: float,
                weight: float, gains, ranges, correction: float,
-               range_margin: float, range_time: float) -> ContactQP:  # fmt: skip
+               range_margin: float, range_time: float, drift=None) -> ContactQP:  # fmt: skip
     """The walking and tracking controllers' QP on the rigid ground.
 
     ``contacts``: the plant's detection (constraint models and datas, signed distances);
@@ -161,6 +161,11 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
       the floor within the ``horizon`` H, -(J_n (v + H dv) + depth / H) <= 0 (the plant stops
       what is left within its step); the joint ranges as velocity dampers over H.
     - Costs: the tasks, and small forces (``w_force``).
+
+    ``drift``: the loaded points' accelerations at dv = 0 (J' v, world axes, 3 per point), or
+    None. With it the sticking rows are J dv + J' v = -(J v + gap) / T: a point at rest on a
+    moving chain (a stance foot under a walking body) has J' v of a few m/s^2, which the
+    velocity-level rule alone leaves out.
     """
     cms, cds, phi = contacts
     nv = model.nv
@@ -189,7 +194,10 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
         U, S, _ = np.linalg.svd(Jc, full_matrices=False)
         U = U[:, S > 1e-9 * S[0]]
         A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
-        b_eq.append(U.T @ target / max(dt, g.contact_time))
+        rate = target / max(dt, g.contact_time)
+        if drift is not None:
+            rate = rate - np.asarray(drift, dtype=float).ravel()
+        b_eq.append(U.T @ rate)
     G = [pyramid_rows(g.mu, len(loaded), n, nv)]
     h_ineq = [np.zeros(5 * len(loaded))]
     if free:

@@ -1,0 +1,436 @@
+"""A person's walk: the optimised gait cycle tracked in closed loop on the rigid ground.
+
+The reference is a :class:`~humanoid.optimal.gait.GaitSolution`: one half stride optimised
+through the body's own rigid contact dynamics (:mod:`humanoid.optimal.gait`), mirrored into a
+whole stride. Its joint trajectories, its contact schedule and its contact forces are the feed
+forward; the plant is the ground of :mod:`humanoid.constraints.ground` (every foot corner a
+unilateral Coulomb contact) with the joint ranges in the same solve. Each step a task-space
+inverse-dynamics QP (:func:`~humanoid.walking.qp.contact_qp`) finds the accelerations and the
+forces of the loaded points, and only the joint torques leave it; the free flyer is never
+actuated and nothing is placed kinematically.
+
+- **Contacts.** A foot corner within ``touch`` of the floor is loaded when the cycle has the
+  contact point there (the nearest of the cycle's points on that foot) in its phase's contact
+  set; its force is bounded above by the cycle's force at that point plus a margin that ramps
+  to zero over ``ramp`` before the cycle lifts it, so a point is unloaded before it leaves.
+- **Costs.** The cycle's forces (per point, in body weights), the joints' trajectories, the
+  pelvis's orientation, the centre of mass and the swing foot's pose, each a PD law around the
+  cycle's acceleration.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import HumanoidError
+from ..model import SIDES
+from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+
+__all__ = ["CycleGains", "CycleReference", "CycleTracker"]
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on the same body
+
+
+@dataclass(frozen=True)
+class CycleGains:
+    """Gains [1/s^2 for kp, 1/s for kd] and weights of the cycle tracker's QP."""
+
+    joint_kp: float = 400.0
+    joint_kd: float = 40.0
+    com_kp: float = 100.0
+    com_kd: float = 20.0
+    pelvis_kp: float = 400.0
+    pelvis_kd: float = 40.0
+    foot_kp: float = 900.0
+    foot_kd: float = 60.0
+    w_joint: float = 0.01  # the joints follow the cycle in the null space of the rest
+    w_com: float = 30.0
+    w_pelvis: float = 10.0
+    w_foot: float = 10.0
+    w_force: float = 1.0  # per (body weight)^2 from the cycle's force
+    margin: float = 0.5  # [body weights] a loaded point's force may exceed the cycle's by this
+    ramp: float = 0.03  # [s] ... the margin fading to zero before the cycle lifts the point
+    mu: float = 0.8
+    touch: float = 5e-3  # [m] a corner this close to the floor may carry load
+    placement: float = 1.0  # the capture point's error's share moved into the swing foot's landing
+    max_shift: float = 0.15  # [m]
+    blend: float = 0.15  # [s] a new footstep's offset enters the reference over this time
+    range_margin: float = -1.0  # [rad] joint-range dampers within this of a limit (< 0: none:
+    # the cycle keeps 0.05 rad inside the ranges, and the plant enforces them)
+    range_time: float = 0.05  # [s]
+    phase_time: float = 0.1  # [s] the cycle's clock closes the centre of mass's lead or lag in
+    # this time (0: the clock is real time)
+    settle: float = 0.02
+    contact_time: float = 0.02
+    horizon: float = 0.02
+
+
+class CycleReference:
+    """The optimised cycle as functions of time for the body ``h``.
+
+    Within each collocation interval x is the cubic through the nodes' x and v (so v is
+    continuous and a piecewise linear, as trapezoidal collocation has it); forces are
+    interpolated linearly. Lap n of the stride is the first moved 2 n steps forward.
+    """
+
+    def __init__(self, gait) -> None:
+        self.gait, self.om = gait, gait.om
+        self.t, self.x, self.v, self.forces = gait.stride()
+        self.period = float(self.t[-1])
+        self.stride = 2.0 * gait.step_length
+        s = gait.solution
+        self.a = np.vstack([s.a, self.om.reflect(s.a[1:])])
+        self.sets = gait.contact_sets()
+        self.data = self.om.model.createData()
+
+    def _interval(self, t: float) -> tuple[int, int, float]:
+        lap = math.floor(t / self.period)
+        tau = t - lap * self.period
+        k = int(np.clip(np.searchsorted(self.t, tau, side="right") - 1, 0, len(self.t) - 2))
+        return lap, k, tau - self.t[k]
+
+    def coordinates(self, t: float):
+        """(x, v, a) of the OCP model at t."""
+        lap, k, s = self._interval(t)
+        h = self.t[k + 1] - self.t[k]
+        x0, x1, v0, v1 = self.x[k], self.x[k + 1], self.v[k], self.v[k + 1]
+        u = s / h
+        h00, h10, h01, h11 = (2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2,
+                              u**3 - u**2)  # fmt: skip
+        d00, d10, d01, d11 = (
+            6 * u**2 - 6 * u,
+            3 * u**2 - 4 * u + 1,
+            -6 * u**2 + 6 * u,
+            3 * u**2 - 2 * u,
+        )
+        e00, e10, e01, e11 = 12 * u - 6, 6 * u - 4, -12 * u + 6, 6 * u - 2
+        x = h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1
+        v = (d00 * x0 + d10 * h * v0 + d01 * x1 + d11 * h * v1) / h
+        a = (e00 * x0 + e10 * h * v0 + e01 * x1 + e11 * h * v1) / h**2
+        x = x.copy()
+        x[0] += lap * self.stride
+        return x, v, a
+
+    def state(self, t: float, h: float = 1e-3):
+        """(q, v, a) of the body at t (a by central differences of v)."""
+        x, v, _ = self.coordinates(t)
+        q, vb = self.om.to_body(x, v)
+        _, v0 = self.om.to_body(*self.coordinates(t - h)[:2])
+        _, v1 = self.om.to_body(*self.coordinates(t + h)[:2])
+        return q, vb, (v1 - v0) / (2 * h)
+
+    def force(self, t: float, point: str) -> np.ndarray:
+        lap, k, s = self._interval(t)
+        f = self.forces.get(point)
+        if f is None:
+            return np.zeros(3)
+        u = s / (self.t[k + 1] - self.t[k])
+        return (1 - u) * f[k] + u * f[k + 1]
+
+    def contacts(self, t: float) -> set:
+        """The cycle's points in contact at t."""
+        _, k, _ = self._interval(t)
+        return self.sets[k]
+
+    def time_to_lift(self, t: float, point: str) -> float:
+        """[s] until the cycle lifts ``point`` (inf if it stays down for a whole stride)."""
+        lap, k, s = self._interval(t)
+        n = len(self.sets)
+        for j in range(n):
+            if point not in self.sets[(k + j) % n]:
+                kk = k + j
+                lapj, kj = divmod(kk, n)
+                return (lap + lapj) * self.period + self.t[kj] - t
+        return math.inf
+
+
+class CycleTracker:
+    """The controller (an effect of the scene: its torques): see the module."""
+
+    name = "cycle"
+    velocity_dependent = True
+    external = False
+
+    def __init__(self, h, model, reference: CycleReference, ground, dt, t0: float,
+                 gains: CycleGains | None = None) -> None:  # fmt: skip
+        from ..constraints.limits import JointRanges
+
+        self.h, self.model, self.ref = h, model, reference
+        self.ground, self.dt, self.t0 = ground, dt, t0
+        self.tc, self.t_last = t0, None  # the cycle's time, and the last control time
+        self.gains = gains or CycleGains()
+        self.data = model.createData()
+        self.rdata = model.createData()
+        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+        self.ranges = JointRanges(h)
+        self.sole = {s: h.sole_id(s) for s in SIDES}
+        self.pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+        # the cycle's contact points by side, and the foot joints they are on
+        om = reference.om
+        self.points = {s: [f.name for f in om.model.frames if f.name.startswith(s)
+                           and f.name in set(reference.forces)] for s in SIDES}  # fmt: skip
+        self.point_id = {p: model.getFrameId(p) for s in SIDES for p in self.points[s]}
+        foot_joints = {}
+        for s in SIDES:
+            j = model.frames[self.sole[s]].parentJoint
+            foot_joints[s] = {j} | {i for i in range(j + 1, model.njoints) if _below(model, i, j)}
+        self.side_of_joint = {j: s for s, js in foot_joints.items() for j in js}
+        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        self.tau = np.zeros(model.nv)
+        self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
+        self.relaxed = 0
+        self.last = None
+        self.offset = np.zeros(2)  # the reference moved to the last footstep actually made
+        self.offset_from, self.offset_to, self.offset_t = np.zeros(2), np.zeros(2), -1.0
+        self.landed = dict.fromkeys(SIDES, True)
+        self.heels = {s: [p for p in self.points[s] if "heel" in p] for s in SIDES}
+        z = pin.centerOfMass(model, self.data, reference.state(t0)[0])[2]
+        self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
+        self.loaded_before = set()
+
+    def force(self, model, data, t, q, v):
+        return self.tau
+
+    def implicit(self, nv):
+        return None
+
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        self.update(t, q, v)
+
+    def update(self, t: float, q, v) -> np.ndarray:
+        model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
+        nv = model.nv
+        # the cycle's clock: real time, sped up or slowed down by how far the body's centre of
+        # mass is ahead of the cycle's (a phase variable, as hybrid zero dynamics uses one)
+        if self.t_last is not None:
+            rate = 1.0
+            if g.phase_time > 0:
+                cx = pin.centerOfMass(model, data, q)[0]
+                q_p, v_p, _ = ref.state(self.tc)
+                q_p = q_p.copy()
+                q_p[:2] += self.offset
+                c_p = pin.centerOfMass(model, self.rdata, q_p, v_p)
+                speed = max(float(self.rdata.vcom[0][0]), 0.3)
+                rate = float(np.clip(1.0 + (cx - c_p[0]) / (speed * g.phase_time), 0.3, 2.0))
+            self.tc += (t - self.t_last) * rate
+        self.t_last = t
+        tc = self.tc
+        M, hvec = dynamics_terms(model, data, q, v)
+        cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {})
+        q_r, v_r, a_r = ref.state(tc)
+        # the reference follows the footsteps the body makes (blended in)
+        u = min(1.0, (t - self.offset_t) / g.blend) if self.offset_t >= 0 else 1.0
+        self.offset = self.offset_from + smooth(u) * (self.offset_to - self.offset_from)
+        q_r = q_r.copy()
+        q_r[:2] += self.offset
+        rd = self.rdata
+        pin.forwardKinematics(model, rd, q_r, v_r, a_r)
+        pin.updateFramePlacements(model, rd)
+        in_contact = ref.contacts(tc)
+        # each detected corner: its side, the cycle's nearest point there, loaded or not
+        loaded, free, match = [], [], []
+        sides_down = set()
+        for i, cm in enumerate(cms):
+            side = self.side_of_joint.get(cm.extract().joint2_id)
+            best = None
+            if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
+                joint = cm.extract().joint2_id
+                d = [np.linalg.norm(data.oMf[self.point_id[p]].translation - pts[i])
+                     if model.frames[self.point_id[p]].parentJoint == joint else np.inf
+                     for p in self.points[side]]  # fmt: skip
+                k = int(np.argmin(d)) if d else -1
+                best = self.points[side][k] if d and d[k] < MATCH else None
+            keep = best is not None and best in self.loaded_before and phi[i] < g.touch
+            if best is not None and (best in in_contact or keep) and phi[i] < g.touch:
+                loaded.append(i)
+                match.append(best)
+                sides_down.add(side)
+            else:
+                free.append(i)
+        # a trailing foot the cycle has lifted stays down until the other one lands
+        cycle_sides = {p.split("_")[0] for p in in_contact}
+        landed = any(m.split("_")[0] in cycle_sides and m in in_contact for m in match)
+        for j in range(len(loaded) - 1, -1, -1):
+            side = match[j].split("_")[0]
+            if match[j] in in_contact or (side not in cycle_sides and not landed):
+                continue
+            free.append(loaded.pop(j))
+            match.pop(j)
+        # a free corner of a foot that bears load is the plant's to keep out of the floor (its
+        # rearfoot's corners, rolling over the toes, made the QP infeasible at every heel-off)
+        bearing_sides = {self.side_of_joint.get(cms[i].extract().joint2_id) for i in loaded}
+        free = [
+            i
+            for i in free
+            if self.side_of_joint.get(cms[i].extract().joint2_id) not in bearing_sides
+        ]
+        self.loaded_before = set(match)
+        # a heel strike: the reference moves to where the foot landed
+        for s in SIDES:
+            heel_down = any(m in self.heels[s] for m in match)
+            if heel_down and not self.landed[s]:
+                actual = np.mean([data.oMf[self.point_id[p]].translation[:2]
+                                  for p in self.heels[s]], axis=0)  # fmt: skip
+                planned = np.mean([rd.oMf[self.point_id[p]].translation[:2]
+                                   for p in self.heels[s]], axis=0)  # fmt: skip
+                self.offset_from = self.offset.copy()
+                self.offset_to = self.offset + (actual - planned)
+                self.offset_t = t
+            self.landed[s] = heel_down or (self.landed[s] and any(
+                m.startswith(s) for m in match))  # fmt: skip
+        rows, rhs, weights = [], [], []
+
+        def task(J, a, w):
+            rows.append(J)
+            rhs.append(a)
+            weights.append(np.broadcast_to(w, J.shape[0]))
+
+        # joints
+        e = pin.difference(model, q, q_r)[6:]
+        task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
+             g.w_joint)  # fmt: skip
+        # pelvis orientation
+        J = pin.getFrameJacobian(model, data, self.pelvis, LWA)[3:]
+        w_now = pin.getFrameVelocity(model, data, self.pelvis, LWA).angular
+        drift = pin.getFrameAcceleration(model, data, self.pelvis, LWA).angular
+        R, R_r = data.oMf[self.pelvis].rotation, rd.oMf[self.pelvis].rotation
+        w_r = pin.getFrameVelocity(model, rd, self.pelvis, LWA).angular
+        dw_r = pin.getFrameAcceleration(model, rd, self.pelvis, LWA).angular
+        a_des = dw_r + g.pelvis_kp * (R @ pin.log3(R.T @ R_r)) + g.pelvis_kd * (w_r - w_now)
+        task(J, a_des - drift, g.w_pelvis)
+        # centre of mass
+        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
+        dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
+        c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
+        dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        Jcom = pin.jacobianCenterOfMass(model, data, q)
+        task(Jcom, ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc) - com_drift, g.w_com)
+        # a swing foot: its pose, its landing moved by the capture point's error
+        xi = c[:2] + dc[:2] / self.omega
+        xi_r = c_r[:2] + dc_r[:2] / self.omega
+        shift = g.placement * (xi - xi_r)
+        norm = np.linalg.norm(shift)
+        if norm > g.max_shift:
+            shift *= g.max_shift / norm
+        bearing = {self.side_of_joint.get(cms[i].extract().joint2_id) for i in loaded}
+        for s in SIDES:
+            if s in bearing:
+                continue
+            fid = self.sole[s]
+            J = pin.getFrameJacobian(model, data, fid, LWA)
+            vel = pin.getFrameVelocity(model, data, fid, LWA)
+            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
+            M_f, M_r = data.oMf[fid], rd.oMf[fid].copy()
+            M_r.translation[:2] += shift
+            vr = pin.getFrameVelocity(model, rd, fid, LWA)
+            ar = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
+            lin = (
+                ar.linear
+                + g.foot_kp * (M_r.translation - M_f.translation)
+                + g.foot_kd * (vr.linear - vel.linear)
+            )
+            ang = (
+                ar.angular
+                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
+                + g.foot_kd * (vr.angular - vel.angular)
+            )
+            task(J, np.concatenate([lin - acc.linear, ang - acc.angular]), g.w_foot)
+        # the loaded points' drift J' v (data holds the kinematics at dv = 0)
+        drift = []
+        for i in loaded:
+            c_m = cms[i].extract()
+            j = c_m.joint2_id
+            r = c_m.joint2_placement.translation
+            vj, aj = data.v[j], data.a[j]
+            lin = aj.linear + np.cross(aj.angular, r)
+            vel = vj.linear + np.cross(vj.angular, r)
+            drift.append(data.oMi[j].rotation @ (lin + np.cross(vj.angular, vel)))
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M,
+                       hvec, q, v, dt, self.weight, g, self.ranges,
+                       self.ground.settings.correction, g.range_margin, g.range_time,
+                       drift)  # fmt: skip
+        # the cycle's forces: shared among the corners matched to one point
+        count = {}
+        for m in match:
+            count[m] = count.get(m, 0) + 1
+        target = np.zeros(3 * len(loaded))
+        upper = np.zeros(len(loaded))
+        for j, m in enumerate(match):
+            f_ref = ref.force(tc, m) / self.weight / count[m]
+            target[3 * j : 3 * j + 3] = f_ref
+            fade = min(1.0, ref.time_to_lift(tc, m) / g.ramp)
+            upper[j] = f_ref[2] + g.margin * fade / count[m]
+        P, qv = p.P.copy(), p.q.copy()
+        # contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2
+        qv[nv:] -= g.w_force * target
+        G, hh = p.G, p.h
+        if loaded:
+            rows_up = np.zeros((len(loaded), nv + 3 * len(loaded)))
+            for j in range(len(loaded)):
+                rows_up[j, nv + 3 * j + 2] = 1.0
+            G, hh = np.vstack([G, rows_up]), np.concatenate([hh, upper])
+        x = self.qp.solve(P, qv, p.A, p.b, G, hh)
+        if x is None:
+            self.relaxed += 1
+            x = self.qp.solve(P, qv, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
+        if x is None or not np.all(np.isfinite(x)):
+            raise HumanoidError(f"the cycle tracker's QP has no solution at t = {t:.3f} s")
+        dv, f = x[:nv], self.weight * x[nv:]
+        tau = M @ dv + hvec - p.Jc.T @ f
+        self.tau = np.concatenate([np.zeros(6), tau[6:]])
+        self.last = (dv, f.reshape(-1, 3), match)
+        return self.tau
+
+
+def smooth(u: float) -> float:
+    """A cubic ease from 0 to 1 over u in [0, 1]."""
+    u = min(max(u, 0.0), 1.0)
+    return u * u * (3 - 2 * u)
+
+
+def _below(model, i: int, j: int) -> bool:
+    while i > 0:
+        if i == j:
+            return True
+        i = model.parents[i]
+    return False
+
+
+def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, gains=None,
+               phase0: float = 0.2, quiet: bool = True, pushes=(), record_rate=100.0):  # fmt: skip
+    """Simulate ``h`` walking ``steps`` heel strikes along the optimised ``gait``; returns a
+    :class:`~humanoid.walking.gait.GroundWalk`."""
+    from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
+    from ..simulation import Simulation
+    from .gait import FALL_HEIGHT, GaitRecorder, GroundWalk
+
+    if steps < 1:
+        raise HumanoidError(f"steps must be at least 1, got {steps}")
+    ref = CycleReference(gait)
+    t0 = phase0 * ref.period
+    first = (1.0 - phase0) % 0.5 or 0.5
+    duration = (first + (steps - 1) / 2) * ref.period + 0.3
+    scene = Scene(
+        name="walk", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
+        integrator="semi_implicit_euler", record_rate=record_rate,
+        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+                        ground=GroundSpec(bodies="feet", mu=mu), pushes=tuple(pushes)),
+    )  # fmt: skip
+    sim = Simulation(scene, humanoid=h)
+    ctl = CycleTracker(h, sim.model, ref, sim.ground, dt, t0, gains)
+    q0, v0, _ = ref.state(t0)
+    sim.q0, sim.v0 = q0, v0
+    sim.controller = ctl
+    z = pin.centerOfMass(sim.model, sim.model.createData(), q0)[2]
+    recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)
+    sim.monitors.append(recorder)
+    start = time.perf_counter()
+    traj = sim.run(quiet=quiet)
+    wall = time.perf_counter() - start
+    return GroundWalk(traj, recorder.record(h.mass, dt), ref, ctl.relaxed, wall, steps)
