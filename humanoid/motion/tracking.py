@@ -38,7 +38,7 @@ import pinocchio as pin
 from ..effects import Effect
 from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
-from ..walking.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..walking.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH, closest_in_hull
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives
@@ -201,24 +201,7 @@ class MotionTracker(Effect):
         for s in SIDES:
             if s in bearing:
                 continue
-            fid = self.sole[s]
-            J = pin.getFrameJacobian(model, data, fid, LWA)
-            vel = pin.getFrameVelocity(model, data, fid, LWA)
-            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
-            M_f, M_r = data.oMf[fid], rd.oMf[fid]
-            vr = pin.getFrameVelocity(model, rd, fid, LWA)
-            ar = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
-            a_lin = (
-                ar.linear
-                + g.foot_kp * (M_r.translation - M_f.translation)
-                + g.foot_kd * (vr.linear - vel.linear)
-            )
-            a_ang = (
-                ar.angular
-                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
-                + g.foot_kd * (vr.angular - vel.angular)
-            )
-            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+            task(*frame_task(model, data, rd, self.sole[s], g.foot_kp, g.foot_kd), g.w_foot)
         # the joints
         e = pin.difference(model, q, q_r)[6:]
         task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),

@@ -29,7 +29,7 @@ import pinocchio as pin
 
 from ..errors import HumanoidError
 from ..model import SIDES
-from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 
 __all__ = ["CycleGains", "CycleReference", "CycleTracker"]
 
@@ -322,25 +322,8 @@ class CycleTracker:
         for s in SIDES:
             if s in bearing:
                 continue
-            fid = self.sole[s]
-            J = pin.getFrameJacobian(model, data, fid, LWA)
-            vel = pin.getFrameVelocity(model, data, fid, LWA)
-            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
-            M_f, M_r = data.oMf[fid], rd.oMf[fid].copy()
-            M_r.translation[:2] += shift
-            vr = pin.getFrameVelocity(model, rd, fid, LWA)
-            ar = pin.getFrameClassicalAcceleration(model, rd, fid, LWA)
-            lin = (
-                ar.linear
-                + g.foot_kp * (M_r.translation - M_f.translation)
-                + g.foot_kd * (vr.linear - vel.linear)
-            )
-            ang = (
-                ar.angular
-                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
-                + g.foot_kd * (vr.angular - vel.angular)
-            )
-            task(J, np.concatenate([lin - acc.linear, ang - acc.angular]), g.w_foot)
+            J, a_foot = frame_task(model, data, rd, self.sole[s], g.foot_kp, g.foot_kd, shift)
+            task(J, a_foot, g.w_foot)
         # the loaded points' drift J' v (data holds the kinematics at dv = 0)
         drift = []
         for i in loaded:

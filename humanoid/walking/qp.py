@@ -114,6 +114,28 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
     return M, pin.nle(model, data, q, v)  # (Pinocchio's binding fills both triangles)
 
 
+def frame_task(model, data, rdata, fid: int, kp: float, kd: float, shift=None):
+    """A frame's pose task on dv: (J, rhs) with J dv = rhs the PD law around the reference's
+    classical acceleration (LOCAL_WORLD_ALIGNED), the reference read from ``rdata`` (its
+    kinematics up to date), moved by ``shift`` (x, y) [m] if given."""
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    J = pin.getFrameJacobian(model, data, fid, lwa)
+    vel = pin.getFrameVelocity(model, data, fid, lwa)
+    acc = pin.getFrameClassicalAcceleration(model, data, fid, lwa)
+    M_f, M_r = data.oMf[fid], rdata.oMf[fid].copy()
+    if shift is not None:
+        M_r.translation[:2] += shift
+    vr = pin.getFrameVelocity(model, rdata, fid, lwa)
+    ar = pin.getFrameClassicalAcceleration(model, rdata, fid, lwa)
+    lin = ar.linear + kp * (M_r.translation - M_f.translation) + kd * (vr.linear - vel.linear)
+    ang = (
+        ar.angular
+        + kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
+        + kd * (vr.angular - vel.angular)
+    )
+    return J, np.concatenate([lin - acc.linear, ang - acc.angular])
+
+
 def feet_contacts(ground, model, data, foot_joint: dict):
     """The plant's own ground detection (constraint models and datas, signed distances, world
     points) and, per point, the side whose foot it is on (None: another body)."""
