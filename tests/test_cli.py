@@ -246,7 +246,8 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
         assert 'id="legend"' in html and "viewer.connect()" in html
         assert proc.stdout.readline().startswith("meshcat's own page: http://127.0.0.1:")
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=15) == 0
+        # (a loaded machine: the full suite's other workers) the exit has taken over 15 s
+        assert proc.wait(timeout=60) == 0
     finally:
         if proc.poll() is None:
             proc.kill()
