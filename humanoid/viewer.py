@@ -624,11 +624,6 @@ class LiveViewer:
 
     def close(self) -> None:
         """Stop the server (closing its stdin makes it exit; then make sure)."""
-        # our end of meshcat's socket first, dropping what it still holds (a socket with
-        # messages pending for a server that is gone blocks the interpreter's exit)
-        socket = getattr(getattr(getattr(self, "vis", None), "window", None), "zmq_socket", None)
-        if socket is not None:
-            socket.close(linger=0)
         if self.proc.poll() is None:
             try:
                 self.proc.stdin.close()

@@ -27,11 +27,12 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
 from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 
-__all__ = ["CycleGains", "CycleReference", "CycleTracker"]
+__all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle"]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on the same body
@@ -72,7 +73,7 @@ class CycleGains:
 
 
 class CycleReference:
-    """The optimised cycle as functions of time for the body ``h``.
+    """An optimised cycle (:class:`~humanoid.optimal.gait.GaitSolution`) as functions of time.
 
     Within each collocation interval x is the cubic through the nodes' x and v (so v is
     continuous and a piecewise linear, as trapezoidal collocation has it); forces are
@@ -84,10 +85,7 @@ class CycleReference:
         self.t, self.x, self.v, self.forces = gait.stride()
         self.period = float(self.t[-1])
         self.stride = 2.0 * gait.step_length
-        s = gait.solution
-        self.a = np.vstack([s.a, self.om.reflect(s.a[1:])])
         self.sets = gait.contact_sets()
-        self.data = self.om.model.createData()
 
     def _interval(self, t: float) -> tuple[int, int, float]:
         lap = math.floor(t / self.period)
@@ -101,8 +99,8 @@ class CycleReference:
         h = self.t[k + 1] - self.t[k]
         x0, x1, v0, v1 = self.x[k], self.x[k + 1], self.v[k], self.v[k + 1]
         u = s / h
-        h00, h10, h01, h11 = (2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2,
-                              u**3 - u**2)  # fmt: skip
+        h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+        h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
         d00, d10, d01, d11 = (
             6 * u**2 - 6 * u,
             3 * u**2 - 4 * u + 1,
@@ -150,12 +148,11 @@ class CycleReference:
         return math.inf
 
 
-class CycleTracker:
+class CycleTracker(Effect):
     """The controller (an effect of the scene: its torques): see the module."""
 
     name = "cycle"
     velocity_dependent = True
-    external = False
 
     def __init__(self, h, model, reference: CycleReference, ground, dt, t0: float,
                  gains: CycleGains | None = None) -> None:  # fmt: skip
@@ -196,9 +193,6 @@ class CycleTracker:
 
     def force(self, model, data, t, q, v):
         return self.tau
-
-    def implicit(self, nv):
-        return None
 
     def before_step(self, sim, k: int, t: float, q, v) -> None:
         self.update(t, q, v)
