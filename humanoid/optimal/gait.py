@@ -328,7 +328,7 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
         rate = rate + ca.sumsqr((c.tau[k + 1] - c.tau[k]) / limits) / dt
     terms["torque_rate"] = W_RATE * rate / T
     if objective == "predictive":
-        # the trunk's and arms' posture stays near the guess's (nothing else pins it)
+        # the trunk's and arms' posture stays near standing (nothing else pins it)
         upper = [i for i, n in enumerate(om.names) if any(
             k in n for k in ("lumbar", "thoracic", "shoulder", "elbow"))]  # fmt: skip
         posture = sum(w[k] * ca.sumsqr(c.X[upper, k] - standing[upper]) for k in range(N + 1))
