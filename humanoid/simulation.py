@@ -183,10 +183,9 @@ class Simulation:
                 chosen = range(geometry.ngeoms)
             else:
                 # a foot and what hangs below it (its toes)
-                feet = {self.model.frames[h.frame_id(f)].parentJoint for f in h.feet}
-                for j in range(1, self.model.njoints):
-                    if self.model.parents[j] in feet:
-                        feet.add(j)
+                model = self.model
+                roots = [model.frames[h.frame_id(f)].parentJoint for f in h.feet]
+                feet = {j for root in roots for j in model.subtrees[root]}
                 chosen = [i for i, g in enumerate(geometry.geometryObjects)
                           if g.parentJoint in feet]  # fmt: skip
         else:

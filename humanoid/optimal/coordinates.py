@@ -18,6 +18,7 @@ half stride's symmetry needs.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,6 +55,11 @@ class OcpModel:
     euler_index: np.ndarray
     locked: np.ndarray
     mirror: tuple[np.ndarray, np.ndarray]
+
+    @functools.cached_property
+    def _data(self) -> pin.Data:
+        """Scratch data for the state maps (a walk maps three states per control step)."""
+        return self.model.createData()
 
     @property
     def n(self) -> int:
@@ -111,7 +117,7 @@ class OcpModel:
             v = np.asarray(v, dtype=float)
             ve = np.zeros(em.nv)
             # the free flyer's velocity: the pelvis's twist in its own frame
-            data = self.model.createData()
+            data = self._data
             pin.forwardKinematics(self.model, data, x, v)
             ve[:6] = data.v[6].vector
             ve[self.euler_index - 1] = v[6:]

@@ -252,11 +252,7 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
         raise HumanoidError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
     om = build_ocp_model(h) if warm is None or warm.om.body is not h else warm.om
     ell = leg_length(h)
-    if speed is None:  # the body's free speed, to the cm/s (the cache's resolution)
-        from ..walking.norms import free_speed
-
-        speed = round(free_speed(ell), 2)
-    speed = float(speed)
+    speed = default_speed(h) if speed is None else float(speed)
     gait = choose_gait(speed, ell)
     half = gait["cycle"] / 2
     flat_at = gait["opposite_foot_off"] * gait["cycle"]
@@ -297,9 +293,7 @@ def _kinematic_guess(om, cycle, c, durations):
     """The fitted cycle's first half at the node times: x, v and a (N + 1, n)."""
     frames = len(cycle.phase)
     half = frames // 2
-    x = om.from_body(cycle.q[: half + 1] if half + 1 <= frames else cycle.q)
-    if len(x) < half + 1:  # the cycle's end is its start one stride on
-        x = np.vstack([x, x[0]])
+    x = om.from_body(cycle.q[: half + 1])
     t_fit = np.arange(half + 1) * cycle.period / frames
     t_nodes = [0.0]
     for ph, d in zip(c.phases, durations, strict=True):
@@ -480,6 +474,14 @@ def _stored(om: OcpModel, objective: str):
     return out
 
 
+def default_speed(h) -> float:
+    """The body's free speed to the cm/s (the cache's resolution) [m/s]."""
+    from ..walking.norms import free_speed
+    from ..walking.reference import leg_length
+
+    return round(free_speed(leg_length(h)), 2)
+
+
 def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True,
                verbose: bool = False) -> GaitSolution:  # fmt: skip
     """A body's optimised half stride at ``speed``: from the package's data or the user's cache
@@ -490,12 +492,8 @@ def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True
     Raises:
         HumanoidError: IPOPT did not converge (the message names its status).
     """
-    from ..walking.norms import free_speed
-    from ..walking.reference import leg_length
-
     om = build_ocp_model(h)
-    speed = free_speed(leg_length(h)) if speed is None else float(speed)
-    speed = round(speed, 2)
+    speed = round(default_speed(h) if speed is None else float(speed), 2)
     stored = _stored(om, objective)
     if speed in stored:
         return load_gait(stored[speed], h)

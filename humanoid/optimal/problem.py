@@ -84,7 +84,6 @@ class Solution:
     dynamics: float
     objective: float
     terms: dict = field(default_factory=dict)
-    extra: dict = field(default_factory=dict)
 
 
 class Collocation:
@@ -150,7 +149,6 @@ class Collocation:
         vel = [sm.frame_velocity(kin, p)[:3] for p in self.points] or [ca.SX.zeros(3, 1)]
         self.point_pos = ca.Function("pos", [x], [ca.horzcat(*pos)])
         self.point_vel = ca.Function("vel", [x, v], [ca.horzcat(*vel)])
-        self.symbolic = sm
 
     # -- the program -----------------------------------------------------------------------
     def _build(self) -> None:

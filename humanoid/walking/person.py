@@ -173,12 +173,9 @@ class CycleTracker(Effect):
         self.points = {s: [f.name for f in om.model.frames if f.name.startswith(s)
                            and f.name in set(reference.forces)] for s in SIDES}  # fmt: skip
         self.point_id = {p: model.getFrameId(p) for s in SIDES for p in self.points[s]}
-        foot_joints = {}
-        for s in SIDES:
-            j = model.frames[self.sole[s]].parentJoint
-            foot_joints[s] = {j} | {i for i in range(j + 1, model.njoints) if _below(model, i, j)}
-        self.side_of_joint = {j: s for s, js in foot_joints.items() for j in js}
-        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        self.side_of_joint = {
+            j: s for s in SIDES for j in model.subtrees[model.frames[self.sole[s]].parentJoint]
+        }
         self.tau = np.zeros(model.nv)
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
         self.relaxed = 0
@@ -190,6 +187,7 @@ class CycleTracker(Effect):
         z = pin.centerOfMass(model, self.data, reference.state(t0)[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
         self.loaded_before = set()
+        self.com_ref = None  # the last step's reference centre of mass: x [m], x' [m/s]
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -200,23 +198,10 @@ class CycleTracker(Effect):
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
         nv = model.nv
-        # the cycle's clock: real time, sped up or slowed down by how far the body's centre of
-        # mass is ahead of the cycle's (a phase variable, as hybrid zero dynamics uses one)
-        if self.t_last is not None:
-            rate = 1.0
-            if g.phase_time > 0:
-                cx = pin.centerOfMass(model, data, q)[0]
-                q_p, v_p, _ = ref.state(self.tc)
-                q_p = q_p.copy()
-                q_p[:2] += self.offset
-                c_p = pin.centerOfMass(model, self.rdata, q_p, v_p)
-                speed = max(float(self.rdata.vcom[0][0]), 0.3)
-                rate = float(np.clip(1.0 + (cx - c_p[0]) / (speed * g.phase_time), 0.3, 2.0))
-            self.tc += (t - self.t_last) * rate
-        self.t_last = t
-        tc = self.tc
+        tc = self._advance_clock(t, q)
         M, hvec = dynamics_terms(model, data, q, v)
         cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {})
+        joint_of = [cm.extract().joint2_id for cm in cms]
         q_r, v_r, a_r = ref.state(tc)
         # the reference follows the footsteps the body makes (blended in)
         u = min(1.0, (t - self.offset_t) / g.blend) if self.offset_t >= 0 else 1.0
@@ -226,58 +211,9 @@ class CycleTracker(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        in_contact = ref.contacts(tc)
-        # each detected corner: its side, the cycle's nearest point there, loaded or not
-        loaded, free, match = [], [], []
-        sides_down = set()
-        for i, cm in enumerate(cms):
-            side = self.side_of_joint.get(cm.extract().joint2_id)
-            best = None
-            if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
-                joint = cm.extract().joint2_id
-                d = [np.linalg.norm(data.oMf[self.point_id[p]].translation - pts[i])
-                     if model.frames[self.point_id[p]].parentJoint == joint else np.inf
-                     for p in self.points[side]]  # fmt: skip
-                k = int(np.argmin(d)) if d else -1
-                best = self.points[side][k] if d and d[k] < MATCH else None
-            keep = best is not None and best in self.loaded_before and phi[i] < g.touch
-            if best is not None and (best in in_contact or keep) and phi[i] < g.touch:
-                loaded.append(i)
-                match.append(best)
-                sides_down.add(side)
-            else:
-                free.append(i)
-        # a trailing foot the cycle has lifted stays down until the other one lands
-        cycle_sides = {p.split("_")[0] for p in in_contact}
-        landed = any(m.split("_")[0] in cycle_sides and m in in_contact for m in match)
-        for j in range(len(loaded) - 1, -1, -1):
-            side = match[j].split("_")[0]
-            if match[j] in in_contact or (side not in cycle_sides and not landed):
-                continue
-            free.append(loaded.pop(j))
-            match.pop(j)
-        # a free corner of a foot that bears load is the plant's to keep out of the floor (its
-        # rearfoot's corners, rolling over the toes, made the QP infeasible at every heel-off)
-        bearing_sides = {self.side_of_joint.get(cms[i].extract().joint2_id) for i in loaded}
-        free = [
-            i
-            for i in free
-            if self.side_of_joint.get(cms[i].extract().joint2_id) not in bearing_sides
-        ]
-        self.loaded_before = set(match)
-        # a heel strike: the reference moves to where the foot landed
-        for s in SIDES:
-            heel_down = any(m in self.heels[s] for m in match)
-            if heel_down and not self.landed[s]:
-                actual = np.mean([data.oMf[self.point_id[p]].translation[:2]
-                                  for p in self.heels[s]], axis=0)  # fmt: skip
-                planned = np.mean([rd.oMf[self.point_id[p]].translation[:2]
-                                   for p in self.heels[s]], axis=0)  # fmt: skip
-                self.offset_from = self.offset.copy()
-                self.offset_to = self.offset + (actual - planned)
-                self.offset_t = t
-            self.landed[s] = heel_down or (self.landed[s] and any(
-                m.startswith(s) for m in match))  # fmt: skip
+        loaded, free, match = self._corners(joint_of, phi, pts, ref.contacts(tc))
+        bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
+        self._reanchor(t, match)
         rows, rhs, weights = [], [], []
 
         def task(J, a, w):
@@ -303,6 +239,7 @@ class CycleTracker(Effect):
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
         c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        self.com_ref = (float(c_r[0]), float(dc_r[0]))
         Jcom = pin.jacobianCenterOfMass(model, data, q)
         task(Jcom, ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc) - com_drift, g.w_com)
         # a swing foot: its pose, its landing moved by the capture point's error
@@ -312,26 +249,15 @@ class CycleTracker(Effect):
         norm = np.linalg.norm(shift)
         if norm > g.max_shift:
             shift *= g.max_shift / norm
-        bearing = {self.side_of_joint.get(cms[i].extract().joint2_id) for i in loaded}
         for s in SIDES:
             if s in bearing:
                 continue
             J, a_foot = frame_task(model, data, rd, self.sole[s], g.foot_kp, g.foot_kd, shift)
             task(J, a_foot, g.w_foot)
-        # the loaded points' drift J' v (data holds the kinematics at dv = 0)
-        drift = []
-        for i in loaded:
-            c_m = cms[i].extract()
-            j = c_m.joint2_id
-            r = c_m.joint2_placement.translation
-            vj, aj = data.v[j], data.a[j]
-            lin = aj.linear + np.cross(aj.angular, r)
-            vel = vj.linear + np.cross(vj.angular, r)
-            drift.append(data.oMi[j].rotation @ (lin + np.cross(vj.angular, vel)))
         p = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M,
                        hvec, q, v, dt, self.weight, g, self.ranges,
                        self.ground.settings.correction, g.range_margin, g.range_time,
-                       drift)  # fmt: skip
+                       [self._drift(cms[i]) for i in loaded])  # fmt: skip
         # the cycle's forces: shared among the corners matched to one point
         count = {}
         for m in match:
@@ -343,8 +269,8 @@ class CycleTracker(Effect):
             target[3 * j : 3 * j + 3] = f_ref
             fade = min(1.0, ref.time_to_lift(tc, m) / g.ramp)
             upper[j] = f_ref[2] + g.margin * fade / count[m]
-        P, qv = p.P.copy(), p.q.copy()
         # contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2
+        qv = p.q.copy()
         qv[nv:] -= g.w_force * target
         G, hh = p.G, p.h
         if loaded:
@@ -352,10 +278,10 @@ class CycleTracker(Effect):
             for j in range(len(loaded)):
                 rows_up[j, nv + 3 * j + 2] = 1.0
             G, hh = np.vstack([G, rows_up]), np.concatenate([hh, upper])
-        x = self.qp.solve(P, qv, p.A, p.b, G, hh)
+        x = self.qp.solve(p.P, qv, p.A, p.b, G, hh)
         if x is None:
             self.relaxed += 1
-            x = self.qp.solve(P, qv, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
+            x = self.qp.solve(p.P, qv, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
         if x is None or not np.all(np.isfinite(x)):
             raise HumanoidError(f"the cycle tracker's QP has no solution at t = {t:.3f} s")
         dv, f = x[:nv], self.weight * x[nv:]
@@ -364,19 +290,89 @@ class CycleTracker(Effect):
         self.last = (dv, f.reshape(-1, 3), match)
         return self.tau
 
+    def _advance_clock(self, t: float, q) -> float:
+        """The cycle's time at t: real time, sped up or slowed down by how far the body's
+        centre of mass is ahead of the cycle's at the last step (a phase variable, as hybrid
+        zero dynamics uses one)."""
+        g = self.gains
+        if self.t_last is not None:
+            rate = 1.0
+            if g.phase_time > 0:
+                cx = pin.centerOfMass(self.model, self.data, q)[0]
+                c_p, dc_p = self.com_ref
+                speed = max(dc_p, 0.3)
+                rate = float(np.clip(1.0 + (cx - c_p) / (speed * g.phase_time), 0.3, 2.0))
+            self.tc += (t - self.t_last) * rate
+        self.t_last = t
+        return self.tc
+
+    def _corners(self, joint_of, phi, pts, in_contact):
+        """The detected corners split into loaded and free (indices), and the cycle's point
+        each loaded one is (see the module)."""
+        g, data, model = self.gains, self.data, self.model
+        loaded, free, match = [], [], []
+        for i, joint in enumerate(joint_of):
+            side = self.side_of_joint.get(joint)
+            best = None
+            if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
+                d = [np.linalg.norm(data.oMf[self.point_id[p]].translation - pts[i])
+                     if model.frames[self.point_id[p]].parentJoint == joint else np.inf
+                     for p in self.points[side]]  # fmt: skip
+                k = int(np.argmin(d)) if d else -1
+                best = self.points[side][k] if d and d[k] < MATCH else None
+            keep = best is not None and best in self.loaded_before and phi[i] < g.touch
+            if best is not None and (best in in_contact or keep) and phi[i] < g.touch:
+                loaded.append(i)
+                match.append(best)
+            else:
+                free.append(i)
+        # a trailing foot the cycle has lifted stays down until the other one lands
+        cycle_sides = {p.split("_")[0] for p in in_contact}
+        landed = any(m.split("_")[0] in cycle_sides and m in in_contact for m in match)
+        for j in range(len(loaded) - 1, -1, -1):
+            side = match[j].split("_")[0]
+            if match[j] in in_contact or (side not in cycle_sides and not landed):
+                continue
+            free.append(loaded.pop(j))
+            match.pop(j)
+        # a free corner of a foot that bears load is the plant's to keep out of the floor (its
+        # rearfoot's corners, rolling over the toes, made the QP infeasible at every heel-off)
+        bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
+        free = [i for i in free if self.side_of_joint.get(joint_of[i]) not in bearing]
+        self.loaded_before = set(match)
+        return loaded, free, match
+
+    def _reanchor(self, t: float, match) -> None:
+        """At a heel strike, the reference moves (over ``blend``) to where the foot landed."""
+        data, rd = self.data, self.rdata
+        for s in SIDES:
+            heel_down = any(m in self.heels[s] for m in match)
+            if heel_down and not self.landed[s]:
+                actual = np.mean([data.oMf[self.point_id[p]].translation[:2]
+                                  for p in self.heels[s]], axis=0)  # fmt: skip
+                planned = np.mean([rd.oMf[self.point_id[p]].translation[:2]
+                                   for p in self.heels[s]], axis=0)  # fmt: skip
+                self.offset_from = self.offset.copy()
+                self.offset_to = self.offset + (actual - planned)
+                self.offset_t = t
+            self.landed[s] = heel_down or (self.landed[s] and any(
+                m.startswith(s) for m in match))  # fmt: skip
+
+    def _drift(self, cm) -> np.ndarray:
+        """A loaded corner's acceleration at dv = 0, J' v, world axes (``data`` holds the
+        kinematics at dv = 0)."""
+        c = cm.extract()
+        j, r = c.joint2_id, c.joint2_placement.translation
+        vj, aj = self.data.v[j], self.data.a[j]
+        lin = aj.linear + np.cross(aj.angular, r)
+        vel = vj.linear + np.cross(vj.angular, r)
+        return self.data.oMi[j].rotation @ (lin + np.cross(vj.angular, vel))
+
 
 def smooth(u: float) -> float:
     """A cubic ease from 0 to 1 over u in [0, 1]."""
     u = min(max(u, 0.0), 1.0)
     return u * u * (3 - 2 * u)
-
-
-def _below(model, i: int, j: int) -> bool:
-    while i > 0:
-        if i == j:
-            return True
-        i = model.parents[i]
-    return False
 
 
 def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, gains=None,
