@@ -20,9 +20,9 @@ demo: $(STAMP)
 	$(PY) -m humanoid info results/adult_female.urdf | tee results/adult_female.txt
 	$(PY) -m humanoid simulate push -o results/push.npz
 	$(PY) -m humanoid view results/push.npz --html results/push.html
-	$(PY) -m humanoid walk -o results/walk.npz --html results/walk.html --figure results/walk.png
-	$(PY) -m humanoid walk --gait human --steps 20 -o results/gait.npz --html results/gait.html --report results/gait_report.png
-	@echo "demo: results in results/: walk.npz, walk.png, walk.html, gait_report.png, gait.html (open the HTML in a browser)"
+	$(PY) -m humanoid walk --steps 20 -o results/walk.npz --html results/walk.html --report results/gait_report.png
+	$(PY) -m humanoid walk --gait welded -o results/welded.npz --html results/welded.html --figure results/welded.png
+	@echo "demo: results in results/: walk.npz, walk.html, gait_report.png (the person's walk), welded.npz, welded.png, welded.html (open the HTML in a browser)"
 
 test: $(STAMP) lint
 	$(PY) -m pytest -q

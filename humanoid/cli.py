@@ -21,6 +21,8 @@ BODY_HELP = (
     "(human, talos...)"
 )
 
+GAITS = ("person", "human", "welded")  # humanoid walk --gait
+
 
 def _segment_length(text: str) -> tuple[str, float]:
     name, sep, value = text.partition("=")
@@ -88,10 +90,13 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--quiet", action="store_true", help="no progress bar")
     w.add_argument(
         "--gait",
-        choices=("welded", "human"),
-        default="welded",
-        help="welded: flat feet welded at each step (any humanoid); human: a person's "
-        "gait cycle fitted to the body, tracked on the rigid ground, heel to toe",
+        choices=GAITS,
+        default="person",
+        help="person: the body's gait cycle optimised through its contact dynamics (shipped "
+        "or cached; else optimised once, a few minutes, with casadi), tracked on the rigid "
+        "ground, heel to toe; human: a person's joint angles fitted kinematically to the "
+        "body and tracked (walks from standing and along curves); welded: flat feet welded "
+        "at each step (any humanoid)",
     )
     w.add_argument(
         "--from-standing",
@@ -108,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     w.add_argument(
         "--report",
-        help="(--gait human) the gait report: angles, moments, powers "
+        help="(--gait person, human) the gait report: angles, moments, powers "
         "and forces over the normative bands, and the table (PNG)",
     )
     w.add_argument("--integrator", choices=list(INTEGRATORS),
@@ -126,19 +131,20 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="DIRECTION:FRACTION",
-        help="(--gait human) push the pelvis for 0.1 s at a mid-stance (the third stride), "
+        help="(--gait person, human) push the pelvis for 0.1 s at a mid-stance (the third stride), "
         "FRACTION of body weight, DIRECTION forward, backward, left or right; repeatable",
     )
     w.add_argument(
         "--largest-push",
         choices=("forward", "backward", "left", "right"),
-        help="(--gait human) search the largest such push the walk survives (a walk per try)",
+        help="(--gait person, human) search the largest such push the walk survives (a walk "
+        "per try)",
     )
-    w.add_argument("--mot", help="(--gait human) also write the walk as OpenSim reads it: "
+    w.add_argument("--mot", help="(--gait person, human) also write the walk as OpenSim reads it: "
                    "coordinates (this .mot, Rajagopal's names) and ground forces (<stem>_grf.mot "
                    "and its .xml)")  # fmt: skip
     w.add_argument("--record-rate", type=float, default=100.0,
-                   help="(--gait human) samples per second recorded (1000 at --dt 0.001: "
+                   help="(--gait person, human) samples per second recorded (1000 at --dt 0.001: "
                    "every step, for inverse dynamics that gives back the torques)")  # fmt: skip
     _model_options(w, ball_joints=False)
 
@@ -506,15 +512,14 @@ def _walk(args) -> int:
         raise HumanoidError("give --speed or --step-length, not both")
     if not 2 <= args.steps <= MAX_STEPS:
         raise HumanoidError(f"--steps must be in [2, {MAX_STEPS}], got {args.steps}")
-    if args.gait == "human":
-        return _walk_human(args)
+    if args.gait != "welded":
+        return _walk_on_ground(args)
     given = [o for o, v in (("--report", args.report), ("--push", args.push),
-                            ("--largest-push", args.largest_push),
-                            ("--from-standing", args.from_standing),
-                            ("--radius", args.radius is not None), ("--mot", args.mot),
+                            ("--largest-push", args.largest_push), ("--mot", args.mot),
                             ("--record-rate", args.record_rate != 100.0)) if v]  # fmt: skip
     if given:
-        raise HumanoidError(f"{', '.join(given)}: only with --gait human")
+        raise HumanoidError(f"{', '.join(given)}: only with --gait person or human")
+    _only_human(args)
     h = load_any(args, ball_joints="quaternion")
     kw = {"steps": args.steps}
     if args.step_length is not None:
@@ -544,9 +549,9 @@ def _walk(args) -> int:
     return 0
 
 
-def _walk_human(args) -> int:
+def _walk_on_ground(args) -> int:
+    """``humanoid walk --gait person|human``: a person's walk on the rigid ground."""
     from .walking.gait import DIRECTIONS, analyse, largest_push, pelvis_push, walk_on_ground
-    from .walking.reference import fit_cycle
     from .walking.report import format_gait_table, plot_gait_report
 
     given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
@@ -555,6 +560,8 @@ def _walk_human(args) -> int:
              if v is not None]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait welded")
+    if args.gait == "person":
+        _only_human(args)
     pushes = []
     for spec in args.push:
         direction, _, fraction = spec.partition(":")
@@ -580,22 +587,26 @@ def _walk_human(args) -> int:
             f"{args.record_rate:g}"
         )
     h = load_any(args, ball_joints="quaternion")
-    cycle = fit_cycle(h, args.speed)
+    cycle, walker = _ground_walker(args, h)
     if args.largest_push:
 
         def tried(fraction, survived):
             print(f"push {fraction:.3f} BW {args.largest_push:8s} "
                   f"{'survived' if survived else 'fell'}", flush=True)  # fmt: skip
 
-        found = largest_push(h, args.largest_push, cycle, progress=tried)
+        found = largest_push(h, args.largest_push, cycle, walk=walker, progress=tried)
         fell = f"{found.fell:.3f} BW" if found.fell is not None else "none tried fell"
         print(f"largest push survived  {found.survived:.3f} BW {found.direction} "
               f"(0.1 s at mid-stance; smallest fall: {fell})")  # fmt: skip
         return 0
-    walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt, mu=args.mu,
-                          pushes=[pelvis_push(h, cycle, f, d) for d, f in pushes],
-                          quiet=args.quiet, from_standing=args.from_standing,
-                          radius=args.radius, record_rate=args.record_rate)  # fmt: skip
+    pushed = [pelvis_push(h, cycle, f, d) for d, f in pushes]
+    if args.gait == "person":
+        walk = walker(args.steps, pushed, quiet=args.quiet, record_rate=args.record_rate)
+    else:
+        walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt,
+                              mu=args.mu, pushes=pushed, quiet=args.quiet,
+                              from_standing=args.from_standing, radius=args.radius,
+                              record_rate=args.record_rate)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata
@@ -615,15 +626,71 @@ def _walk_human(args) -> int:
 
         page = export_html(h, args.html, traj=walk.trajectory, title="walk")
         print(f"viewer       {page}")
+    speed = cycle.speed if args.gait == "person" else cycle.gait["speed"]
     if not walk.completed and args.from_standing:
-        print(f"humanoid walk: it did not stop standing from {cycle.gait['speed']:.2f} m/s; "
+        print(f"humanoid walk: it did not stop standing from {speed:.2f} m/s; "
               "it stops from 0.8 m/s (--speed 0.8), not yet from a person's free speed",
               file=sys.stderr)  # fmt: skip
     elif not walk.completed and args.speed is None and not pushes:
-        print(f"humanoid walk: it fell at its free speed ({cycle.gait['speed']:.2f} m/s, a "
+        print(f"humanoid walk: it fell at its free speed ({speed:.2f} m/s, a "
               "person's for its leg length); a robot may walk slower: try --speed 0.6",
               file=sys.stderr)  # fmt: skip
     return 0 if walk.completed else 3
+
+
+def _only_human(args) -> None:
+    given = [o for o, v in (("--from-standing", args.from_standing),
+                            ("--radius", args.radius is not None)) if v]  # fmt: skip
+    if given:
+        raise HumanoidError(f"{', '.join(given)}: only with --gait human (the optimised cycle "
+                            "walks straight on at a steady speed)")  # fmt: skip
+
+
+def _ground_walker(args, h):
+    """The cycle a ``--gait person|human`` walk follows and ``walk(steps, pushes, **kw)`` that
+    walks it (``kw``: quiet, record_rate)."""
+    if args.gait == "human":
+        from .walking.gait import walk_on_ground
+        from .walking.reference import fit_cycle
+
+        cycle = fit_cycle(h, args.speed)
+
+        def walk(steps, pushes, **kw):
+            return walk_on_ground(h, steps=steps, cycle=cycle, dt=args.dt, mu=args.mu,
+                                  pushes=pushes, **kw)  # fmt: skip
+
+        return cycle, walk
+    from .walking.person import walk_cycle
+
+    cycle = person_gait(h, args.speed, quiet=args.quiet)
+
+    def walk(steps, pushes, **kw):
+        return walk_cycle(h, cycle, steps, dt=args.dt, mu=args.mu, pushes=pushes, **kw)
+
+    return cycle, walk
+
+
+def person_gait(h, speed=None, quiet: bool = False):
+    """The body's optimised gait cycle (tracking objective) at ``speed`` (default its free
+    speed): shipped with the package or in the user's cache, else optimised now (casadi) and
+    cached, saying so."""
+    from .optimal.cycle import cache_dir, default_speed, stored_gait
+
+    gait = stored_gait(h, speed)
+    if gait is not None:
+        return gait
+    speed = round(default_speed(h) if speed is None else speed, 2)
+    try:
+        from .optimal.gait import gait_cycle
+    except ImportError as exc:
+        raise HumanoidError(
+            f"no optimised gait cycle of {h.source} at {speed:.2f} m/s is shipped or cached, "
+            f"and optimising one needs the optimal-control extra ({exc})"
+        ) from exc
+    if not quiet:
+        print(f"optimising the gait cycle of {h.source} at {speed:.2f} m/s (once, a few "
+              f"minutes; cached in {cache_dir()})", flush=True)  # fmt: skip
+    return gait_cycle(h, speed)
 
 
 def _view(args) -> int:

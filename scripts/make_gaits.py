@@ -11,7 +11,8 @@ from __future__ import annotations
 import sys
 
 import humanoid as hm
-from humanoid.optimal.gait import DATA, gait_file, optimise_gait, save_gait
+from humanoid.optimal.cycle import DATA, gait_file, save_gait
+from humanoid.optimal.gait import optimise_gait
 
 BODIES = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
 

@@ -24,7 +24,9 @@ case "$where" in
 esac
 "$BIN/humanoid" --version
 "$BIN/humanoid" info adult_female | head -3
+# the person's walk reads the default body's shipped gait cycle: no casadi needed
 "$BIN/humanoid" walk --steps 2 --quiet -o walk.npz --html walk.html | tail -3
+"$BIN/humanoid" walk --gait welded --steps 2 --quiet -o welded.npz | tail -1
 for scene in $("$BIN/python" -c 'import humanoid.data as d; print(*d.scene_names())'); do
     "$BIN/humanoid" simulate "$scene" --duration 0.2 --quiet -o "$scene.npz" | head -1
 done
@@ -55,9 +57,9 @@ printf '[study]\nname = "tiny"\nscene = "standing"\n[set]\n"scene.duration" = 0.
 "$BIN/humanoid" sweep tiny.toml --workers 2 --quiet > sweep.txt
 grep -q "runs         2: 2 completed" sweep.txt || { cat sweep.txt >&2; exit 1; }
 echo "sweep: a 2-run study on a 2-worker Dask cluster; the shipped study lists $runs runs"
-# without the optimal extra, humanoid.optimal says which pip install to run; with it, the
+# without the optimal extra, humanoid.optimal.gait says which pip install to run; with it, the
 # README's snippets (the optimal-control one among them) run as a user following it would
-"$BIN/python" -c 'import humanoid.optimal' 2> optimal.txt && { echo "humanoid.optimal imported without casadi" >&2; exit 1; }
+"$BIN/python" -c 'import humanoid.optimal.gait' 2> optimal.txt && { echo "humanoid.optimal.gait imported without casadi" >&2; exit 1; }
 grep -q "pip install 'humanoid-toolkit\[optimal\]'" optimal.txt || { cat optimal.txt >&2; exit 1; }
 "$BIN/pip" install --quiet "$WHEEL[optimal]" 2> >(quiet)
 "$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md"

@@ -17,7 +17,8 @@ import pytest
 
 import humanoid as hm
 from humanoid.optimal.coordinates import build_ocp_model
-from humanoid.optimal.gait import DATA, gait_file, load_gait, optimise_gait
+from humanoid.optimal.cycle import DATA, gait_file, load_gait
+from humanoid.optimal.gait import optimise_gait
 from humanoid.optimal.problem import Collocation, Phase
 from humanoid.walking.norms import free_speed
 from humanoid.walking.reference import leg_length

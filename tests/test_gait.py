@@ -260,3 +260,38 @@ def test_the_gait_report_draws_the_curves_over_the_norms(male, tmp_path):
     path = plot_gait_report(a, tmp_path / "report.png")
     assert path.stat().st_size > 50_000
     assert "double support" in format_gait_table(a)
+
+
+def test_the_walk_command_walks_the_persons_optimised_cycle(tmp_path, capsys):
+    """Plain ``humanoid walk`` walks the body's shipped optimised cycle (no casadi needed): six
+    steps of the male body with toes, measured, written, reported."""
+    from humanoid.cli import main
+
+    urdf = tmp_path / "male.urdf"
+    assert main(["build", "--height", "1.75", "--mass", "75", "--sex", "male", "--toes",
+                 "-o", str(urdf)]) == 0  # fmt: skip
+    out, report = tmp_path / "walk.npz", tmp_path / "report.png"
+    code = main(["walk", "--model", str(urdf), "--steps", "6", "-o", str(out), "--report",
+                 str(report), "--quiet"])  # fmt: skip
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert out.is_file() and report.is_file()
+    speed = next(line for line in text.splitlines() if line.startswith("speed"))
+    assert "1.3" in speed or "1.4" in speed, speed  # the cycle's 1.38 m/s
+
+
+def test_a_walk_without_a_stored_cycle_or_casadi_says_what_to_install(tmp_path):
+    """No cycle shipped or cached at that speed, and no casadi to optimise one: one line that
+    says so (exit 2), not a traceback."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['casadi'] = None; from humanoid.cli import main; "
+            "sys.exit(main(['walk', '--speed', '0.93', '--steps', '2', '--quiet', '-o', "
+            f"{str(tmp_path / 'w.npz')!r}]))")  # fmt: skip
+    env = {"HUMANOID_CACHE": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                       timeout=120)  # fmt: skip
+    assert r.returncode == 2, r.stderr
+    assert "optimal-control extra" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert "0.93 m/s" in r.stderr

@@ -173,3 +173,83 @@ def test_a_person_chooses_step_length_and_cadence_together(leg):
     slow, fast = choose_gait(0.8, leg), choose_gait(1.6, leg)
     assert slow["step_length"] < g["step_length"] < fast["step_length"]
     assert slow["cadence"] < g["cadence"] < fast["cadence"]
+
+
+def test_the_norms_on_a_level_pelvis_keep_the_thigh_against_the_room():
+    """Schwartz's pelvis (the iliac spines' plane) tilts forward; on the body's level pelvis
+    the tilt and the hip flexion (thigh against pelvis) lose the mean tilt, and nothing else
+    moves."""
+    n = norms()
+    v = 0.46
+    tilt = n.mean_tilt(v)
+    assert 8.0 < tilt < 16.0, tilt
+    for name in ("pelvis_tilt", "hip_flexion"):
+        lab, sd = n.curve(name, v)
+        level, sd_level = n.curve(name, v, pelvis="level")
+        np.testing.assert_allclose(level, lab - tilt)
+        np.testing.assert_array_equal(sd_level, sd)
+    assert abs(n.curve("pelvis_tilt", v, pelvis="level")[0][:-1].mean()) < 1e-12
+    # the thigh's angle to the room: hip flexion less the tilt, the same on both pelvises
+    thigh = n.curve("hip_flexion", v)[0] - n.curve("pelvis_tilt", v)[0]
+    level = n.curve("hip_flexion", v, "level")[0] - n.curve("pelvis_tilt", v, "level")[0]
+    np.testing.assert_allclose(thigh, level)
+    np.testing.assert_array_equal(n.curve("knee_flexion", v, "level")[0],
+                                  n.curve("knee_flexion", v)[0])  # fmt: skip
+    with pytest.raises(ValueError, match="pelvis"):
+        n.curve("hip_flexion", v, pelvis="tilted")
+
+
+def test_a_force_plates_filter_keeps_gait_and_removes_ticks():
+    """The zero-lag low-pass at 15 Hz: a 2 Hz wave (the gait's own content) through unchanged
+    in amplitude and phase; 1 kHz ticks (the simulation's contact impulses) gone."""
+    from humanoid.walking.gait import CUTOFF, low_pass
+
+    t = np.arange(0.0, 3.0, 1e-3)
+    slow = np.sin(2 * np.pi * 2.0 * t)
+    ticks = 0.5 * (-1.0) ** np.arange(len(t))
+    out = low_pass(np.column_stack([slow + ticks, slow]), t)
+    inner = slice(200, -200)
+    np.testing.assert_allclose(out[inner, 0], slow[inner], atol=2e-3)
+    np.testing.assert_allclose(out[inner, 1], slow[inner], atol=2e-3)
+    # at the cut-off, the forward-backward second order passes half the amplitude
+    at_cutoff = low_pass(np.sin(2 * np.pi * CUTOFF * t), t)
+    assert 0.45 < np.abs(at_cutoff[inner]).max() < 0.55
+
+
+def test_events_need_the_force_to_fall_below_the_lower_threshold():
+    """A force chattering about the upper threshold (2 % BW) after it first crossed it stays
+    one contact: hysteresis, as a force plate's event detection."""
+    from humanoid.walking.gait import EVENT_OFF, EVENT_ON, hysteresis
+
+    weight = 700.0
+    on, off = EVENT_ON * weight, EVENT_OFF * weight
+    x = np.array([0, 5, on + 1, on - 1, on + 1, off + 1, on - 1, off - 1, off + 1, on + 1, 0.0])
+    np.testing.assert_array_equal(hysteresis(x, on, off),
+                                  [0, 0, 1, 1, 1, 1, 1, 0, 0, 1, 0])  # fmt: skip
+
+
+def _analysis_of(curves: dict, v_hat: float = 0.46):
+    from humanoid.walking.gait import GaitAnalysis
+
+    both = {s: {n: np.atleast_2d(c) for n, c in curves.items()} for s in ("left", "right")}
+    return GaitAnalysis({}, {}, both, {}, {"left": [], "right": []}, v_hat, 75.0)
+
+
+def test_a_curve_in_band_and_its_roughness():
+    """in_band: the share of the cycle inside the norm's mean +- 2 SD on the body's level
+    pelvis (the lab pelvis's hip flexion, 12 deg higher, is partly outside); roughness: the
+    norm itself is 1, a 1 N m/kg one-sample spike adds nearly 2 N m/kg of variation."""
+    n = norms()
+    v = 0.46
+    hip_level = n.curve("hip_flexion", v, pelvis="level")[0]
+    hip_lab = n.curve("hip_flexion", v)[0]
+    moment = n.curve("knee_extension_moment", v)[0]
+    spiked = moment.copy()
+    spiked[30] += 1.0
+    a = _analysis_of({"hip_flexion": hip_level, "knee_extension_moment": moment})
+    assert a.in_band("hip_flexion") == 1.0
+    assert math.isclose(a.roughness("knee_extension_moment"), 1.0)
+    b = _analysis_of({"hip_flexion": hip_lab, "knee_extension_moment": spiked})
+    assert b.in_band("hip_flexion") < 0.9
+    variation = np.abs(np.diff(moment)).sum()  # 2.5 N m/kg
+    assert b.roughness("knee_extension_moment") > (variation + 1.8) / variation

@@ -158,15 +158,15 @@ def test_every_step_respects_the_contact_physics(walked):
 def test_walk_command_writes_the_run_the_figure_and_the_viewer(tmp_path, capsys):
     out = tmp_path / "walk.npz"
     html = tmp_path / "walk.html"
-    code = main(["walk", "--steps", "2", "--speed", "0.5", "-o", str(out), "--html", str(html),
-                 "--quiet"])  # fmt: skip
+    code = main(["walk", "--gait", "welded", "--steps", "2", "--speed", "0.5", "-o", str(out),
+                 "--html", str(html), "--quiet"])  # fmt: skip
     text = capsys.readouterr().out
     assert code == 0, text
     assert out.is_file() and html.is_file() and out.with_suffix(".png").is_file()
     for word in ("speed", "cadence", "double support", "peak vertical GRF", "typical adult",
                  "consistency", "real-time factor"):  # fmt: skip
         assert word in text
-    assert main(["walk", "--speed", "0.5", "--step-length", "0.3"]) == 2
+    assert main(["walk", "--gait", "welded", "--speed", "0.5", "--step-length", "0.3"]) == 2
 
 
 def test_walk_of_an_unknown_model_is_a_clear_error(capsys):

@@ -25,11 +25,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+from ._casadi import ca
 
 __all__ = ["Kinematics", "SymbolicModel"]
 

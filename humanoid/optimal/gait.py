@@ -17,9 +17,10 @@ toe points in phase 2.
 
 Two objectives (:data:`OBJECTIVES`):
 
-- ``"tracking"``: the published joint angles and ground forces at the speed (Schwartz et al.
-  2008, at the body's dimensionless speed, weighted by their standard deviations), the cycle
-  time of :func:`~humanoid.walking.norms.choose_gait`; plus a small effort.
+- ``"tracking"``: the published joint angles, ground forces and the ankle's moment at the
+  speed (Schwartz et al. 2008, at the body's dimensionless speed, weighted by their
+  standard deviations), the opposite foot's toe-off at half an adult's double support, the
+  cycle time of :func:`~humanoid.walking.norms.choose_gait`; plus a small effort.
 - ``"predictive"``: effort only, as the predictive-simulation literature writes it (Falisse et
   al. 2019, J R Soc Interface 16:20190402: torques squared, joint accelerations squared as a
   regulariser), plus the torques' rate; the cycle time, hence cadence and step length, free.
@@ -33,28 +34,34 @@ maps it back to the body (quaternions) and to a full stride.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
-from dataclasses import dataclass
-from pathlib import Path
 
-import casadi as ca
 import numpy as np
 
 from ..errors import HumanoidError
+from ._casadi import ca
 from .coordinates import OcpModel, build_ocp_model
-from .problem import Collocation, Phase, Solution
+from .cycle import (
+    NODES,
+    OBJECTIVES,
+    GaitSolution,
+    _points,
+    cache_dir,
+    default_speed,
+    gait_file,
+    gait_phases,
+    load_gait,
+    save_gait,
+    stored,
+)
+from .problem import Collocation
 
 __all__ = [
     "OBJECTIVES", "GaitSolution", "cache_dir", "fourier", "gait_cycle", "gait_phases",
     "load_gait", "optimise_gait", "save_gait",
 ]  # fmt: skip
 
-OBJECTIVES = ("tracking", "predictive")
 HARMONICS = 8  # Fourier terms of a normative curve over the cycle
-NODES = (5, 12, 8)  # collocation intervals in the three phases
 MU = 0.8
 # [rad] the cycle keeps this far inside the joints' ranges: a walk tracks it on a plant that
 # enforces them (riding them, the trunk's bending and the elbows' extension at their limits,
@@ -65,6 +72,15 @@ RANGE_MARGIN = 0.05
 # the curves' standard deviations), and of the regularisers.
 W_ANGLE = 1.0
 W_FORCE = 1.0
+W_ANKLE = 1.0  # the ankle's moment, per SD
+# IPOPT stops at an acceptable point: 15 iterations in a row with the constraints met to 1e-7,
+# the scaled optimality error under 1e-3 and the objective changing under 1e-4 of itself. The
+# tracking objective's last 0.5 % otherwise takes IPOPT hundreds of iterations of full steps
+# along a shallow valley (the male cycle: 8.039 at iteration 445, 8.003 at 631, still moving).
+ACCEPTABLE = {
+    "ipopt.acceptable_tol": 1e-3, "ipopt.acceptable_iter": 15,
+    "ipopt.acceptable_constr_viol_tol": 1e-7, "ipopt.acceptable_obj_change_tol": 1e-4,
+}  # fmt: skip
 W_EVENT = 10.0  # per SD of the opposite foot's toe-off [fraction of the cycle]
 W_POSTURE = 0.1  # per rad^2 from standing, joints no curve tracks
 W_EFFORT = 0.01
@@ -106,128 +122,28 @@ def _basis(phi, harmonics):
     return np.column_stack(cols)
 
 
-def _points(om: OcpModel, side: str) -> dict:
-    """A side's contact points: heel, meta (metatarsal heads; None without toes), toe."""
-    model = om.model
-
-    def pair(kind):
-        names = (f"{side}_{kind}_inner", f"{side}_{kind}_outer")
-        return names if all(model.existFrame(n) for n in names) else None
-
-    heel, meta, toe = pair("heel"), pair("meta"), pair("toe")
-    if heel is None or toe is None:
-        raise HumanoidError(
-            f"the gait needs {side}_heel_inner|outer and {side}_toe_inner|outer contact frames"
-        )
-    return {"heel": heel, "meta": meta, "toe": toe}
-
-
-def gait_phases(om: OcpModel, durations, nodes=NODES, free=None) -> list[Phase]:
-    """The half stride's three phases (see the module)."""
-    r, l = _points(om, "right"), _points(om, "left")
-    r_toes = (r["meta"] or ()) + r["toe"]
-    l_toes = (l["meta"] or ()) + l["toe"]
-    contacts = (r["heel"] + l_toes, r["heel"] + (r["meta"] or ()) + r["toe"], r_toes)
-    free = free or [None] * 3
-    return [Phase(float(d), c, n, f) for d, c, n, f in zip(durations, contacts, nodes, free,
-                                                           strict=True)]  # fmt: skip
-
-
-@dataclass
-class GaitSolution:
-    """An optimised half stride and what it was asked.
-
-    Attributes:
-        solution: The collocation's :class:`~humanoid.optimal.problem.Solution` (the OCP
-            model's coordinates).
-        om: The :class:`OcpModel`.
-        speed: [m/s] the mean speed. objective: ``"tracking"`` or ``"predictive"``.
-        points: per side, its contact points by kind (heel, meta, toe).
-        nodes: collocation intervals per phase.
-    """
-
-    solution: Solution
-    om: OcpModel
-    speed: float
-    objective: str
-    points: dict
-    nodes: tuple = NODES
-
-    @property
-    def period(self) -> float:
-        """[s] the whole stride's duration (two half strides)."""
-        return 2.0 * float(self.solution.t[-1])
-
-    @property
-    def step_length(self) -> float:
-        return float(self.solution.x[-1, 0] - self.solution.x[0, 0])
-
-    @property
-    def cadence(self) -> float:
-        """[steps/min]."""
-        return 120.0 / self.period
-
-    def stride(self):
-        """The whole stride: (t, x, v, forces) over both halves (the second mirrored), x in
-        the OCP model's coordinates, forces per contact frame [N]."""
-        s, om = self.solution, self.om
-        T = s.t[-1]
-        x2 = om.reflect(s.x[1:])
-        x2[:, 0] += self.step_length
-        t = np.concatenate([s.t, T + s.t[1:]])
-        x = np.vstack([s.x, x2])
-        v = np.vstack([s.v, om.reflect(s.v[1:])])
-        n = len(s.t)
-        zero = np.zeros((n, 3))
-        names = set(s.forces) | {_mirror_name(p) for p in s.forces}
-        forces = {}
-        for p in sorted(names):
-            mirrored = s.forces.get(_mirror_name(p), zero)[1:] * np.array([1.0, -1.0, 1.0])
-            forces[p] = np.vstack([s.forces.get(p, zero), mirrored])
-        return t, x, v, forces
-
-    def contact_sets(self) -> list:
-        """The contact points down in each collocation interval of the whole stride (the
-        second half's mirrored)."""
-        phases = gait_phases(self.om, self.solution.durations, self.nodes)
-        half = [set(ph.contacts) for ph in phases for _ in range(ph.intervals)]
-        return half + [{_mirror_name(p) for p in c} for c in half]
-
-    def foot_forces(self):
-        """(t, {side: (N, 3) summed force [N]}) over the stride."""
-        t, _, _, forces = self.stride()
-        out = {}
-        for side in ("left", "right"):
-            out[side] = sum(f for p, f in forces.items() if p.startswith(side))
-        return t, out
-
-
-def _mirror_name(p: str) -> str:
-    if p.startswith("left"):
-        return "right" + p[4:]
-    return "left" + p[5:]
-
-
 class _Targets:
     """The normative curves the tracking objective follows, as Fourier series."""
 
     def __init__(self, dimensionless_speed: float) -> None:
-        from ..walking.norms import norms
+        from ..walking.norms import ADULT, norms
 
         n = norms()
         mean, sd = {}, {}
         for name in ("pelvis_tilt", "pelvis_obliquity", "pelvis_rotation", "hip_flexion",
                      "hip_adduction", "knee_flexion", "ankle_dorsiflexion", "grf_vertical",
-                     "grf_anterior"):  # fmt: skip
-            m, s = n.curve(name, dimensionless_speed)
+                     "grf_anterior", "ankle_plantarflexion_moment"):  # fmt: skip
+            # the model's pelvis is level standing; the lab's tilts forward (Norms.curve)
+            m, s = n.curve(name, dimensionless_speed, pelvis="level")
             mean[name], sd[name] = m, s
-        # The norms' pelvic tilt is the ASIS-PSIS line's, tilted forward at rest; the model's
-        # pelvis is upright standing: its offset is the norm's mean tilt, which the hip's
-        # flexion carries too (hip = thigh + tilt).
-        self.tilt_offset = float(np.mean(mean["pelvis_tilt"][:-1]))
         self.coefficients = {k: fourier(v) for k, v in mean.items()}
         self.sd = {k: float(np.mean(v)) for k, v in sd.items()}
-        self.events = {"opposite_foot_off": n.event("opposite_foot_off", dimensionless_speed)}
+        # the opposite foot's toe-off ends the first double support: at half the adults' double
+        # support (the middle of ADULT's band), with Schwartz's SD (the children's double
+        # support is a few % of the cycle shorter than an adult's)
+        (lo, hi), _, _ = ADULT["double_support"]
+        _, event_sd = n.event("opposite_foot_off", dimensionless_speed)
+        self.events = {"opposite_foot_off": ((lo + hi) / 4, event_sd)}
 
     def __call__(self, name, phi):
         return fourier_eval(self.coefficients[name], phi)
@@ -284,7 +200,8 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
         opti.set_initial(step, warm.step_length * speed / warm.speed)
     standing = om.from_body(h.standing_configuration())
     terms = _objective(c, om, objective, gait, standing)
-    sol = c.solve(sum(terms.values()), terms=terms, verbose=verbose, max_iter=max_iter)
+    sol = c.solve(sum(terms.values()), terms=terms, verbose=verbose, max_iter=max_iter,
+                  options=ACCEPTABLE)  # fmt: skip
     points = {s: _points(om, s) for s in ("left", "right")}
     return GaitSolution(sol, om, speed, objective, points, tuple(nodes))
 
@@ -333,7 +250,8 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
     idx = om.index
     rd = math.radians
     tracked = set()
-    angle, force = 0, 0
+    angle, force, ankle = 0, 0, 0
+    mass = float(sum(i.mass for i in om.model.inertias))
     right, left = _points(om, "right"), _points(om, "left")
     right_all = sum((v for v in right.values() if v), ())
     left_all = sum((v for v in left.values() if v), ())
@@ -341,16 +259,16 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
         phi = times[k] / cycle
         e = []
         for side, phase in (("right", phi), ("left", phi + 0.5)):
-            for coord, curve, offset in (
-                (f"{side}_hip_flexion", "hip_flexion", targets.tilt_offset),
-                (f"{side}_knee", "knee_flexion", 0.0),
-                (f"{side}_ankle_flexion", "ankle_dorsiflexion", 0.0),
-                (f"{side}_hip_adduction", "hip_adduction", 0.0),
+            for coord, curve in (
+                (f"{side}_hip_flexion", "hip_flexion"),
+                (f"{side}_knee", "knee_flexion"),
+                (f"{side}_ankle_flexion", "ankle_dorsiflexion"),
+                (f"{side}_hip_adduction", "hip_adduction"),
             ):
-                target = rd(1) * (targets(curve, phase) - offset)
+                target = rd(1) * targets(curve, phase)
                 e.append((c.X[idx(coord), k] - target) / rd(targets.sd[curve]))
                 tracked.add(coord)
-        tilt = rd(1) * (targets("pelvis_tilt", phi) - targets.tilt_offset)
+        tilt = rd(1) * targets("pelvis_tilt", phi)
         e.append((c.X[idx("root_pitch"), k] - tilt) / rd(targets.sd["pelvis_tilt"]))
         e.append((c.X[idx("root_roll"), k] + rd(1) * targets("pelvis_obliquity", phi))
                  / rd(targets.sd["pelvis_obliquity"]))  # fmt: skip
@@ -363,6 +281,14 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
             f.append((F[2] - targets("grf_vertical", phase)) / targets.sd["grf_vertical"])
             f.append((F[0] - targets("grf_anterior", phase)) / targets.sd["grf_anterior"])
         force = force + w[k] * ca.sumsqr(ca.vertcat(*f))
+        # the ankle's internal moment (plantarflexor +) per kg
+        m = []
+        for side, phase in (("right", phi), ("left", phi + 0.5)):
+            i = idx(f"{side}_ankle_flexion")
+            tau = c.tau[k][i - 6] / mass
+            m.append((-tau - targets("ankle_plantarflexion_moment", phase))
+                     / targets.sd["ankle_plantarflexion_moment"])  # fmt: skip
+        ankle = ankle + w[k] * ca.sumsqr(ca.vertcat(*m))
     # the double support: the first phase lasts until the opposite foot's toe-off
     events = targets.events
     loading = (c.durations[0] / cycle - events["opposite_foot_off"][0]) / events[
@@ -371,115 +297,11 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
     terms["events"] = W_EVENT * loading**2
     terms["angles"] = W_ANGLE * angle / T
     terms["forces"] = W_FORCE * force / T
+    terms["ankle_moment"] = W_ANKLE * ankle / T
     rest = [i for i in range(6, om.n) if om.names[i] not in tracked]
     posture = sum(w[k] * ca.sumsqr(c.X[rest, k] - standing[rest]) for k in range(N + 1))
     terms["posture"] = W_POSTURE * posture / T
     return terms
-
-
-# -- storage -------------------------------------------------------------------------------
-FORMAT = 1
-DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
-
-
-def body_key(om: OcpModel) -> str:
-    """A digest of the model's numbers (joints, placements, inertias, limits, frames): two
-    bodies with one key have one optimal gait."""
-    m = om.model
-    parts = []
-    for j in range(1, m.njoints):
-        M, inertia = m.jointPlacements[j], m.inertias[j]
-        parts += [m.names[j], m.joints[j].shortname(), M.homogeneous.ravel(), inertia.mass,
-                  inertia.lever, inertia.inertia.ravel()]  # fmt: skip
-    parts += [m.lowerPositionLimit, m.upperPositionLimit, m.effortLimit, m.damping]
-    for f in m.frames:
-        parts += [f.name, f.parentJoint, f.placement.homogeneous.ravel()]
-    text = "|".join(
-        np.array2string(np.round(np.asarray(p, dtype=float), 9), threshold=10**6)
-        if not isinstance(p, str) else p
-        for p in parts
-    )  # fmt: skip
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def gait_file(om: OcpModel, speed: float, objective: str) -> str:
-    """The cache's file name of a body's gait at a speed (to the cm/s) and objective."""
-    return f"{body_key(om)}-{objective}-{round(100 * speed):03d}.npz"
-
-
-def save_gait(g: GaitSolution, path) -> Path:
-    """Write ``g`` to ``path`` (npz); :func:`load_gait` reads it."""
-    s = g.solution
-    points = sorted(s.forces)
-    meta = {
-        "format": FORMAT, "speed": g.speed, "objective": g.objective, "status": s.status,
-        "success": s.success, "iterations": s.iterations, "seconds": s.seconds,
-        "defect": s.defect, "dynamics": s.dynamics, "objective_value": s.objective,
-        "terms": s.terms, "points": points, "names": list(g.om.names),
-        "body": body_key(g.om), "nodes": list(g.nodes),
-    }  # fmt: skip
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    with open(tmp, "wb") as fh:
-        np.savez_compressed(
-            fh, t=s.t, x=s.x, v=s.v, a=s.a, tau=s.tau, durations=s.durations,
-            forces=np.stack([s.forces[p] for p in points]), meta=json.dumps(meta),
-        )  # fmt: skip
-    tmp.replace(path)
-    return path
-
-
-def load_gait(path, h) -> GaitSolution:
-    """Read a gait :func:`save_gait` wrote, for the body ``h`` it was optimised for.
-
-    Raises:
-        HumanoidError: the file is not such a gait, or it belongs to another body.
-    """
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-        meta = json.loads(str(arrays.pop("meta")))
-    except (OSError, ValueError, KeyError) as exc:
-        raise HumanoidError(f"{path}: not a saved gait ({exc})") from exc
-    if meta.get("format") != FORMAT:
-        raise HumanoidError(f"{path}: gait format {meta.get('format')}, expected {FORMAT}")
-    om = build_ocp_model(h)
-    if meta["body"] != body_key(om):
-        raise HumanoidError(f"{path}: the gait of another body ({meta['body']})")
-    forces = dict(zip(meta["points"], arrays["forces"], strict=True))
-    sol = Solution(
-        arrays["t"], arrays["x"], arrays["v"], arrays["a"], arrays["tau"], forces,
-        arrays["durations"], meta["success"], meta["status"], meta["iterations"],
-        meta["seconds"], meta["defect"], meta["dynamics"], meta["objective_value"],
-        meta["terms"],
-    )  # fmt: skip
-    points = {s: _points(om, s) for s in ("left", "right")}
-    return GaitSolution(sol, om, meta["speed"], meta["objective"], points, tuple(meta["nodes"]))
-
-
-def cache_dir() -> Path:
-    """Where optimised gaits are kept: ``$HUMANOID_CACHE/gaits``, or ``~/.cache/humanoid/gaits``."""
-    root = os.environ.get("HUMANOID_CACHE")
-    return (Path(root) if root else Path.home() / ".cache" / "humanoid") / "gaits"
-
-
-def _stored(om: OcpModel, objective: str):
-    """Saved gaits of this body and objective: {speed: path}, the package's first."""
-    key = body_key(om)
-    out = {}
-    for folder in (cache_dir(), DATA):
-        for path in sorted(folder.glob(f"{key}-{objective}-*.npz")) if folder.is_dir() else ():
-            out[int(path.stem.rsplit("-", 1)[1]) / 100] = path
-    return out
-
-
-def default_speed(h) -> float:
-    """The body's free speed to the cm/s (the cache's resolution) [m/s]."""
-    from ..walking.norms import free_speed
-    from ..walking.reference import leg_length
-
-    return round(free_speed(leg_length(h)), 2)
 
 
 def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True,
@@ -494,15 +316,15 @@ def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True
     """
     om = build_ocp_model(h)
     speed = round(default_speed(h) if speed is None else float(speed), 2)
-    stored = _stored(om, objective)
-    if speed in stored:
-        return load_gait(stored[speed], h)
+    have = stored(om, objective)
+    if speed in have:
+        return load_gait(have[speed], h)
     warm = None
-    if stored:
-        nearest = min(stored, key=lambda s: abs(s - speed))
-        warm = load_gait(stored[nearest], h)
+    if have:
+        nearest = min(have, key=lambda s: abs(s - speed))
+        warm = load_gait(have[nearest], h)
     elif objective != "tracking":
-        tracking = _stored(om, "tracking")
+        tracking = stored(om, "tracking")
         if tracking:
             warm = load_gait(tracking[min(tracking, key=lambda s: abs(s - speed))], h)
     g = optimise_gait(h, speed, objective, warm=warm, verbose=verbose)

@@ -25,65 +25,18 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError
+from ._casadi import ca
+from .cycle import Phase, Solution
 from .dynamics import SymbolicModel
 
-__all__ = ["Collocation", "Phase", "Solution"]
+__all__ = ["Collocation", "Phase", "Solution"]  # Phase, Solution: from .cycle
 
 G = 9.81
-
-
-@dataclass(frozen=True)
-class Phase:
-    """A stretch of the motion with one set of points in contact.
-
-    Attributes:
-        duration: [s] the phase's duration (the initial guess when ``free`` is set).
-        contacts: The contact frames that stick to the floor during the phase.
-        intervals: Collocation intervals in the phase.
-        free: Bounds (low, high) [s] if the duration is optimised, else None.
-    """
-
-    duration: float
-    contacts: tuple[str, ...]
-    intervals: int = 10
-    free: tuple[float, float] | None = None
-
-
-@dataclass
-class Solution:
-    """A solved (or failed) collocation.
-
-    Attributes:
-        t: [s] node times (N + 1). x, v, a, tau: per node (N + 1, n); tau's first six (the
-        root's) are the dynamics' residual. forces: contact frame -> (N + 1, 3) [N] world-axes
-        force, zero where the point is not in contact. durations: the phases' [s].
-        success: IPOPT converged. status: its return status. iterations, seconds: the solve's
-        cost. defect: the largest collocation defect at the solution. dynamics: the largest
-        root residual [N, N m]. objective: its value. terms: the objective's terms' values.
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    tau: np.ndarray
-    forces: dict
-    durations: np.ndarray
-    success: bool
-    status: str
-    iterations: int
-    seconds: float
-    defect: float
-    dynamics: float
-    objective: float
-    terms: dict = field(default_factory=dict)
 
 
 class Collocation:

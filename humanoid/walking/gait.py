@@ -14,8 +14,18 @@ far the loaded points slide.
 
 :func:`analyse` turns the record into what a gait lab reports:
 
-- **events**: heel strike and toe off of each foot, where its vertical force crosses 2 % of
-  body weight (a force plate's threshold), contacts shorter than 50 ms ignored;
+- **filtering**: the ground forces and the joint moments and powers are low-passed before
+  anything is sampled from them, as a gait lab filters its force plates and its inverse
+  dynamics: a zero-lag Butterworth (second order run forwards and backwards, fourth order in
+  effect) at :data:`CUTOFF` (15 Hz), the same cut-off for forces and moments (Kristianslund,
+  Krosshaug & van den Bogert 2012, J Biomech 45:666: a lower cut-off on the kinematics than
+  on the forces makes spurious moment peaks). The simulation's forces are 1 ms contact
+  impulses; unfiltered, a 51-sample curve picks up single ticks.
+- **events**: heel strike and toe off of each foot from its unfiltered vertical force with
+  hysteresis, as a force plate's event detection: a contact starts where the force rises above
+  :data:`EVENT_ON` (2 % of body weight) and ends where it falls below :data:`EVENT_OFF` (1 %),
+  so that chatter about one threshold does not count two touchdowns; contacts and gaps
+  shorter than 50 ms are ignored;
 - **spatiotemporal parameters** per cycle: speed (stride length over stride time), cadence,
   step length (along the stride), stance and double support, centre-of-mass vertical and
   lateral excursion;
@@ -53,7 +63,9 @@ __all__ = [
     "largest_push", "pelvis_push", "walk_on_ground",
 ]  # fmt: skip
 
-EVENT_THRESHOLD = 0.02  # [body weights] a foot is on the ground above this vertical force
+EVENT_ON = 0.02  # [body weights] a foot's contact starts where its vertical force rises above
+EVENT_OFF = 0.01  # [body weights] ... and ends where it falls below this (hysteresis)
+CUTOFF = 15.0  # [Hz] the zero-lag low-pass of the ground forces, joint moments and powers
 MIN_CONTACT = 0.05  # [s] shorter contacts and gaps are ignored (bounces, not steps)
 POINT_LOAD = 1.0  # [N] a contact point with more vertical force carries load
 FALL_HEIGHT = 0.7  # a fall: the centre of mass below this fraction of its height in the cycle
@@ -65,6 +77,11 @@ KINETICS = (
 )  # fmt: skip
 _MOMENTS = KINETICS[2:]
 ARM_ANGLES = ("shoulder_flexion", "elbow_flexion")  # see clinical.ArmChain
+# the curves the summary measures against the norms' mean +- 2 SD band (GaitAnalysis.in_band)
+BAND_CURVES = (
+    "hip_flexion", "knee_flexion", "ankle_dorsiflexion", "hip_extension_moment",
+    "knee_extension_moment", "ankle_plantarflexion_moment",
+)  # fmt: skip
 PHASE0 = 0.2  # the walk starts at this phase of the cycle (the right foot in stance)
 MID_STANCE = 0.25  # [cycle] mid-stance: between the other foot's toe off and this one's heel off
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0),
@@ -315,11 +332,13 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps)
 
 
-def pelvis_push(h, cycle: GaitCycle, fraction: float, direction: str = "forward",
+def pelvis_push(h, cycle, fraction: float, direction: str = "forward",
                 step: int = 3, duration: float = 0.1) -> PushSpec:  # fmt: skip
     """A push at the pelvis of ``fraction`` of body weight for ``duration`` [s], horizontal in
     ``direction`` (forward, backward, left, right: the walk goes along +x), at the mid-stance
-    of the right foot's ``step``-th stance of a :func:`walk_on_ground` walk."""
+    of the right foot's ``step``-th stance of a :func:`walk_on_ground` walk of ``cycle`` (a
+    fitted :class:`GaitCycle`, or an optimised gait that ``walk_cycle`` walks: they start at
+    the same phase)."""
     if direction not in DIRECTIONS:
         raise HumanoidError(f"push direction must be one of {sorted(DIRECTIONS)}: {direction!r}")
     if fraction < 0 or duration <= 0 or step < 1:
@@ -347,23 +366,32 @@ class PushTrials:
     trials: list
 
 
-def largest_push(h, direction: str = "forward", cycle=None, *, step: int = 3, after: int = 4,
-                 duration: float = 0.1, resolution: float = 0.02, first: float = 0.15,
-                 most: float = 1.0, progress=None) -> PushTrials:  # fmt: skip
+def largest_push(h, direction: str = "forward", cycle=None, *, walk=None, step: int = 3,
+                 after: int = 4, duration: float = 0.1, resolution: float = 0.02,
+                 first: float = 0.15, most: float = 1.0, progress=None) -> PushTrials:  # fmt: skip
     """The largest push at the pelvis (:func:`pelvis_push`) that the walking body survives:
     pushed at a mid-stance of its ``step``-th stride and walking ``after`` steps more without a
     fall. Doubles from ``first`` until a fall (or ``most``), then bisects to ``resolution`` [body
-    weights]. ``progress(fraction, survived)`` is called after each trial."""
+    weights]. ``progress(fraction, survived)`` is called after each trial.
+
+    ``walk(steps, pushes) -> GroundWalk`` walks one trial (default :func:`walk_on_ground` of
+    ``cycle``, fitted if None; give the cycle it walks, for the push's timing, with it: e.g.
+    ``walk_cycle`` of an optimised gait and that gait)."""
     cycle = cycle if cycle is not None else fit_cycle(h)
+    if walk is None:
+
+        def walk(steps, pushes):
+            return walk_on_ground(h, steps=steps, cycle=cycle, pushes=pushes)
+
     trials = []
 
     def survives(fraction: float) -> bool:
         push = pelvis_push(h, cycle, fraction, direction, step=step, duration=duration)
-        walk = walk_on_ground(h, steps=2 * step + after, cycle=cycle, pushes=[push])
-        trials.append((fraction, walk.completed))
+        walked = walk(2 * step + after, [push])
+        trials.append((fraction, walked.completed))
         if progress is not None:
-            progress(fraction, walk.completed)
-        return walk.completed
+            progress(fraction, walked.completed)
+        return walked.completed
 
     lo, hi, f = 0.0, None, first
     while hi is None and lo < most:
@@ -415,6 +443,30 @@ class GaitAnalysis:
         curves = [self.curves[s][name] for s in sides if len(self.curves[s][name])]
         return np.vstack(curves).mean(axis=0) if curves else np.full(len(PERCENT), np.nan)
 
+    def in_band(self, name: str, sds: float = 2.0) -> float:
+        """The share of the cycle [0-1] where the mean curve of both sides lies within the
+        normative mean +- ``sds`` SD at the walk's dimensionless speed (the norm as the body
+        measures it: ``Norms.curve(..., pelvis="level")``); NaN without a cycle."""
+        from .norms import norms
+
+        c = self.mean(name)
+        if not np.isfinite(c).all():
+            return float("nan")
+        mean, sd = norms().curve(name, self.dimensionless_speed, pelvis="level")
+        return float(np.mean(np.abs(c - mean) <= sds * sd))
+
+    def roughness(self, name: str) -> float:
+        """How much a mean curve zig-zags: its total variation (the sum of its 50 steps' sizes)
+        over the normative mean's at the walk's speed. A smooth curve of the norm's shape is
+        near 1; spikes and oscillations raise it (a 1 N m/kg spike adds up to 2 N m/kg)."""
+        from .norms import norms
+
+        c = self.mean(name)
+        if not np.isfinite(c).all():
+            return float("nan")
+        mean, _ = norms().curve(name, self.dimensionless_speed)
+        return float(np.abs(np.diff(c)).sum() / np.abs(np.diff(mean)).sum())
+
     @property
     def summary(self) -> dict:
         """The walk's key numbers (means over the analysed cycles of both sides)."""
@@ -460,7 +512,35 @@ class GaitAnalysis:
         )  # fmt: skip
         out["slip"] = max((f["slip"] for f in feet), default=float("nan"))
         out["cycles"] = sum(len(c) for c in self.cycles.values())
+        for name in BAND_CURVES:
+            out[f"{name}_in_band"] = self.in_band(name)
+        out["roughness"] = max((self.roughness(n) for n in _MOMENTS), default=float("nan"))
         return out
+
+
+def low_pass(x: np.ndarray, t: np.ndarray, cutoff: float = CUTOFF) -> np.ndarray:
+    """``x`` (N, ...) sampled at times ``t`` [s], through a zero-lag Butterworth low-pass at
+    ``cutoff`` [Hz] (second order, forwards and backwards); unchanged if the sampling is too
+    slow or the record too short to filter."""
+    from scipy.signal import butter, sosfiltfilt
+
+    if len(t) < 16:
+        return x
+    fs = 1.0 / float(np.median(np.diff(t)))
+    if cutoff >= 0.5 * fs:
+        return x
+    sos = butter(2, cutoff, fs=fs, output="sos")
+    return sosfiltfilt(sos, x, axis=0, padtype="even")
+
+
+def hysteresis(x: np.ndarray, on: float, off: float) -> np.ndarray:
+    """Where a signal is "on": from each rise above ``on`` to the next fall below ``off``."""
+    out = np.zeros(len(x), dtype=bool)
+    state = False
+    for i, value in enumerate(x):
+        state = value > off if state else value > on
+        out[i] = state
+    return out
 
 
 def _runs(x: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
@@ -509,16 +589,20 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             if arms:
                 angles[s][i, len(ANGLES) :] = arms[s].angles(data)
             soles[s][i] = data.oMf[h.sole_id(s)].translation
-    # events from the vertical force
+    # events from the raw vertical force, with hysteresis
     loaded, events, contacts = {}, {}, {}
     for s in SIDES:
-        contacts[s] = _runs(rec.force[s][:, 2] > EVENT_THRESHOLD * weight, t, MIN_CONTACT)
+        on = hysteresis(rec.force[s][:, 2], EVENT_ON * weight, EVENT_OFF * weight)
+        contacts[s] = _runs(on, t, MIN_CONTACT)
         loaded[s] = np.zeros(len(t), dtype=bool)
         for a, b in contacts[s]:
             loaded[s][a:b] = True
         events[s] = {"strike": [t[a] for a, _ in contacts[s] if a > 0],
                      "off": [t[b - 1] for _, b in contacts[s] if b < len(t)]}  # fmt: skip
     both = loaded["left"] & loaded["right"]
+    # forces, moments and powers low-passed before the cycles are sampled
+    force = {s: low_pass(rec.force[s], t) for s in SIDES}
+    kinetics = {s: low_pass(rec.kinetics[s], t) for s in SIDES}
     curves = {s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES}
     table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
                              "double_support", "com_vertical", "com_lateral")}  # fmt: skip
@@ -566,10 +650,10 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             stride = (p1 - p0)[:2]
             L = float(np.linalg.norm(stride))
             u = stride / L if L > 0 else np.array([1.0, 0.0])
-            f = at(rec.force[s], t, tt) / weight
+            f = at(force[s], t, tt) / weight
             curves[s]["grf_vertical"].append(f[:, 2])
             curves[s]["grf_anterior"].append(f[:, :2] @ u)
-            kin = at(rec.kinetics[s], t, tt) / rec.mass
+            kin = at(kinetics[s], t, tt) / rec.mass
             for j, name in enumerate(_MOMENTS):
                 curves[s][name].append(kin[:, j])
             po = at(soles[other], tk, np.array([t[others[0]]]))[0]

@@ -36,6 +36,9 @@ DATA = Path(__file__).resolve().parent.parent / "data" / "norms" / "schwartz2008
 CLASSES = ("very_slow", "slow", "free", "fast", "very_fast")
 G = 9.81
 
+# the curves measured against the lab's pelvis (see Norms.curve)
+LAB_PELVIS = ("pelvis_tilt", "hip_flexion")
+
 # Adult spatiotemporal norms: (low, high), with their sources.
 ADULT = {
     "speed": ((1.27, 1.46), "m/s", "Bohannon 1997: comfortable speed, means by decade and sex"),
@@ -75,15 +78,37 @@ class Norms:
         i = min(int(np.searchsorted(s, x, side="right")) - 1, len(s) - 2)
         return i, i + 1, (x - s[i]) / (s[i + 1] - s[i])
 
-    def curve(self, name: str, speed: float) -> tuple[np.ndarray, np.ndarray]:
-        """(mean, sd) of a curve at a dimensionless speed, over :attr:`percent`."""
+    def curve(self, name: str, speed: float, pelvis: str = "lab") -> tuple[np.ndarray, np.ndarray]:
+        """(mean, sd) of a curve at a dimensionless speed, over :attr:`percent`.
+
+        ``pelvis``: ``"lab"``, the curve as published: the pelvis is the plane of the anterior
+        and posterior superior iliac spines (Plug-in Gait's markers), which tilts forward
+        about 11 deg while a person walks; or ``"level"``, the pelvis of a body that stands
+        with it level (the toolkit's clinical angles, :mod:`~humanoid.walking.clinical`): the
+        pelvic tilt and the hip flexion (the thigh against the pelvis) less the mean tilt over
+        the cycle, keeping the tilt's motion and the thigh's angle to the room."""
         if name not in self.units:
             raise KeyError(f"no normative curve {name!r}; there are {sorted(self.units)}")
+        if pelvis not in ("lab", "level"):
+            raise ValueError(f"pelvis must be 'lab' or 'level', got {pelvis!r}")
         i, j, w = self._weights(speed)
-        a, b = self.curves[CLASSES[i]][name], self.curves[CLASSES[j]][name]
-        mean = (1 - w) * np.asarray(a["mean"]) + w * np.asarray(b["mean"])
-        sd = (1 - w) * np.asarray(a["sd"]) + w * np.asarray(b["sd"])
+
+        def mean_sd(key):
+            a, b = self.curves[CLASSES[i]][key], self.curves[CLASSES[j]][key]
+            mean = (1 - w) * np.asarray(a["mean"]) + w * np.asarray(b["mean"])
+            return mean, (1 - w) * np.asarray(a["sd"]) + w * np.asarray(b["sd"])
+
+        mean, sd = mean_sd(name)
+        if pelvis == "level" and name in LAB_PELVIS:
+            mean = mean - self.mean_tilt(speed)
         return mean, sd
+
+    def mean_tilt(self, speed: float) -> float:
+        """The lab pelvis's mean anterior tilt over the cycle at a dimensionless speed [deg]
+        (what :meth:`curve` takes off with ``pelvis="level"``)."""
+        i, j, w = self._weights(speed)
+        a, b = (np.asarray(self.curves[CLASSES[k]]["pelvis_tilt"]["mean"]) for k in (i, j))
+        return float(((1 - w) * a + w * b)[:-1].mean())  # the last sample repeats the first
 
     def event(self, name: str, speed: float) -> tuple[float, float]:
         """(mean, sd) of a cycle event [fraction of the cycle] at a dimensionless speed."""

@@ -30,6 +30,7 @@ import pinocchio as pin
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
+from .gait import FALL_HEIGHT, PHASE0, GaitRecorder, GroundWalk
 from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 
 __all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle"]
@@ -376,12 +377,12 @@ def smooth(u: float) -> float:
 
 
 def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, gains=None,
-               phase0: float = 0.2, quiet: bool = True, pushes=(), record_rate=100.0):  # fmt: skip
+               phase0: float = PHASE0, quiet: bool = True, pushes=(),
+               record_rate=100.0):  # fmt: skip
     """Simulate ``h`` walking ``steps`` heel strikes along the optimised ``gait``; returns a
     :class:`~humanoid.walking.gait.GroundWalk`."""
     from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
     from ..simulation import Simulation
-    from .gait import FALL_HEIGHT, GaitRecorder, GroundWalk
 
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")

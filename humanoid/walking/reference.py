@@ -136,12 +136,8 @@ class _Fitter:
         self.arms = arm_chains(h, self.chains)
         n = norms()
         self.pct = n.percent / 100.0
-        self.curves = {name: n.curve(name, v_hat)[0] for name in ANGLES}
-        # the lab's pelvis is tilted forward by its marker set (about 11 deg; the body's pelvis
-        # is level when it stands): keep the tilt's motion, and the thigh's angle to the room
-        offset = float(self.curves["pelvis_tilt"].mean())
-        self.curves["pelvis_tilt"] = self.curves["pelvis_tilt"] - offset
-        self.curves["hip_flexion"] = self.curves["hip_flexion"] - offset
+        # the body's pelvis is level when it stands; the lab's tilts forward (Norms.curve)
+        self.curves = {name: n.curve(name, v_hat, pelvis="level")[0] for name in ANGLES}
         self.sole = {s: self.chains[s].sole for s in SIDES}
         # the sole's contact points, and its heel and toe edges' middles, in the sole frame
         self.corners = {s: h.sole_points(s) for s in SIDES}

@@ -232,7 +232,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .gait import PERCENT
+    from .gait import CUTOFF, PERCENT
 
     n = norms()
     fig = plt.figure(figsize=(13, 18), constrained_layout=True)
@@ -242,7 +242,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
         slot = i + (i >= CAPTION)  # the panels flow around the caption's slot
         ax = fig.add_subplot(grid[slot // 3, slot % 3])
         if name in n.units:
-            mean, sd = n.curve(name, analysis.dimensionless_speed)
+            mean, sd = n.curve(name, analysis.dimensionless_speed, pelvis="level")
             ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
             ax.plot(n.percent, mean, color="0.55", lw=1, ls="--")
         for side, colour in SIDE_COLOURS.items():
@@ -260,10 +260,15 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
             ax.legend(loc="upper right", fontsize=8)
     ax = fig.add_subplot(grid[CAPTION // 3, CAPTION % 3])
     ax.axis("off")
+    tilt = n.mean_tilt(analysis.dimensionless_speed)
     ax.text(0.0, 1.0, "grey: Schwartz et al. 2008, mean +- 1 SD at the same\n"
             "dimensionless speed (J Biomech 41:1639, CC-BY-SA 4.0);\n"
-            "dotted line: toe off (this walk). Moments are internal,\n"
-            "extensor / plantarflexor positive; powers generated +.",
+            f"its hip flexion and pelvic tilt less its mean tilt ({tilt:.1f} deg:\n"
+            "the lab's pelvis, the iliac spines' plane, tilts forward;\n"
+            "the body's stands level). Dotted line: toe off (this\n"
+            "walk). Forces, moments and powers low-passed at\n"
+            f"{CUTOFF:g} Hz (zero lag). Moments are internal, extensor /\n"
+            "plantarflexor positive; powers generated +.",
             va="top", fontsize=8.5)  # fmt: skip
     ax = fig.add_subplot(grid[5, :])
     ax.axis("off")
