@@ -1,9 +1,10 @@
-"""Optimise the gait cycles the package ships (``make gaits``): the default bodies with toes at
-their free speed, the tracking objective, into ``humanoid/data/gaits`` (the predictive
-objective's cycles do not ship yet).
+"""Optimise the gait cycles the package ships (``make gaits``): the default bodies, as shipped
+and with toes, at their free speed, the tracking objective, into ``humanoid/data/gaits`` (the
+predictive objective's cycles do not ship yet).
 
-Run from the repository: ``python scripts/make_gaits.py``. Each line printed says what was
-solved, in how many iterations and seconds, and the collocation's largest defect.
+Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
+:data:`BODIES`). Each line printed says what was solved, in how many iterations and seconds,
+and the collocation's largest defect.
 """
 
 from __future__ import annotations
@@ -14,12 +15,23 @@ import humanoid as hm
 from humanoid.optimal.cycle import DATA, gait_file, save_gait
 from humanoid.optimal.gait import optimise_gait
 
-BODIES = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
+BODIES = {  # name: the shipped body's name, and whether it has toes
+    "adult_male": ("adult_male", False),
+    "adult_female": ("adult_female", False),
+    "adult_male_toes": ("adult_male", True),
+    "adult_female_toes": ("adult_female", True),
+}
+SHIPPED = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
 
 
-def main() -> int:
-    for name, (height, mass, sex) in BODIES.items():
-        h = hm.load(hm.build_urdf(hm.BodyParameters(height, mass, sex, toes=True)))
+def main(names) -> int:
+    for name in names or BODIES:
+        if name not in BODIES:
+            print(f"make_gaits: no body {name!r}; there are {', '.join(BODIES)}", file=sys.stderr)
+            return 2
+        body, toes = BODIES[name]
+        h = (hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=True))) if toes
+             else hm.load(body))  # fmt: skip
         for objective in ("tracking",):
             g = optimise_gait(h, None, objective)
             s = g.solution
@@ -35,4 +47,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))

@@ -142,22 +142,24 @@ def test_a_standing_collocation_converges_and_pinocchio_agrees():
 
 
 def _shipped():
-    # the predictive objective's cycles do not ship yet (IPOPT still improves them slowly
-    # after 1500 iterations)
-    return [pytest.param(sex, "tracking", id=f"{sex}-tracking") for sex in BODIES]
+    # the default bodies as shipped and with toes; the predictive objective's cycles do not
+    # ship yet (IPOPT still improves them slowly after 1500 iterations)
+    return [pytest.param(sex, "tracking", toes, id=f"{sex}-{'toes' if toes else 'shipped'}")
+            for sex in BODIES for toes in (True, False)]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
 def gaits():
     cache = {}
 
-    def get(sex, objective):
-        if (sex, objective) not in cache:
-            h = _body(sex)
+    def get(sex, objective, toes=True):
+        if (sex, objective, toes) not in cache:
+            h = _body(sex, toes) if toes else hm.load(f"adult_{sex}")
             om = build_ocp_model(h)
             speed = round(free_speed(leg_length(h)), 2)
-            cache[sex, objective] = load_gait(DATA / gait_file(om, speed, objective), h)
-        return cache[sex, objective]
+            path = DATA / gait_file(om, speed, objective)
+            cache[sex, objective, toes] = load_gait(path, h)
+        return cache[sex, objective, toes]
 
     return get
 
@@ -197,9 +199,9 @@ def _cycle_numbers(g):
     }
 
 
-@pytest.mark.parametrize(("sex", "objective"), _shipped())
-def test_a_shipped_gait_satisfies_its_dynamics_by_pinocchio(gaits, sex, objective):
-    g = gaits(sex, objective)
+@pytest.mark.parametrize(("sex", "objective", "toes"), _shipped())
+def test_a_shipped_gait_satisfies_its_dynamics_by_pinocchio(gaits, sex, objective, toes):
+    g = gaits(sex, objective, toes)
     s, om = g.solution, g.om
     assert s.success and s.defect < 1e-6
     # trapezoidal defects, recomputed
@@ -234,6 +236,8 @@ def test_a_shipped_gait_satisfies_its_dynamics_by_pinocchio(gaits, sex, objectiv
 
 @pytest.mark.parametrize("sex", list(BODIES))
 def test_the_tracking_gait_is_a_persons(gaits, sex):
+    """The bodies with toes (without, the foot rolls over its toe tips: the male's second
+    vertical peak 0.99 BW, ankle moment 1.63 N m/kg, a little outside the adults' bands)."""
     g = gaits(sex, "tracking")
     n = _cycle_numbers(g)
     assert 1.25 <= g.speed <= 1.45
@@ -245,9 +249,7 @@ def test_the_tracking_gait_is_a_persons(gaits, sex):
     assert 0.60 <= n["trough"] <= 0.85, n
     assert 0.15 <= n["braking"] <= 0.25 and 0.15 <= n["propulsion"] <= 0.25, n
     assert 1.2 <= n["ankle_moment"] <= 1.6, n
-    # the cycle's push-off burst is 2.3-2.5 W/kg, just below the adults' 2.5-4.5 (issue 35
-    # is open on it): collocation nodes 40 ms apart in the heel-off phase smooth it
-    assert 2.2 <= n["ankle_power"] <= 4.5, n
+    assert 2.5 <= n["ankle_power"] <= 4.5, n
 
 
 def test_a_shipped_gait_is_found_again_from_a_warm_start(gaits):
@@ -260,7 +262,7 @@ def test_a_shipped_gait_is_found_again_from_a_warm_start(gaits):
     np.testing.assert_allclose(s.x, ref.x, atol=2e-3)
 
 
-WALK_STEPS = 10
+WALK_STEPS = 20
 
 
 @pytest.mark.parametrize("sex", list(BODIES))
@@ -268,6 +270,7 @@ def test_the_walk_tracks_the_cycle_on_the_rigid_ground(gaits, sex):
     """The cycle tracked in closed loop (``humanoid.walking.person``): the free flyer never
     actuated, the feet on the rigid ground, measured by the gait analysis."""
     from humanoid.walking.gait import analyse
+    from humanoid.walking.norms import norms
     from humanoid.walking.person import walk_cycle
 
     g = gaits(sex, "tracking")
@@ -275,16 +278,25 @@ def test_the_walk_tracks_the_cycle_on_the_rigid_ground(gaits, sex):
     w = walk_cycle(h, g, WALK_STEPS)
     assert w.completed, w.trajectory.metadata.get("message")
     assert np.abs(w.trajectory.tau[:, :6]).max() == 0.0  # the pelvis is never actuated
-    s = analyse(h, w).summary
+    analysis = analyse(h, w)
+    s = analysis.summary
     assert abs(s["speed"] - g.speed) < 0.03, s
     assert 100 <= s["cadence"] <= 120, s
     assert 0.65 <= s["step_length"] <= 0.80, s
-    assert 0.57 <= s["stance"] <= 0.62, s
-    # double support: 16-17 % measured from force thresholds over 20 steps (the cycle's own:
-    # 18.8-18.9 %; the adults' 18-26 %: issue 35 is open on it)
-    assert 0.15 <= s["double_support"] <= 0.26, s
+    assert 0.58 <= s["stance"] <= 0.62, s
+    assert 0.18 <= s["double_support"] <= 0.26, s  # 20.2 % male, 18.7 % female measured
     assert 1.05 <= s["grf_first_peak"] <= 1.30 and 1.05 <= s["grf_second_peak"] <= 1.30, s
     assert 0.60 <= s["grf_trough"] <= 0.85, s
     assert 0.15 <= s["braking"] <= 0.25 and 0.15 <= s["propulsion"] <= 0.25, s
     assert 1.2 <= s["ankle_moment_peak"] <= 1.6, s
+    assert 2.5 <= s["ankle_power_peak"] <= 4.5, s
     assert s["slip"] < 1e-3, s
+    # the angles inside the norm's mean +- 2 SD (on the body's level pelvis) for 80 % of the
+    # cycle; the knee's and ankle's moments for 70 %; the hip's extensor moment not yet (55 %
+    # measured: the cycle's is 1.6 N m/kg early in stance and flexes the hip hard at toe-off)
+    for name in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
+        assert s[f"{name}_in_band"] >= 0.8, (name, s)
+    for name in ("knee_extension_moment", "ankle_plantarflexion_moment"):
+        assert s[f"{name}_in_band"] >= 0.7, (name, s)
+    mean, sd = norms().curve("pelvis_rotation", analysis.dimensionless_speed)
+    assert np.ptp(mean) - sd.mean() <= s["pelvis_rotation"] <= np.ptp(mean) + sd.mean(), s

@@ -246,9 +246,12 @@ def test_events_and_spatiotemporal_values_of_a_walk_drawn_by_hand(male):
     assert s["heel_to_toe"] == 1.0
     # the body stands upright: its angles stay at the standing zero; the feet carry 0.6 BW
     assert np.abs(a.mean("knee_flexion")).max() < 1e-9
+    # (low-passed at 15 Hz with zero lag: a step of force is half-way at its edge, and flat
+    # 50 ms on)
     fz = a.mean("grf_vertical")
-    assert fz[PERCENT < 55].min() == pytest.approx(0.6)
-    assert fz[(PERCENT > 65) & (PERCENT < 100)].max() == 0.0  # 100 %: the next heel strike
+    np.testing.assert_allclose(fz[(PERCENT > 10) & (PERCENT < 50)], 0.6, atol=1e-3)
+    assert fz[0] == pytest.approx(0.3, abs=0.03)
+    assert np.abs(fz[(PERCENT > 70) & (PERCENT < 90)]).max() < 1e-3
 
 
 def test_the_gait_report_draws_the_curves_over_the_norms(male, tmp_path):
