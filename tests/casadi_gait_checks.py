@@ -284,7 +284,7 @@ def test_the_walk_tracks_the_cycle_on_the_rigid_ground(gaits, sex):
     assert 100 <= s["cadence"] <= 120, s
     assert 0.65 <= s["step_length"] <= 0.80, s
     assert 0.58 <= s["stance"] <= 0.62, s
-    assert 0.18 <= s["double_support"] <= 0.26, s  # 20.2 % male, 18.7 % female measured
+    assert 0.18 <= s["double_support"] <= 0.26, s  # 20.5 % male, 19.5 % female measured
     assert 1.05 <= s["grf_first_peak"] <= 1.30 and 1.05 <= s["grf_second_peak"] <= 1.30, s
     assert 0.60 <= s["grf_trough"] <= 0.85, s
     assert 0.15 <= s["braking"] <= 0.25 and 0.15 <= s["propulsion"] <= 0.25, s
@@ -292,8 +292,9 @@ def test_the_walk_tracks_the_cycle_on_the_rigid_ground(gaits, sex):
     assert 2.5 <= s["ankle_power_peak"] <= 4.5, s
     assert s["slip"] < 1e-3, s
     # the angles inside the norm's mean +- 2 SD (on the body's level pelvis) for 80 % of the
-    # cycle; the knee's and ankle's moments for 70 %; the hip's extensor moment not yet (55 %
-    # measured: the cycle's is 1.6 N m/kg early in stance and flexes the hip hard at toe-off)
+    # cycle; the knee's and ankle's moments for 70 %; the hip's extensor moment not yet (51 %
+    # and 37 % measured: the cycle's is 1.6 N m/kg early in stance and flexes the hip hard at
+    # toe-off)
     for name in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
         assert s[f"{name}_in_band"] >= 0.8, (name, s)
     for name in ("knee_extension_moment", "ankle_plantarflexion_moment"):

@@ -136,3 +136,44 @@ def clean_library_path() -> dict:
     ]
     env["LD_LIBRARY_PATH"] = os.pathsep.join(parts)
     return env
+
+
+# -- the casadi checks' child processes (tests/test_optimal_dynamics.py) --------------------
+# started as soon as the session has collected them, so that they run on the second core beside
+# the rest of the suite (about five minutes of optimal control and walking), and collected by
+# their test
+CHILDREN: dict = {}
+
+
+def start_checks(checks: str):
+    """A child pytest running ``tests/<checks>`` with its output in temporary files."""
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    out, err = tempfile.TemporaryFile("w+"), tempfile.TemporaryFile("w+")
+    child = subprocess.Popen(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(here / checks)],
+        stdout=out, stderr=err, text=True, cwd=here.parent, env=clean_library_path(),
+    )  # fmt: skip
+    return child, out, err
+
+
+def pytest_collection_modifyitems(session, config, items):
+    for item in items:
+        callspec = getattr(item, "callspec", None)
+        if item.path.name == "test_optimal_dynamics.py" and callspec is not None:
+            checks = callspec.params["checks"]
+            CHILDREN.setdefault(checks, start_checks(checks))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    for child, out, err in CHILDREN.values():
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+        out.close()
+        err.close()
+    CHILDREN.clear()

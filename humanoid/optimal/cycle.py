@@ -20,8 +20,9 @@ from ..errors import HumanoidError
 from .coordinates import OcpModel, build_ocp_model
 
 __all__ = [
-    "GaitSolution", "Phase", "Solution", "body_key", "cache_dir", "default_speed", "gait_file",
-    "gait_phases", "load_gait", "save_gait", "stored_gait",
+    "GaitSolution", "Phase", "Solution", "body_key", "cache_dir", "contact_points",
+    "default_speed", "gait_file", "gait_phases", "load_gait", "save_gait", "stored",
+    "stored_gait",
 ]  # fmt: skip
 
 NODES = (5, 12, 8)  # collocation intervals in the three phases
@@ -79,7 +80,7 @@ class Solution:
                 f"{self.iterations} iterations, defect {self.defect:.1e})")  # fmt: skip
 
 
-def _points(om: OcpModel, side: str) -> dict:
+def contact_points(om: OcpModel, side: str) -> dict:
     """A side's contact points: heel, meta (metatarsal heads; None without toes), toe."""
     model = om.model
 
@@ -97,7 +98,7 @@ def _points(om: OcpModel, side: str) -> dict:
 
 def gait_phases(om: OcpModel, durations, nodes=NODES, free=None) -> list[Phase]:
     """The half stride's three phases (see the module)."""
-    r, l = _points(om, "right"), _points(om, "left")
+    r, l = contact_points(om, "right"), contact_points(om, "left")
     r_toes = (r["meta"] or ()) + r["toe"]
     l_toes = (l["meta"] or ()) + l["toe"]
     contacts = (r["heel"] + l_toes, r["heel"] + (r["meta"] or ()) + r["toe"], r_toes)
@@ -264,7 +265,7 @@ def load_gait(path, h) -> GaitSolution:
         meta["seconds"], meta["defect"], meta["dynamics"], meta["objective_value"],
         meta["terms"],
     )  # fmt: skip
-    points = {s: _points(om, s) for s in ("left", "right")}
+    points = {s: contact_points(om, s) for s in ("left", "right")}
     return GaitSolution(sol, om, meta["speed"], meta["objective"], points, tuple(meta["nodes"]))
 
 

@@ -47,8 +47,8 @@ from .cycle import (
     NODES,
     OBJECTIVES,
     GaitSolution,
-    _points,
     cache_dir,
+    contact_points,
     default_speed,
     gait_file,
     gait_phases,
@@ -230,7 +230,7 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
         if again.success:
             sol = replace(again, iterations=sol.iterations + again.iterations,
                           seconds=sol.seconds + again.seconds)  # fmt: skip
-    points = {s: _points(om, s) for s in ("left", "right")}
+    points = {s: contact_points(om, s) for s in ("left", "right")}
     return GaitSolution(sol, om, speed, objective, points, tuple(nodes))
 
 
@@ -282,7 +282,7 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
     tracked = set()
     angle, force, moments = 0, 0, 0
     mass = float(sum(i.mass for i in om.model.inertias))
-    right, left = _points(om, "right"), _points(om, "left")
+    right, left = contact_points(om, "right"), contact_points(om, "left")
     right_all = sum((v for v in right.values() if v), ())
     left_all = sum((v for v in left.values() if v), ())
     for k in range(N + 1):

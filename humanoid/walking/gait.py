@@ -623,7 +623,10 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             first = np.flatnonzero(heel | toe)
             last = first[-1] if len(first) else 0
             i_flat = np.flatnonzero(flat)
-            slide = np.cumsum(rec.slip[s][a:b], axis=0)
+            # the slide while the foot bears weight (above the contact's start threshold: the
+            # hysteresis's tail, the last 1-2 % of body weight, pivots the foot off)
+            bearing = rec.force[s][a:b, 2] > EVENT_ON * weight
+            slide = np.cumsum(rec.slip[s][a:b] * bearing[:, None], axis=0)
             feet[s].append({
                 "time": float(t[a]),
                 "heel_strike": bool(len(first)) and heel[first[0]] and not toe[first[0]],
