@@ -551,7 +551,7 @@ def _walk(args) -> int:
 
 def _walk_on_ground(args) -> int:
     """``humanoid walk --gait person|human``: a person's walk on the rigid ground."""
-    from .walking.gait import DIRECTIONS, analyse, largest_push, pelvis_push, walk_on_ground
+    from .walking.gait import DIRECTIONS, analyse, largest_push, pelvis_push
     from .walking.report import format_gait_table, plot_gait_report
 
     given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
@@ -599,14 +599,11 @@ def _walk_on_ground(args) -> int:
         print(f"largest push survived  {found.survived:.3f} BW {found.direction} "
               f"(0.1 s at mid-stance; smallest fall: {fell})")  # fmt: skip
         return 0
-    pushed = [pelvis_push(h, cycle, f, d) for d, f in pushes]
-    if args.gait == "person":
-        walk = walker(args.steps, pushed, quiet=args.quiet, record_rate=args.record_rate)
-    else:
-        walk = walk_on_ground(h, args.speed, steps=args.steps, cycle=cycle, dt=args.dt,
-                              mu=args.mu, pushes=pushed, quiet=args.quiet,
-                              from_standing=args.from_standing, radius=args.radius,
-                              record_rate=args.record_rate)  # fmt: skip
+    kw = {}
+    if args.gait == "human":
+        kw = {"from_standing": args.from_standing, "radius": args.radius}
+    walk = walker(args.steps, [pelvis_push(h, cycle, f, d) for d, f in pushes], quiet=args.quiet,
+                  record_rate=args.record_rate, **kw)  # fmt: skip
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata
@@ -648,7 +645,7 @@ def _only_human(args) -> None:
 
 def _ground_walker(args, h):
     """The cycle a ``--gait person|human`` walk follows and ``walk(steps, pushes, **kw)`` that
-    walks it (``kw``: quiet, record_rate)."""
+    walks it (``kw``: quiet, record_rate; with human, from_standing and radius)."""
     if args.gait == "human":
         from .walking.gait import walk_on_ground
         from .walking.reference import fit_cycle
