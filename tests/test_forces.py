@@ -238,3 +238,23 @@ def test_a_ball_joint_beyond_its_range_is_pushed_back():
     assert acting and set(acting) <= {iv, iv + 1, iv + 2}  # on that ball joint only
     after = ranges.angles(pin.integrate(model, q, 1e-6 * tau))[k]
     assert after[0] < hi[0] + 0.05 - 1e-6  # the flexion moved back towards its range
+
+
+def test_a_ball_past_its_lock_gets_no_certificate_and_no_warning():
+    """A ball whose middle angle is past the lock (a tumbling body) is certified clear of
+    nothing, silently: the formula's other branch (a division by zero there) is not used."""
+    import warnings
+
+    import humanoid as hm
+    from humanoid.constraints.limits import JointRanges
+
+    h = hm.load("adult_male")
+    ranges = JointRanges(h)
+    q = h.standing_configuration()
+    th = ranges._angles(q)
+    th[:, 1] = np.pi
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ranges._certify(q, th, 0.05)
+    _, _, up, down = ranges._certificate
+    assert np.all(up[ranges._bv3] < 0) and np.all(down[ranges._bv3] > 0)

@@ -180,7 +180,8 @@ class JointRanges:
             slack = np.minimum(th - self._blo, self._bhi - th).min(axis=1) - margin
             b = np.abs(th[:, 1])
             s = np.minimum(slack, 0.5 * (np.pi / 2 - b))
-            phi = np.where(s > 0, s / (1.0 + 1.0 / np.cos(b + np.maximum(s, 0.0))), -1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):  # only where s <= 0, unused
+                phi = np.where(s > 0, s / (1.0 + 1.0 / np.cos(b + np.maximum(s, 0.0))), -1.0)
             box = np.repeat(phi / np.sqrt(3.0), 3)  # a negative box: never clear
             up[self._bv3], down[self._bv3] = box, -box
         self._certificate = (margin, q.copy(), up, down)
