@@ -549,10 +549,10 @@ def _walk(args) -> int:
     return 0
 
 
-def _walk_on_ground(args) -> int:
-    """``humanoid walk --gait person|human``: a person's walk on the rigid ground."""
-    from .walking.gait import DIRECTIONS, analyse, largest_push, pelvis_push
-    from .walking.report import format_gait_table, plot_gait_report
+def _ground_walk_pushes(args) -> list[tuple[str, float]]:
+    """The options of ``humanoid walk --gait person|human`` checked, and its ``--push`` es as
+    (direction, fraction of body weight)."""
+    from .walking.gait import DIRECTIONS
 
     given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
                             ("--drop", args.drop), ("--integrator", args.integrator),
@@ -586,6 +586,15 @@ def _walk_on_ground(args) -> int:
             f"--record-rate must be positive and at most 1/dt = {1.0 / args.dt:g} Hz, got "
             f"{args.record_rate:g}"
         )
+    return pushes
+
+
+def _walk_on_ground(args) -> int:
+    """``humanoid walk --gait person|human``: a person's walk on the rigid ground."""
+    from .walking.gait import analyse, largest_push, pelvis_push
+    from .walking.report import format_gait_table, plot_gait_report
+
+    pushes = _ground_walk_pushes(args)
     h = load_any(args, ball_joints="quaternion")
     cycle, walker = _ground_walker(args, h)
     if args.largest_push:

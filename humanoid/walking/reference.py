@@ -72,17 +72,16 @@ ARM_ARC = 30.0  # [deg] the shoulder's swing, front to back, at the free dimensi
 ELBOW_FLEXION = (15.0, 8.0)  # [deg] the elbow's mean flexion and its swing about it
 
 
-def arm_swing(psi: float, v_hat: float, cos=math.cos):
+def arm_swing(psi: float, v_hat: float) -> np.ndarray:
     """The arm swing at a side's phase psi (0 at its own heel strike) and dimensionless speed:
     (shoulder flexion, elbow flexion) [deg] from the hanging arm. Each arm swings opposite its
     leg, most back at its own heel strike, most forward at the other's, over a total arc of
     about 30 degrees at free speed (Perry & Burnfield 2010, ch. 8), growing with the speed
     (scaled with the dimensionless speed, 10-45 degrees); the elbow bends most when the arm is
-    forward. ``cos``: the cosine to use (casadi's for a symbolic phase: then a tuple)."""
+    forward."""
     arc = float(np.clip(ARM_ARC * v_hat / FREE_DIMENSIONLESS_SPEED, 10.0, 45.0))
-    c = -cos(2 * math.pi * psi)
-    out = (0.5 * arc * c, ELBOW_FLEXION[0] + ELBOW_FLEXION[1] * c)
-    return np.array(out) if cos is math.cos else out
+    c = -math.cos(2 * math.pi * psi)
+    return np.array([0.5 * arc * c, ELBOW_FLEXION[0] + ELBOW_FLEXION[1] * c])
 
 
 def leg_length(h) -> float:
