@@ -207,7 +207,7 @@ class BodyParameters:
     mass: float
     sex: str = "male"
     segment_lengths: Mapping[str, float] = field(default_factory=dict)
-    toes: bool = False
+    toes: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.toes, bool):

@@ -61,8 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.add_argument(
         "--toes",
-        action="store_true",
-        help="split each foot at the metatarsophalangeal joint: a toes segment on a hinge",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="split each foot at the metatarsophalangeal joint into a rearfoot and a toes "
+        "segment on a hinge (default; --no-toes: one rigid foot, de Leva's)",
     )
     b.add_argument("-o", "--output", required=True, help="URDF file to write")
 

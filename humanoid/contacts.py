@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from .constraints import PointContact, Weld
+from .constraints import JointLock, PointContact, Weld, foot_hinges
 from .model import Humanoid
 
 __all__ = ["ContactState", "cop_in_sole", "cop_on_plane"]
@@ -37,6 +37,9 @@ class ContactState:
         self.side = spec.foot
         self.sole = h.sole_id(spec.foot)
         self.points = [h.frame_id(n) for n in h.require_contact_points(self.side)]
+        # a welded foot's own hinges (the toes') are locked with it
+        self.model = h.model
+        self.hinges = foot_hinges(h.model, self.sole, self.points)
         self.attached = False
         self.ever_attached = False
         self.constraints = []
@@ -48,7 +51,11 @@ class ContactState:
 
     def attach(self, data: pin.Data) -> None:
         if self.spec.kind == "weld":
-            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])]
+            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])] + [
+                JointLock(f"{self.side}_{self.model.names[j]}_lock", self.model, j,
+                          data.joints[j].joint_q[0])
+                for j in self.hinges
+            ]  # fmt: skip
         else:
             self.constraints = [
                 PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
@@ -65,8 +72,8 @@ class ContactState:
     def store(self, model, data, forces: np.ndarray) -> None:
         """World-axes wrench about the sole origin (and point forces) from the solve's lambda."""
         o = data.oMf[self.sole].translation
-        if self.spec.kind == "weld":
-            self.wrench = self.constraints[0].wrench_world(model, data, forces)
+        if self.spec.kind == "weld":  # the hinges' locks are internal
+            self.wrench = self.constraints[0].wrench_world(model, data, forces[:6])
         else:
             f = forces.reshape(4, 3)
             self.point_forces = f

@@ -58,7 +58,12 @@ class Effect(ABC):
 
 
 class JointDamping(Effect):
-    """tau = -c v on the joints [c in N m s/rad]."""
+    """tau = -c v on the joints [c in N m s/rad].
+
+    Taken implicitly on the ground contact's step (:meth:`implicit`): one coefficient for
+    every joint meets the toes' own inertia (1e-4 kg m^2), c dt / I = 5 at 0.5 N m s/rad and
+    1 ms, where an explicit step amplifies the toes' motion every step (the drop scene's feet
+    spun to 26 m/s in its fall and met the floor 14 mm deep)."""
 
     name = "damping"
     velocity_dependent = True
@@ -68,6 +73,9 @@ class JointDamping(Effect):
 
     def force(self, model, data, t, q, v):
         return -self.c * v
+
+    def implicit(self, nv):
+        return np.zeros((nv, nv)), np.diag(self.c)
 
 
 class JointSprings(Effect):

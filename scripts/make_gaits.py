@@ -1,5 +1,5 @@
 """Optimise the gait cycles the package ships (``make gaits``): the default bodies, as shipped
-and with toes, at their free speed, the tracking objective, into ``humanoid/data/gaits`` (the
+(with toes) and with one rigid foot (``--no-toes``), at their free speed, the tracking objective, into ``humanoid/data/gaits`` (the
 predictive objective's cycles do not ship yet).
 
 Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
@@ -16,10 +16,10 @@ from humanoid.optimal.cycle import DATA, gait_file, save_gait
 from humanoid.optimal.gait import optimise_gait
 
 BODIES = {  # name: the shipped body's name, and whether it has toes
-    "adult_male": ("adult_male", False),
-    "adult_female": ("adult_female", False),
-    "adult_male_toes": ("adult_male", True),
-    "adult_female_toes": ("adult_female", True),
+    "adult_male": ("adult_male", True),
+    "adult_female": ("adult_female", True),
+    "adult_male_no_toes": ("adult_male", False),
+    "adult_female_no_toes": ("adult_female", False),
 }
 SHIPPED = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
 
@@ -30,8 +30,7 @@ def main(names) -> int:
             print(f"make_gaits: no body {name!r}; there are {', '.join(BODIES)}", file=sys.stderr)
             return 2
         body, toes = BODIES[name]
-        h = (hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=True))) if toes
-             else hm.load(body))  # fmt: skip
+        h = hm.load(body) if toes else hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
         for objective in ("tracking",):
             g = optimise_gait(h, None, objective)
             s = g.solution

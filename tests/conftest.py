@@ -24,10 +24,14 @@ _CACHE: dict = {}
 
 
 def get_model(name: str, mode: str) -> hm.Humanoid:
-    """A loaded model by short name: male, female, human (erd), talos (erd)."""
+    """A loaded model by short name: male, female, human (erd), talos (erd); male_foot: the
+    male body with one-piece feet (``--no-toes``)."""
     key = (name, mode)
     if key not in _CACHE:
-        if name == "male":
+        if name == "male_foot":
+            urdf = hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male", toes=False))
+            _CACHE[key] = hm.load(urdf, ball_joints=mode)
+        elif name == "male":
             _CACHE[key] = hm.load(BODIES / "adult_male.urdf", ball_joints=mode)
         elif name == "female":
             _CACHE[key] = hm.load(BODIES / "adult_female.urdf", ball_joints=mode)

@@ -1,4 +1,7 @@
-"""The de Leva body as URDF: parsing, masses, inertias, mirror symmetry, standing pose, limits."""
+"""The de Leva body as URDF: parsing, masses, inertias, mirror symmetry, standing pose, limits.
+
+The structure checked here is the one-piece foot's (``toes=False``); ``test_toes.py`` checks
+the foot with toes (the default), and the mirror symmetry runs on both."""
 
 from __future__ import annotations
 
@@ -65,17 +68,17 @@ MASSIVE = {"pelvis", "abdomen", "thorax", "head"} | {
 }
 
 
-def _params(h, m, sex, lengths=None) -> BodyParameters:
-    return BodyParameters(h, m, sex, segment_lengths=dict(lengths or {}))
+def _params(h, m, sex, lengths=None, toes=False) -> BodyParameters:
+    return BodyParameters(h, m, sex, segment_lengths=dict(lengths or {}), toes=toes)
 
 
 @functools.cache
-def _xml(h, m, sex, lengths=()) -> str:
-    return humanoid.build_urdf(_params(h, m, sex, dict(lengths)))
+def _xml(h, m, sex, lengths=(), toes=False) -> str:
+    return humanoid.build_urdf(_params(h, m, sex, dict(lengths), toes))
 
 
-def _key(h, m, sex, lengths):
-    return (h, m, sex, tuple(sorted(lengths.items())))
+def _key(h, m, sex, lengths, toes=False):
+    return (h, m, sex, tuple(sorted(lengths.items())), toes)
 
 
 @functools.cache
@@ -187,12 +190,14 @@ def test_massless_links_are_exactly_the_intermediate_and_contact_links(h, m, sex
 # --- left/right symmetry -----------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("toes", [False, True], ids=["foot", "toes"])
 @pytest.mark.parametrize(("h", "m", "sex", "lengths"), BODIES, ids=BODY_IDS)
-def test_right_joints_mirror_the_left_ones(h, m, sex, lengths):
-    joints = {j.name: j for j in _robot(_key(h, m, sex, lengths)).joints}
+def test_right_joints_mirror_the_left_ones(h, m, sex, lengths, toes):
+    joints = {j.name: j for j in _robot(_key(h, m, sex, lengths, toes)).joints}
     left = [n for n in joints if n.startswith("left_")]
     right = [n for n in joints if n.startswith("right_")]
-    assert len(left) == 17
+    # the toes add the mtp hinge, the toes' sole and the two metatarsal-head points
+    assert len(left) == (21 if toes else 17), sorted(left)
     assert sorted(map(_mirror_name, left)) == sorted(right)
     for name in left:
         jl, jr = joints[name], joints[_mirror_name(name)]

@@ -57,7 +57,7 @@ def test_build_errors_go_to_stderr_without_traceback(tmp_path, capsys, argv, mes
 def test_info_summarises_our_body(capsys):
     assert main(["info", str(BODIES / "adult_male.urdf")]) == 0
     out = capsys.readouterr().out
-    assert "nq = 47, nv = 39" in out
+    assert "nq = 49, nv = 41" in out
     assert "mass         75.0000 kg" in out
     assert "left_sole, right_sole" in out
     assert "left_hip" in out and "JointModelSpherical" in out
@@ -204,7 +204,7 @@ def test_bench_scaling_quick_fits_the_growth(tmp_path, capsys):
     rows = list(csv.DictReader(open(tmp_path / "scaling.csv")))
     assert list(rows[0]) == SCALING_COLUMNS
     nv = {r["body"]: int(r["nv"]) for r in rows}
-    assert nv["male"] == 39 and all(nv[f"male + {k} trunk"] == 39 + 3 * k for k in EXTRA)
+    assert nv["male"] == 41 and all(nv[f"male + {k} trunk"] == 41 + 3 * k for k in EXTRA)
     contacts = list(csv.DictReader(open(tmp_path / "scaling_contacts.csv")))
     assert [int(c["rows"]) for c in contacts] == [0, 6, 12, 18, 24, 30]
     assert (tmp_path / "scaling.png").stat().st_size > 10_000

@@ -117,9 +117,10 @@ def _world_forces(h, q, constraints, forces):
     return out
 
 
-@pytest.mark.parametrize("name", ["male", "human"])
+@pytest.mark.parametrize("name", ["male_foot", "human"])
 def test_redundant_point_contacts_stay_finite(name):
-    """4 point contacts per flat foot on both feet: 24 rows of rank 12."""
+    """4 point contacts per flat one-piece foot on both feet: 24 rows of rank 12 (on a foot
+    with toes the toe points turn on the MTP hinge: no longer redundant)."""
     h = get_model(name, "quaternion")
     rng = np.random.default_rng(21)
     q = h.standing_configuration()

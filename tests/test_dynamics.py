@@ -87,12 +87,12 @@ def test_gravity_only_acts_through_the_base_when_standing():
 def test_bad_state_is_rejected():
     h = get_model("male", "quaternion")
     q = h.standing_configuration()
-    with pytest.raises(hm.ConfigurationError, match="nq = 47"):
+    with pytest.raises(hm.ConfigurationError, match="nq = 49"):
         hm.mass_matrix(h, q[:-1])
     q[5] = np.nan
     with pytest.raises(hm.ConfigurationError, match="non-finite"):
         hm.gravity_forces(h, q)
-    with pytest.raises(hm.ConfigurationError, match="nv = 39"):
+    with pytest.raises(hm.ConfigurationError, match="nv = 41"):
         hm.bias_forces(h, h.standing_configuration(), np.zeros(3))
 
 

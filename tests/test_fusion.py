@@ -165,7 +165,7 @@ def test_fused_model_is_well_conditioned_at_erd_hip_gimbal_lock():
 def test_euler_mode_keeps_urdf_joints():
     he = get_model("male", "euler")
     assert he.fusion is None and he.model is he.euler_model
-    assert he.model.nv == he.model.nq - 1 == 39
+    assert he.model.nv == he.model.nq - 1 == 41
     assert all(j.nq == 1 for j in he.model.joints[2:])
 
 

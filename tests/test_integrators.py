@@ -69,12 +69,13 @@ def test_measured_order_matches_the_scheme(tumble, scheme, order, dts):
 
 
 def test_reference_solution_converged(tumble):
-    """The DP5(4) reference at 1e-13 agrees with one at 1e-11 and with fine RK4."""
+    """The DP5(4) reference at 1e-13 agrees with one at 1e-11 and with fine RK4 (0.5 ms: the
+    toes, 0.16 kg on the MTP hinge, are the fastest part; RK4 errs most on their velocity)."""
     model, space, f, q0, v0, q_ref, v_ref = tumble
     looser = DormandPrince(rtol=1e-11, atol=1e-11, max_step=0.01)
     q1, v1 = looser.advance(space, f, 0.0, q0, v0, T)
     assert _error(model, q1, v1, q_ref, v_ref) < 1e-9
-    q2, v2 = _run(rk4, space, f, q0, v0, 1e-3)
+    q2, v2 = _run(rk4, space, f, q0, v0, 5e-4)
     assert _error(model, q2, v2, q_ref, v_ref) < 1e-9
 
 
@@ -142,7 +143,7 @@ def test_order_holds_with_a_time_dependent_force(tumble):
     q_ref, v_ref = DormandPrince(rtol=1e-13, atol=1e-13, max_step=0.005).advance(
         space, f, 0.0, q0, v0, T
     )
-    dts = (2e-2, 1e-2, 5e-3)
+    dts = (5e-3, 2.5e-3, 1.25e-3)  # inside RK4's asymptotic range on the toes' fast motion
     errors = [_error(model, *_run(rk4, space, f, q0, v0, dt), q_ref, v_ref) for dt in dts]
     orders = [np.log2(errors[i] / errors[i + 1]) for i in range(len(errors) - 1)]
     assert all(abs(p - 4) < 0.3 for p in orders), f"errors {errors}, measured orders {orders}"

@@ -64,12 +64,12 @@ def test_what_pinocchio_built_is_compared_with_what_the_urdf_declares(male_urdf)
 @pytest.mark.parametrize(
     "bad",
     [
-        np.full(47, np.nan),
+        np.full(49, np.nan),
         {"q": 1},
         "q",
-        [10**400] * 47,
-        np.ones((2, 47)),
-        np.r_[0, 0, 1e7, 0, 0, 0, 1, np.zeros(40)],
+        [10**400] * 49,
+        np.ones((2, 49)),
+        np.r_[0, 0, 1e7, 0, 0, 0, 1, np.zeros(42)],
     ],
     ids=["nan", "dict", "string", "overflow", "shape", "huge"],
 )
@@ -80,7 +80,7 @@ def test_bad_states_get_a_configuration_error(bad):
             fn(h, bad)
     q = h.standing_configuration()
     with pytest.raises(hm.ConfigurationError):
-        hm.bias_forces(h, q, bad if np.size(bad) != 47 else np.full(39, np.nan))
+        hm.bias_forces(h, q, bad if np.size(bad) != 49 else np.full(41, np.nan))
 
 
 def test_quaternions_must_be_unit_and_are_normalised_within_tolerance():
@@ -169,7 +169,7 @@ def test_corrupt_run_files_get_a_trajectory_error_naming_the_file(tmp_path):
         hm.Trajectory.load(tmp_path / "nan.npz")
     z["q"] = good.q[:, :10]
     np.savez(tmp_path / "short.npz", **z)
-    with pytest.raises(hm.TrajectoryError, match="nq = 47, its arrays 10"):
+    with pytest.raises(hm.TrajectoryError, match="nq = 49, its arrays 10"):
         hm.Trajectory.load(tmp_path / "short.npz")
 
 

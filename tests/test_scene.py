@@ -90,7 +90,7 @@ def _write(tmp_path, text: str) -> Path:
             r"stabilisation.quaternions: unknown quaternion formulation .euler.: "
             r"must be lie or coordinates",
         ),
-        ("[initial]\nconfiguration = [1.0, 2.0]\n", r"initial.configuration: needs nq = 47"),
+        ("[initial]\nconfiguration = [1.0, 2.0]\n", r"initial.configuration: needs nq = 49"),
         (
             "[initial]\nbase_velocity = [0, 0, 0, inf, 0, 0]\n",
             r"initial.base_velocity\[3\]: must be a finite number, got inf",

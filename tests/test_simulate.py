@@ -182,7 +182,7 @@ def test_record_rate_and_trajectory_file(tmp_path):
     scene = _scene(duration=0.5, record_rate=50.0, effects=Effects(contacts=(Contact("left"),)))
     traj = simulate(scene, quiet=True)
     assert len(traj.t) == 26 and traj.t[1] == pytest.approx(0.02)
-    assert traj.q.shape == (26, 47) and traj.v.shape == (26, 39) and traj.tau.shape == (26, 39)
+    assert traj.q.shape == (26, 49) and traj.v.shape == (26, 41) and traj.tau.shape == (26, 41)
     assert traj.forces["left"].shape == (26, 6)
     with pytest.raises(ValueError):
         traj.q[0, 0] = 1.0  # read-only
@@ -282,7 +282,8 @@ def test_switch_contacts_follows_a_schedule():
 
 def test_contact_checks_report_and_release():
     """A passive collapse on point contacts at the sole corners: the toes pull (bilateral
-    points report it), so unilateral points are released."""
+    points report it), so unilateral points are released (the first for its friction: the
+    toe points are on the toes, which the passive body's weight turns on their hinge)."""
     stand = Scene.load(SCENES / "standing.toml")
     pinned = tuple(Contact(foot, "points", 0.8) for foot in ("left", "right"))
     passive = Effects(gravity=stand.effects.gravity, damping=2.0, contacts=pinned,
@@ -295,7 +296,7 @@ def test_contact_checks_report_and_release():
     effects = Effects(**(vars(scene.effects) | {"contacts": contacts}))
     unilateral = simulate(scene.replace(effects=effects), quiet=True)
     released = [e for e in unilateral.metadata["events"] if e["event"] == "release"]
-    assert released and "normal force" in released[0]["reason"]
+    assert released and released[0]["reason"].startswith(("normal force", "friction")), released
 
 
 def test_native_backend_matches_the_reference_solve():

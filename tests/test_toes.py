@@ -194,7 +194,7 @@ def test_opensim_mtp_angle_goes_to_the_toes_and_is_left_out_with_a_warning_witho
     _, back, unmapped = configurations(toes, table, MAPS["gait2392"], floor=False)
     np.testing.assert_allclose(back, q, atol=1e-12)
     assert unmapped == []
-    plain = hm.load("adult_male")
+    plain = hm.load(hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male", toes=False)))
     with pytest.warns(UnmappedWarning, match="mtp_angle_r, mtp_angle_l"):
         _, _, unmapped = configurations(plain, table, MAPS["gait2392"], floor=False)
     assert unmapped == ["mtp_angle_r", "mtp_angle_l"]

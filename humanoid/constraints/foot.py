@@ -1,4 +1,5 @@
-"""Foot attachments: a 6D weld of a sole frame, or 3D point contacts at the sole corners.
+"""Foot attachments: a 6D weld of a sole frame, or 3D point contacts at the sole corners; a
+joint lock holds a foot's own hinges (the toes') while the foot is welded.
 
 Both attach a frame (or a point) to a world anchor taken where it is when the contact is made,
 and are released by removing them from the active set (a transient attachment, as in the seeds).
@@ -13,7 +14,7 @@ import pinocchio as pin
 
 from .base import Constraint
 
-__all__ = ["PointContact", "Weld"]
+__all__ = ["JointLock", "PointContact", "Weld", "foot_hinges"]
 
 LOCAL = pin.ReferenceFrame.LOCAL
 WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -84,6 +85,52 @@ class PointContact(Constraint):
         anchor = pin.SE3(np.eye(3), self.anchor)
         return _twin(model, self.frame_id, pin.ContactType.CONTACT_3D, WORLD_ALIGNED, anchor,
                      baumgarte)  # fmt: skip
+
+
+class JointLock(Constraint):
+    """A one-degree-of-freedom joint held at the angle it had when locked (1 row).
+
+    Residual: q_j - q_anchor. Jacobian: the joint's unit row. Drift: 0. A welded foot with
+    toes locks its MTP hinge with it: the weld holds the rearfoot's sole and the lock the toes
+    flat beside it, the same motion as the four corner points that the walking controllers
+    plan with (heel points on the rearfoot, toe points on the toes), and the weld's wrench is
+    the ground's on the whole foot (the lock's torque is internal)."""
+
+    size = 1
+
+    def __init__(self, name: str, model: pin.Model, joint_id: int, angle: float) -> None:
+        joint = model.joints[joint_id]
+        if joint.nq != 1 or joint.nv != 1:
+            raise ValueError(f"a joint lock holds a one-degree-of-freedom joint, and "
+                             f"{model.names[joint_id]} has nq = {joint.nq}")  # fmt: skip
+        self.name = name
+        self.joint_id = joint_id
+        self.anchor = float(angle)
+        self._row = np.zeros((1, model.nv))
+        self._row[0, joint.idx_v] = 1.0
+
+    def residual(self, model, data):
+        return np.array([data.joints[self.joint_id].joint_q[0] - self.anchor])
+
+    def jacobian(self, model, data):
+        return self._row.copy()
+
+    def drift(self, model, data):
+        return np.zeros(1)
+
+
+def foot_hinges(model: pin.Model, sole_frame: int, point_frames) -> list[int]:
+    """The one-degree-of-freedom joints between a sole frame's joint and the joints that
+    carry its contact points (a foot with toes: its MTP hinge), in model order."""
+    sole_joint = model.frames[sole_frame].parentJoint
+    out = set()
+    for f in point_frames:
+        j = model.frames[f].parentJoint
+        while j > sole_joint:
+            if model.joints[j].nv == 1:
+                out.add(j)
+            j = model.parents[j]
+    return sorted(out)
 
 
 def _twin(model, frame_id, kind, reference, anchor, baumgarte) -> pin.RigidConstraintModel:

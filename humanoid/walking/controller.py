@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..constraints import Weld
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..effects import Effect
@@ -129,14 +130,14 @@ class WalkingController(Effect):
 
     def before_step(self, sim, k: int, t: float, q, v) -> None:
         """The run loop's hook: a new QP at every control tick, and whenever a foot lands or
-        lifts off, with the plant's stance welds."""
-        welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
+        lifts off, with the plant's stance welds (and the locks of the feet's own hinges)."""
+        welds = {c.side: c.constraints for c in sim.contacts if c.attached}
         self.fresh = k % self.every == 0 or set(welds) != self._solved_for
         if self.fresh:
             self.update(t, q, v, welds)
             self._solved_for = set(welds)
         elif self.hold == "forces":
-            self.tau = self.held_torques(q, v, [welds[s] for s in SIDES if s in welds])
+            self.tau = self.held_torques(q, v, [w for s in SIDES if s in welds for w in welds[s]])
 
     def held_torques(self, q, v, welds) -> np.ndarray:
         """Between control ticks: the torques under which the plant's feet carry exactly the
@@ -154,7 +155,8 @@ class WalkingController(Effect):
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
         for w in welds:  # the welds' residuals read their soles' placements (only theirs)
-            pin.updateFramePlacement(model, data, w.frame_id)
+            if isinstance(w, Weld):
+                pin.updateFramePlacement(model, data, w.frame_id)
         J, gamma = stack(model, data, welds, v, self.baumgarte)
         M = pin.crba(model, data, q)  # both triangles (tests/test_dynamics.py)
         tau = pin.rnea(model, data, q, v, dv, fext)
@@ -262,7 +264,7 @@ class WalkingController(Effect):
         A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
         b_eq = [-hvec[:6]]
         # the stance welds' rows exactly as the plant stacks them (same Baumgarte terms)
-        J, gamma = stack(model, data, [welds[s] for s in stance], v, self.baumgarte)
+        J, gamma = stack(model, data, [w for s in stance for w in welds[s]], v, self.baumgarte)
         A_eq.append(np.hstack([J, np.zeros((len(J), nf))]))
         b_eq.append(gamma)
         A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)

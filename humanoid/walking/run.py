@@ -314,7 +314,7 @@ class WalkMonitor:
                 if c.attached:
                     weld = c.constraints[0]
                     self.wrench[c.side][k] = forces[i : i + 6]
-                    i += 6
+                    i += sum(con.size for con in c.constraints)  # the weld, then its locks
                     if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
                         self.welds[c.side] = (weld, len(self.anchors))
                         self.anchors.append(weld.anchor)
