@@ -45,6 +45,7 @@ class ContactState:
         self.constraints = []
         self.wrench = np.full(6, np.nan)
         self.point_forces = np.full((4, 3), np.nan)
+        self.lock_torques = np.zeros(len(self.hinges))  # [N m] on the locked hinges
         # sole rectangle in the sole frame, for the centre-of-pressure check
         lo, hi = h.sole_box(self.side)
         self.cop_box = lo[:2], hi[:2]
@@ -68,12 +69,14 @@ class ContactState:
         self.attached = False
         self.wrench[:] = np.nan
         self.point_forces[:] = np.nan
+        self.lock_torques[:] = 0.0
 
     def store(self, model, data, forces: np.ndarray) -> None:
         """World-axes wrench about the sole origin (and point forces) from the solve's lambda."""
         o = data.oMf[self.sole].translation
         if self.spec.kind == "weld":  # the hinges' locks are internal
             self.wrench = self.constraints[0].wrench_world(model, data, forces[:6])
+            self.lock_torques = np.array(forces[6:], dtype=float)
         else:
             f = forces.reshape(4, 3)
             self.point_forces = f

@@ -33,6 +33,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import coal
 import numpy as np
 import pinocchio as pin
 from lxml import etree
@@ -48,6 +49,8 @@ __all__ = [
     "load",
     "load_example",
     "load_recipe",
+    "lock_foot_hinges",
+    "restrict_configurations",
 ]
 
 SIDES = ("left", "right")
@@ -292,12 +295,13 @@ def example_robot_srdf(name: str) -> tuple[Path | None, str | None]:
 
 
 def load_example(
-    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error", srdf=None
+    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error", srdf=None,
+    lock=(),
 ) -> Humanoid:
     """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) as :func:`load`
     does (the robot's, even where a file of that name is in the working directory)."""
     path, package_dir = example_robot_path(name)  # raises, listing the valid names
-    return _load(path, name, ball_joints, feet, [package_dir], massless, srdf)
+    return _load(path, name, ball_joints, feet, [package_dir], massless, srdf, lock)
 
 
 def load_recipe(recipe: dict) -> Humanoid:
@@ -308,7 +312,7 @@ def load_recipe(recipe: dict) -> Humanoid:
     """
     if not isinstance(recipe, dict) or not ({"urdf", "example"} & recipe.keys()):
         raise ModelError("not a body recipe: needs 'urdf' (the URDF text) or 'example' (a name)")
-    options = {k: recipe[k] for k in ("ball_joints", "massless", "srdf") if k in recipe}
+    options = {k: recipe[k] for k in ("ball_joints", "massless", "srdf", "lock") if k in recipe}
     feet = recipe.get("feet")
     if feet is not None:
         options["feet"] = tuple(feet)
@@ -336,6 +340,7 @@ def load(
     package_dirs=(),
     massless: str = "error",
     srdf=None,
+    lock=(),
 ) -> Humanoid:
     """Load a humanoid URDF with a free-flyer root.
 
@@ -354,6 +359,8 @@ def load(
             they carry no mass), as the hinge triplets' massless links are merged.
         srdf: An SRDF (path or text) whose group states become the body's
             :attr:`~Humanoid.postures`; an example-robot-data robot's own by default.
+        lock: Names of hinges to lock at their upright value, their links merged into their
+            parents (:func:`lock_foot_hinges`: a foot with toes made one piece).
 
     Returns:
         The :class:`Humanoid`.
@@ -364,10 +371,11 @@ def load(
             identified.
     """
     source, example, package_dirs = _named(source, package_dirs)
-    return _load(source, example, ball_joints, feet, package_dirs, massless, srdf)
+    return _load(source, example, ball_joints, feet, package_dirs, massless, srdf, lock)
 
 
-def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None) -> Humanoid:
+def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None,
+          lock=()) -> Humanoid:  # fmt: skip
     """:func:`load` of a path or URDF text; ``example``: the example-robot-data robot it is
     (its recipe names it), or None."""
     for name, registry, value in (("ball_joints", BALL_JOINTS, ball_joints),
@@ -383,6 +391,9 @@ def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None)
     recipe |= {"ball_joints": ball_joints, "massless": massless}
     if feet is not None:
         recipe["feet"] = list(feet)
+    lock = [lock] if isinstance(lock, str) else list(lock)
+    if lock:
+        recipe["lock"] = lock
     reference = None
     if srdf is not None:
         srdf, _ = _read(srdf, "SRDF")
@@ -398,6 +409,7 @@ def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None)
         raise ModelError(f"{label}: Pinocchio cannot build the model: {exc}") from None
     _check_built(model, declared, label)
     model, geoms = _massless_joints(model, geoms, massless, label)
+    model, geoms = _locked_joints(model, geoms, lock, label)
 
     foot_frames = _find_feet(model, feet, label)
     _make_z_up(model, geoms, foot_frames)
@@ -497,13 +509,89 @@ def _massless_joints(model: pin.Model, geoms, mode: str, label: str):
             f"(links {', '.join(links)}); give those links mass, or load with "
             "massless='merge' (CLI: --massless merge) to lock them into their parents"
         )
-    reduced, geoms = pin.buildReducedModel(model, list(geoms), bad, q)
+    return _reduced(model, geoms, bad, q)
+
+
+def _reduced(model: pin.Model, geoms, joints, q):
+    """``pin.buildReducedModel`` with every frame's parent frame kept valid."""
+    reduced, geoms = pin.buildReducedModel(model, list(geoms), joints, q)
     for fid, f in enumerate(reduced.frames):
         if fid and f.parentFrame == fid:  # a locked joint's frame names itself as its parent
             joint = reduced.names[f.parentJoint]
             f.parentFrame = reduced.getFrameId(joint, pin.FrameType.JOINT) if f.parentJoint else 0
             reduced.frames[fid] = f
     return reduced, list(geoms)
+
+
+def _locked_joints(model: pin.Model, geoms, names, label: str):
+    """The model with the named hinges locked at their upright value (:func:`load`'s
+    ``lock``)."""
+    if not names:
+        return model, geoms
+    ids = []
+    for name in names:
+        if not isinstance(name, str) or not model.existJointName(name):
+            raise ModelError(f"{label}: cannot lock {name!r}: the body has no joint of that name")
+        j = model.getJointId(name)
+        if model.joints[j].nv != 1 or j < 2:
+            raise ModelError(f"{label}: cannot lock {name!r}: only hinges are locked")
+        ids.append(j)
+    return _reduced(model, geoms, sorted(set(ids)), _upright(model))
+
+
+def lock_foot_hinges(h: Humanoid) -> Humanoid:
+    """The body with its feet's own hinges (a foot with toes: its MTP) locked at their upright
+    value, each foot one rigid piece (at MTP zero the rearfoot and the toes have the one-piece
+    foot's mass, CoM and inertia); the body itself if its feet have none. For the controllers
+    that plan a rigid foot (the fitted cycle's walk, motion tracking)."""
+    from .constraints import foot_hinges
+
+    model, names = h.model, []
+    for side in SIDES:
+        points = [h.frame_id(n) for n in h.contact_points[side]]
+        names += [model.names[j] for j in foot_hinges(model, h.sole_id(side), points)]
+    if not names:
+        return h
+    locked = load_recipe(h.recipe | {"lock": [*h.recipe.get("lock", []), *names]})
+    for side in SIDES:  # the rearfoot's and the toes' boxes: one box, as the foot is one piece
+        _merge_boxes(locked.collision_model, locked.model.frames[locked.sole_id(side)].parentJoint)
+    return locked
+
+
+def _merge_boxes(gm: pin.GeometryModel, joint: int) -> None:
+    """The boxes on ``joint`` replaced by their bounding box (in the joint's frame, their
+    placements axis-aligned), so that the ground meets the corners of one sole."""
+    boxes = [g for g in gm.geometryObjects
+             if g.parentJoint == joint and isinstance(g.geometry, coal.Box)]  # fmt: skip
+    if len(boxes) < 2 or any(not np.allclose(np.abs(g.placement.rotation), np.eye(3))
+                             for g in boxes):  # fmt: skip
+        return
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for g in boxes:
+        half = np.abs(g.placement.rotation) @ np.asarray(g.geometry.halfSide)
+        lo = np.minimum(lo, g.placement.translation - half)
+        hi = np.maximum(hi, g.placement.translation + half)
+    merged = boxes[0].copy()
+    merged.geometry = coal.Box(*(hi - lo))
+    merged.placement = pin.SE3(np.eye(3), (lo + hi) / 2)
+    for name in [g.name for g in boxes]:  # (the list's objects move as the vector shrinks)
+        gm.removeGeometryObject(name)
+    gm.addGeometryObject(merged)
+
+
+def restrict_configurations(q: np.ndarray, source: Humanoid, target: Humanoid) -> np.ndarray:
+    """Configurations of ``source`` (n, nq) as ``target``'s, joint by joint by name: the
+    same body with hinges locked (:func:`lock_foot_hinges`) drops theirs."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    out = np.tile(target.standing_configuration(), (len(q), 1))
+    sm, tm = source.model, target.model
+    for j in range(1, tm.njoints):
+        name = tm.names[j]
+        if not sm.existJointName(name):
+            raise ModelError(f"cannot map {source.source}'s configurations: no joint {name!r}")
+        js, jt = sm.joints[sm.getJointId(name)], tm.joints[j]
+        out[:, jt.idx_q : jt.idx_q + jt.nq] = q[:, js.idx_q : js.idx_q + js.nq]
+    return out
 
 
 def child_link(model: pin.Model, joint: int) -> str:

@@ -172,6 +172,11 @@ class Recorder:
             for side in self.legs:
                 self.forces[f"ground_{side}"] = np.zeros((n, 6))
             self.forces["joint_ranges"] = np.zeros((n, model.nv))
+        # the moments with which welded feet hold their own hinges (the toes' MTP) locked, in
+        # generalised coordinates: with the controller's torques, what the hinges carried
+        self._locks = [c for c in contacts if c.spec.kind == "weld" and len(c.hinges)]
+        if self._locks:
+            self.forces["foot_locks"] = np.zeros((n, model.nv))
         for c in contacts:
             self.forces[c.side] = np.full((n, 6), np.nan)
             if c.spec.kind == "points":
@@ -210,6 +215,10 @@ class Recorder:
             self.residual[i] = np.abs(e).max()
             Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])
             self.velocity_residual = max(self.velocity_residual, float(np.abs(Jv).max()))
+        for c in self._locks:
+            if c.attached:
+                idx = [model.joints[j].idx_v for j in c.hinges]
+                self.forces["foot_locks"][i, idx] = c.lock_torques
         for c in sim.contacts:
             if c.attached:
                 self.forces[c.side][i] = c.wrench

@@ -114,9 +114,11 @@ _JOINTS = {"hip": "hip", "knee": "knee", "ankle": "ankle_flexion", "shoulder": "
 LANDMARKS = Path(__file__).resolve().parent.parent / "data" / "markers" / "default.toml"
 
 
-def _body_frame(side: str, segment: str) -> str:
+def _body_frame(model, side: str, segment: str) -> str:
     if segment in ("pelvis", "thorax", "head", "abdomen"):
         return segment
+    if segment == "toes" and not model.existFrame(f"{side}_toes"):
+        return f"{side}_foot"  # a one-piece foot carries its toe markers
     return f"{side}_{segment}"
 
 
@@ -180,7 +182,7 @@ def default_markers(h) -> dict[str, Marker]:
             if origin is None:
                 origin = at(f"{s}_{_JOINTS[joint]}" if joint in _JOINTS else joint).translation
             d = np.array(spec["offset"]) * scale * np.array([1.0, mirror, 1.0])
-            attach(f"{letter}.{name}", _body_frame(s, spec["frame"]), origin + d,
+            attach(f"{letter}.{name}", _body_frame(model, s, spec["frame"]), origin + d,
                    anatomical=spec["anatomical"])  # fmt: skip
     for name, spec in landmarks.items():
         if spec["sides"]:

@@ -44,13 +44,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError, RunFailed
-from ..model import SIDES
+from ..model import SIDES, lock_foot_hinges, restrict_configurations
 from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, arm_chains, leg_chains
@@ -246,7 +246,8 @@ class GaitRecorder:
 @dataclass
 class GroundWalk:
     """A walk on the ground: its trajectory (100 Hz), the per-step record, the cycle it
-    tracked, and the controller's counters."""
+    tracked, the controller's counters, and the body that walked (a body with toes walks the
+    fitted cycle with them locked: :func:`~humanoid.model.lock_foot_hinges`)."""
 
     trajectory: Trajectory
     record: GaitRecord
@@ -254,6 +255,7 @@ class GroundWalk:
     relaxed: int
     wall_time: float
     steps: int
+    body: object = None
 
     @property
     def completed(self) -> bool:
@@ -296,8 +298,11 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
     swing), unless ``from_standing``, and stops as failed at a fall; what it recorded up to
-    then is kept.
+    then is kept. A body with toes walks with them locked (the fitted cycle plans a rigid
+    foot); the walk's :attr:`GroundWalk.body` is the body that walked.
     """
+    body = h
+    h = lock_foot_hinges(h)
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
     if radius is not None and not (math.isfinite(radius) and abs(radius) >= 0.5):
@@ -305,6 +310,8 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     if radius is not None and from_standing:
         raise HumanoidError("a walk from standing along a curve is not supported yet")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
+    if cycle.q.shape[1] != h.model.nq:  # fitted to the body with its toes free
+        cycle = replace(cycle, q=restrict_configurations(cycle.q, body, h))
     ends = start_stop(h, cycle, steps) if from_standing else None
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints,
@@ -329,7 +336,7 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     traj = sim.run(quiet=quiet)
     wall = time.perf_counter() - start
     record = recorder.record(h.mass, dt)
-    return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps)
+    return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps, h)
 
 
 def pelvis_push(h, cycle, fraction: float, direction: str = "forward",
@@ -562,12 +569,15 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     """A gait lab's analysis of a walk (see the module docstring).
 
     Args:
-        h: The humanoid that walked. walk: the :class:`GroundWalk` (or its record).
+        h: The humanoid that walked (a :class:`GroundWalk` knows its own: its toes may have
+            been locked). walk: the :class:`GroundWalk` (or its record).
         skip: Cycles that start before this time [s] are left out (default one cycle period:
             the start from the reference's state is not a steady walk).
     """
     rec = walk.record if isinstance(walk, GroundWalk) else walk
     period = walk.cycle.period if isinstance(walk, GroundWalk) else 1.0
+    if isinstance(walk, GroundWalk) and walk.body is not None:
+        h = walk.body
     skip = period if skip is None else skip
     model = h.model
     t, g = rec.t, float(np.linalg.norm(model.gravity.linear))
