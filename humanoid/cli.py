@@ -615,6 +615,7 @@ def _walk_on_ground(args) -> int:
         kw = {"from_standing": args.from_standing, "radius": args.radius}
     walk = walker(args.steps, [pelvis_push(h, cycle, f, d) for d, f in pushes], quiet=args.quiet,
                   record_rate=args.record_rate, **kw)  # fmt: skip
+    h = walk.body or h  # the body that walked (the fitted cycle's: its toes locked)
     path = walk.trajectory.save(args.output)
     analysis = analyse(h, walk)
     meta = walk.trajectory.metadata

@@ -295,7 +295,11 @@ def example_robot_srdf(name: str) -> tuple[Path | None, str | None]:
 
 
 def load_example(
-    name: str, ball_joints: str = "quaternion", feet=None, massless: str = "error", srdf=None,
+    name: str,
+    ball_joints: str = "quaternion",
+    feet=None,
+    massless: str = "error",
+    srdf=None,
     lock=(),
 ) -> Humanoid:
     """Load an example-robot-data robot by name (``"human"``, ``"talos"``...) as :func:`load`

@@ -240,10 +240,11 @@ class Scene:
         scalars = {f.name for f in fields(cls)} - {"source", "ball_joints", "massless", *tables}
         top = r.section(doc, "", scalars | set(tables))
         kw = {k: v for k, v in top.items() if k not in tables}
-        body_keys = {"urdf", "height", "mass", "sex", "ball_joints", "massless", "segment_lengths"}
+        body_keys = {"urdf", "height", "mass", "sex", "ball_joints", "massless", "segment_lengths",
+                     "toes"}  # fmt: skip
         body = r.section(top.get("body", {}), "body", body_keys)
         if "urdf" in body:
-            if {"height", "mass", "sex"} & body.keys():
+            if {"height", "mass", "sex", "toes"} & body.keys():
                 raise SceneError(f"{source}: [body] give either urdf or height/mass/sex, not both")
             urdf = r.typed(body["urdf"], str, "body.urdf")
             p = Path(urdf)
@@ -257,6 +258,7 @@ class Scene:
                     body.get("mass", 0.0),
                     body.get("sex", "male"),
                     body.get("segment_lengths", {}),
+                    body.get("toes", True),
                 )
             except BodyParameterError as exc:
                 raise SceneError(f"{source}: [body] {exc}") from None
@@ -314,6 +316,8 @@ class Scene:
             body = {"height": self.body.height, "mass": self.body.mass, "sex": self.body.sex}
             if self.body.segment_lengths:
                 body["segment_lengths"] = dict(self.body.segment_lengths)
+            if not self.body.toes:
+                body["toes"] = False
         else:
             body = {"urdf": self.body}
         body["ball_joints"] = self.ball_joints

@@ -1,6 +1,6 @@
 """Optimise the gait cycles the package ships (``make gaits``): the default bodies, as shipped
-(with toes) and with one rigid foot (``--no-toes``), at their free speed, the tracking objective, into ``humanoid/data/gaits`` (the
-predictive objective's cycles do not ship yet).
+(with toes) and with one-piece feet (``--no-toes``), at their free speed, the tracking
+objective, into ``humanoid/data/gaits`` (the predictive objective's cycles do not ship yet).
 
 Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
 :data:`BODIES`). Each line printed says what was solved, in how many iterations and seconds,
@@ -30,7 +30,9 @@ def main(names) -> int:
             print(f"make_gaits: no body {name!r}; there are {', '.join(BODIES)}", file=sys.stderr)
             return 2
         body, toes = BODIES[name]
-        h = hm.load(body) if toes else hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
+        h = hm.load(body)
+        if not toes:
+            h = hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
         for objective in ("tracking",):
             g = optimise_gait(h, None, objective)
             s = g.solution

@@ -120,13 +120,13 @@ def assert_heel_to_toe(analysis, strikes: int, stances: int, slip: float = 2e-3)
 @pytest.fixture(scope="session")
 def walk_1khz():
     """Two steps of the male body's walk at 0.8 m/s, every simulation step recorded (the motion
-    tests' and the OpenSim peer's)."""
+    tests' and the OpenSim peer's), and the body that walked it (its toes locked)."""
     from humanoid.walking.gait import walk_on_ground
 
     h = hm.load(BODIES / "adult_male.urdf")
     walk = walk_on_ground(h, speed=0.8, steps=2, record_rate=1000.0)
     assert walk.trajectory.status == "completed"
-    return h, walk.trajectory
+    return walk.body, walk.trajectory  # (the body walked the fitted cycle, its toes locked)
 
 
 def clean_library_path() -> dict:

@@ -204,7 +204,7 @@ def test_bench_scaling_quick_fits_the_growth(tmp_path, capsys):
     rows = list(csv.DictReader(open(tmp_path / "scaling.csv")))
     assert list(rows[0]) == SCALING_COLUMNS
     nv = {r["body"]: int(r["nv"]) for r in rows}
-    assert nv["male"] == 41 and all(nv[f"male + {k} trunk"] == 41 + 3 * k for k in EXTRA)
+    assert nv["male"] == 39 and all(nv[f"male + {k} trunk"] == 39 + 3 * k for k in EXTRA)
     contacts = list(csv.DictReader(open(tmp_path / "scaling_contacts.csv")))
     assert [int(c["rows"]) for c in contacts] == [0, 6, 12, 18, 24, 30]
     assert (tmp_path / "scaling.png").stat().st_size > 10_000

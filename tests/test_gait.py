@@ -10,7 +10,7 @@ from conftest import assert_heel_to_toe
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
 from humanoid.errors import HumanoidError
-from humanoid.model import SIDES
+from humanoid.model import SIDES, lock_foot_hinges
 from humanoid.walking.gait import PERCENT, GaitRecord, analyse, pelvis_push, walk_on_ground
 from humanoid.walking.reference import fit_cycle
 from humanoid.walking.report import format_gait_table, gait_table, plot_gait_report
@@ -18,7 +18,8 @@ from humanoid.walking.report import format_gait_table, gait_table, plot_gait_rep
 
 @pytest.fixture(scope="module")
 def male():
-    return hm.load("adult_male")
+    """The male body as the fitted cycle walks it: its toes locked."""
+    return lock_foot_hinges(hm.load("adult_male"))
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +37,7 @@ def male_walk(male, male_cycle):
 @pytest.fixture(scope="module")
 def female_walk():
     """Twenty steps of the female body at its free speed (about 55 s)."""
-    h = hm.load("adult_female")
+    h = lock_foot_hinges(hm.load("adult_female"))
     walk = walk_on_ground(h, steps=20)
     return h, walk, analyse(h, walk)
 

@@ -93,7 +93,8 @@ def _strip_feet(text: str) -> str:
 
 
 def test_no_identifiable_feet_names_candidates(male_urdf):
-    with pytest.raises(hm.ModelError, match=r"cannot identify the left foot.*candidates \(leaf links\): left_toes"):
+    message = r"cannot identify the left foot.*candidates \(leaf links\): left_toes"
+    with pytest.raises(hm.ModelError, match=message):
         hm.load(_strip_feet(male_urdf))
 
 

@@ -8,6 +8,7 @@ import pytest
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
+from humanoid.model import lock_foot_hinges
 from humanoid.scene import Effects, GroundSpec, JointLimitSpec, Scene
 from humanoid.simulation import Simulation
 from humanoid.walking.clinical import ANGLES, arm_chains, clinical_angles
@@ -18,7 +19,8 @@ from humanoid.walking.tracking import CyclePlayer, GaitController, TrackingGains
 
 @pytest.fixture(scope="module")
 def male():
-    h = hm.load("adult_male")
+    """The male body as the fitted cycle walks it (its toes locked), and its cycle."""
+    h = lock_foot_hinges(hm.load("adult_male"))
     return h, fit_cycle(h)
 
 

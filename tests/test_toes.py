@@ -217,3 +217,59 @@ def test_the_feet_ground_contact_includes_the_toes():
     names = {model.names[j] for j in joints}
     assert {"left_mtp", "right_mtp"} <= names
     assert {model.names[model.frames[h.sole_id(s)].parentJoint] for s in SIDES} <= names
+
+
+def test_a_body_with_its_toes_locked_is_the_one_piece_foot_body():
+    """``lock_foot_hinges``: the MTP hinges locked at zero, the two boxes one: the mass matrix
+    of the body with one-piece feet (to 1e-12), its sole box, and a recipe that loads it again;
+    the toes' frames are kept; a body without foot hinges is returned as it is."""
+    from humanoid.model import load_recipe, lock_foot_hinges, restrict_configurations
+
+    toes = hm.load(hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male", toes=True)))
+    plain = hm.load(hm.build_urdf(hm.BodyParameters(1.75, 75.0, "male", toes=False)))
+    locked = lock_foot_hinges(toes)
+    assert (locked.nq, locked.nv) == (plain.nq, plain.nv) == (47, 39)
+    q = plain.standing_configuration()
+    M = pin.crba(locked.model, locked.model.createData(), q)
+    np.testing.assert_allclose(M, pin.crba(plain.model, plain.model.createData(), q), atol=1e-12)
+    assert locked.model.existFrame("left_toe_inner") and locked.recipe["lock"] == [
+        "left_mtp", "right_mtp"]  # fmt: skip
+
+    def boxes(h, side):
+        j = h.model.frames[h.sole_id(side)].parentJoint
+        return [(g.placement.translation.round(12).tolist(), list(g.geometry.halfSide))
+                for g in h.collision_model.geometryObjects if g.parentJoint == j]  # fmt: skip
+
+    for side in SIDES:
+        assert boxes(locked, side) == boxes(plain, side)
+    assert load_recipe(locked.recipe).nq == 47
+    assert lock_foot_hinges(plain) is plain
+    # configurations of the body with toes, on the locked one: the toes' angles dropped
+    qt = np.tile(toes.standing_configuration(), (2, 1))
+    qt[:, 7] = [0.1, 0.2]  # the left hip's quaternion's x
+    np.testing.assert_array_equal(restrict_configurations(qt, toes, locked)[:, :8], qt[:, :8])
+
+
+def test_a_welded_foot_locks_its_toes_and_the_lock_is_internal():
+    """A weld on a foot with toes holds the rearfoot's sole and locks the MTP hinge: under
+    gravity, standing on both welded feet, the toes do not move (their hinge has no torque)
+    and the welds carry the body's weight (the locks' torques are internal)."""
+    from humanoid.constraints import JointLock
+    from humanoid.scene import Contact, Effects, Scene
+
+    h = hm.load("adult_male")
+    feet = tuple(Contact(s, "weld") for s in SIDES)
+    scene = Scene(name="welded", body="adult_male", duration=0.2, dt=1e-3, record_rate=1000.0,
+                  integrator="semi_implicit_euler", effects=Effects(contacts=feet))  # fmt: skip
+    traj = hm.simulate(scene, quiet=True)
+    assert traj.status == "completed"
+    for side in SIDES:
+        j = h.model.joints[h.model.getJointId(f"{side}_mtp")]
+        assert np.abs(traj.q[:, j.idx_q]).max() < 1e-9
+        assert np.abs(traj.forces["foot_locks"][5:, j.idx_v]).max() > 0.0  # the lock holds
+    # the welds carry the weight (at the start, at rest, the joints just giving way: measured
+    # 0.03 % under it)
+    fz = traj.forces["left"][0, 2] + traj.forces["right"][0, 2]
+    assert fz == pytest.approx(h.mass * 9.81, rel=1e-3)
+    with pytest.raises(ValueError, match="one-degree-of-freedom"):
+        JointLock("x", h.model, h.model.getJointId("left_hip"), 0.0)

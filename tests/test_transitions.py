@@ -13,7 +13,7 @@ from conftest import assert_heel_to_toe
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
 from humanoid.errors import HumanoidError
-from humanoid.model import SIDES
+from humanoid.model import SIDES, lock_foot_hinges
 from humanoid.walking.gait import analyse, walk_on_ground
 from humanoid.walking.reference import fit_cycle
 from humanoid.walking.transitions import pendulum_path, start_stop
@@ -62,7 +62,8 @@ def test_the_bounded_path_keeps_its_zero_moment_point_inside_and_meets_its_ends(
 
 @pytest.fixture(scope="module")
 def male():
-    return hm.load("adult_male")
+    """The male body as the fitted cycle walks it: its toes locked."""
+    return lock_foot_hinges(hm.load("adult_male"))
 
 
 @pytest.fixture(scope="module")

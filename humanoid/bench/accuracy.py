@@ -38,7 +38,15 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .common import CONTROL_DT, MALE, RECORD_RATE, WALK_STEPS, run_scene, state_error
+from .common import (
+    CONTROL_DT,
+    MALE,
+    RECORD_RATE,
+    WALK_STEPS,
+    load_male,
+    run_scene,
+    state_error,
+)
 
 __all__ = ["run_accuracy_benchmark"]
 
@@ -122,10 +130,9 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
 
 def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Run the sweeps, write accuracy.csv and one work-precision PNG per scene."""
-    from ..model import load
     from ..scene import Effects, Stabilisation
 
-    h = load(MALE)
+    h = load_male()
     dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
     tols = (1e-3, 1e-5, 1e-7) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
     rows: list[Row] = []
@@ -264,14 +271,13 @@ def _fall_rows(h, quick: bool):
     try:
         import mujoco  # noqa: F401 - an optional extra
 
-        from ..model import load
         from .peers import mujoco_fall
 
-        he = load(MALE, ball_joints="euler")
+        he = load_male("euler")
     except ImportError:
         he = None
     for name in ("collapse", "drop"):
-        base = Scene.load(name)
+        base = Scene.load(name).replace(body=MALE)
         base = base.replace(duration=T, record_rate=RECORD_RATE)
 
         def variant(dt, tol, base=base):

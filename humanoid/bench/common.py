@@ -8,6 +8,10 @@ import time
 import numpy as np
 import pinocchio as pin
 
+from ..anthropometry import BodyParameters
+from ..body import build_urdf
+from ..model import load
+
 __all__ = [
     "CONTROL_DT",
     "MALE",
@@ -15,13 +19,24 @@ __all__ = [
     "WALK_STEPS",
     "best_time",
     "best_times",
+    "load_male",
     "pinocchio_contacts",
     "run_scene",
     "state_error",
     "write_rows",
 ]
 
-MALE = "adult_male"
+# The benchmarks' body: the shipped male (1.75 m, 75 kg) with one-piece feet, the body every
+# benchmark has measured (the shipped body's toes add the fastest mode of the model: 0.16 kg on
+# a hinge; a comparison of integrators or contact solvers on it would measure the toes)
+MALE = BodyParameters(1.75, 75.0, "male", toes=False)
+
+
+def load_male(ball_joints: str = "quaternion"):
+    """The benchmarks' body (:data:`MALE`) loaded."""
+    return load(build_urdf(MALE), ball_joints=ball_joints)
+
+
 # Records at 25 Hz: a whole number of steps for every swept dt (8 ms ... 0.5 ms) and for the
 # adaptive integrator's 40 ms tick, so that every run is compared at the same instants.
 RECORD_RATE = 25.0

@@ -29,18 +29,17 @@ def run_motion_benchmark(quick: bool = False, out: str | Path = "results/bench")
         import opensim  # noqa: F401
     except ImportError:
         raise HumanoidError("humanoid bench motion needs OpenSim: pip install opensim") from None
-    import humanoid as hm
 
-    from ..data import BODIES
     from ..motion.ik import inverse_kinematics
     from ..motion.inverse_dynamics import derivatives, inverse_dynamics
     from ..motion.loads import Load
     from ..motion.markers import MarkerTrajectories, default_markers, marker_positions
     from ..motion.opensim_peer import run_opensim_id, run_opensim_ik
     from ..walking.gait import walk_on_ground
+    from .common import load_male
 
     rounds = 2 if quick else 5
-    h = hm.load(BODIES / "adult_male.urdf")
+    h = load_male()
     tr = walk_on_ground(h, speed=0.8, steps=2).trajectory
     t, q, _, _ = derivatives(h.model, tr.t, tr.q, cutoff=6.0)
     loads = [Load.from_wrench(s, tr.t, tr.forces[f"ground_{s}"]) for s in ("left", "right")]

@@ -33,7 +33,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..model import child_link
-from .common import MALE
+from .common import MALE, load_male
 
 __all__ = ["fall_comparison", "push_momentum", "run_peer_comparison"]
 
@@ -357,7 +357,8 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             sim.kinematics(q, v)
             for w in welds.values():
                 drift = max(drift, float(np.linalg.norm(w.residual(model, sim.data)[:3])))
-            tau = ctl.update(t, q, v, welds)
+            tau = ctl.update(t, q, v, {s: c.constraints for c in sim.contacts if c.attached
+                                       for s in (c.side,)})  # fmt: skip
             d.qfrc_applied[:] = states.to_mujoco(q, tau)[1]
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
@@ -406,9 +407,8 @@ def run_peer_comparison(quick: bool = False, out: str | Path = "results/bench",
 
 def _print_push_momentum() -> None:
     """The same push in both engines: momentum changes beside the impulse."""
-    from ..model import load
 
-    r = push_momentum(load(MALE))
+    r = push_momentum(load_male())
     impulse = r["impulse"]
     print(f"\npush {PUSH} N at the thorax for 0.3 s, free body in zero gravity, RK4 at 1 ms:")
     print(f"  impulse                       {np.array2string(impulse, precision=6)} N s")
@@ -441,18 +441,17 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     its back), the final CoM, the deepest penetration, and the wall time per step measured
     in the same run; and the RMS difference of the final joint angles [deg].
     """
-    from ..model import load
     from ..scene import Scene
     from ..simulation import Simulation
 
-    scene = Scene.load(name)
+    scene = Scene.load(name).replace(body=MALE)
     if duration is not None:
         scene = scene.replace(duration=duration)
     dt, n = scene.dt, int(round(scene.duration / scene.dt))
     every = max(1, int(round(1.0 / (scene.record_rate * dt))))
     sim = Simulation(scene)
     traj = sim.run(quiet=True)
-    h, he = sim.h, load(MALE, ball_joints="euler")
+    h, he = sim.h, load_male("euler")
     qs, vs, wall, depth = mujoco_fall(scene, h, he, sim.q0, sim.v0, dt, every)
     t_mj = np.arange(len(qs)) * dt * every
     out = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
@@ -547,10 +546,9 @@ def _print_fall(r: dict) -> None:
 
 
 def _sweep(quick, T, T_collapse, walk) -> list[dict]:
-    from ..model import load
     from ..scene import Stabilisation
 
-    h = load(MALE)
+    h = load_male()
     dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
     # the free scenes also at 5 and 3 ms: where each engine's RK4 crosses its target
     free_dts = dts if quick else (8e-3, 5e-3, 4e-3, 3e-3, 2e-3, 1e-3, 5e-4)

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .common import best_time, write_rows
+from .common import best_time, load_male, write_rows
 
 __all__ = ["SCALING_COLUMNS", "run_scaling_benchmark"]
 
@@ -89,13 +89,11 @@ def _case(model, q, frames, n, rounds) -> dict:
 def run_scaling_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time the bodies and the contact counts; print, write ``scaling.csv``,
     ``scaling_contacts.csv`` and ``scaling.png``."""
-    import humanoid as hm
 
-    from ..data import BODIES
     from ..model import load_example
 
     n, rounds = (300, 3) if quick else (2000, 7)
-    male = hm.load(BODIES / "adult_male.urdf")
+    male = load_male()
     bodies = [("male", male, male.model)]
     for name, kw in (("human", {}), ("talos", {}), ("romeo", {"massless": "merge"}),
                      ("g1", {})):  # fmt: skip

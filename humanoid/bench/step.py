@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from ..data import SCENES
 from ..errors import HumanoidError
-from .common import best_times, pinocchio_contacts, write_rows
+from .common import MALE, best_times, load_male, pinocchio_contacts, write_rows
 
 __all__ = ["STEP_COLUMNS", "run_step_benchmark"]
 
@@ -69,7 +69,7 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
     n, rounds = (200, 3) if quick else (1000, 7)
     rows, ground = [], []
     for path in sorted(SCENES.glob("*.toml")):
-        scene = Scene.load(path).replace(integrator="semi_implicit_euler")
+        scene = Scene.load(path).replace(integrator="semi_implicit_euler", body=MALE)
         if scene.effects.ground is not None:
             ground.append(path)
             continue
@@ -161,10 +161,8 @@ def _ground_steps(paths, duration: float, folder: Path) -> list[dict]:
     would not be representative), against ``mj_step`` on the same fall in MuJoCo (its soft
     contacts, the Euler-mode body: :func:`humanoid.bench.peers.mujoco_fall`) in the same run.
     Scenes with a controller have no MuJoCo column (the controller is ours)."""
-    from ..model import load
     from ..scene import Scene
     from ..simulation import Simulation
-    from .common import MALE
     from .peers import mujoco_fall
 
     try:
@@ -172,10 +170,10 @@ def _ground_steps(paths, duration: float, folder: Path) -> list[dict]:
     except ImportError:
         he = None
     else:
-        he = load(MALE, ball_joints="euler")
+        he = load_male("euler")
     rows = []
     for path in paths:
-        scene = Scene.load(path).replace(duration=duration)
+        scene = Scene.load(path).replace(duration=duration, body=MALE)
         sim = Simulation(scene)
         traj = sim.run(quiet=True)
         ours = traj.metadata["wall_time"] / traj.metadata["steps"]

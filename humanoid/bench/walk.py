@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .common import pinocchio_contacts, write_rows
+from .common import load_male, pinocchio_contacts, write_rows
 
 __all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
 
@@ -131,14 +131,12 @@ def _bare_plant(model, samples, dt: float, rounds: int) -> float:
 def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time the welded walk, its pieces and the bare plant; print a table, write ``walk.csv``
     and ``walk.md``."""
-    import humanoid as hm
 
-    from ..data import BODIES
     from ..provenance import machine
     from ..walking.plan import GaitParameters
     from ..walking.run import CONTROL_PERIOD
 
-    h = hm.load(BODIES / "adult_male.urdf")
+    h = load_male()
     gait = GaitParameters(steps=4 if quick else 10)
     rows = []
     for control in (CONTROL_PERIOD, 1e-3):

@@ -87,9 +87,16 @@ def read_motion(args):
     path = Path(args.motion)
     if path.suffix.lower() == ".npz":
         run = Trajectory.load(path)
-        if args.model is None and args.height is None:
-            args.model = run.metadata.get("model")
-        h, what = subject_body(args)
+        if args.model is None and args.height is None and isinstance(
+                run.metadata.get("body"), dict):  # fmt: skip
+            from ..viewer import humanoid_for
+
+            # the body the run was made on, as it was loaded (a walk's toes locked)
+            h, what = humanoid_for(run), f"{run.metadata.get('model')} (the run's)"
+        else:
+            if args.model is None and args.height is None:
+                args.model = run.metadata.get("model")
+            h, what = subject_body(args)
         if run.q.shape[1] != h.nq:
             raise HumanoidError(
                 f"{path}: its configurations have {run.q.shape[1]} entries, the body "
@@ -392,6 +399,7 @@ def run_track(args) -> int:
         h, what, t, q, loads, _, _ = read_motion(args)
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
     res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)
+    h = res.body  # (its toes locked)
     traj = res.trajectory
     path = traj.save(args.output)
     meta = traj.metadata

@@ -230,7 +230,9 @@ class Tracked:
             include each leg's ground wrench). reference: (time, q) of the motion followed, at
             the run's records. joint_error: per record, each joint's error against the
             reference [rad] (the root's 6 first: position [m] and orientation [rad]).
-        contacts: side -> (times, in contact) as scheduled. wall_time: [s].
+        contacts: side -> (times, in contact) as scheduled. wall_time: [s]. body: the body
+            that moved (a body with toes tracks with them locked:
+            :func:`~humanoid.model.lock_foot_hinges`).
     """
 
     trajectory: object
@@ -238,6 +240,7 @@ class Tracked:
     joint_error: np.ndarray
     contacts: dict
     wall_time: float
+    body: object = None
 
     @property
     def completed(self) -> bool:
@@ -251,13 +254,19 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 
     docstring); ``loads`` (measured ground forces) only say when each foot is on the ground.
 
     The run starts in the reference's first state; it stops as failed if the body falls (its
-    centre of mass below half its starting height); what it recorded up to then is kept.
+    centre of mass below half its starting height); what it recorded up to then is kept. A
+    body with toes tracks with them locked (the tracker plans a rigid foot); the result's
+    :attr:`Tracked.body` is the body that moved.
     """
     import time as clock
 
+    from ..model import lock_foot_hinges, restrict_configurations
     from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
     from ..simulation import Simulation
 
+    full, h = h, lock_foot_hinges(h)
+    if np.shape(q)[-1] != h.model.nq:
+        q = restrict_configurations(q, full, h)
     model = h.model
     t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
     contacts = contact_schedule(h, t, qf, vf, loads)
@@ -280,4 +289,4 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 
     wall = clock.perf_counter() - start
     ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h)

@@ -27,7 +27,7 @@ def body_parameters(params: dict):
     height = float(params["body.height"])
     mass = params.get("body.mass")
     mass = float(mass) if mass is not None else float(params["body.bmi"]) * height**2
-    return BodyParameters(height, mass, params["body.sex"])
+    return BodyParameters(height, mass, params["body.sex"], toes=params.get("body.toes", True))
 
 
 def push_vector(params: dict, weight: float) -> np.ndarray:
@@ -60,7 +60,7 @@ def scene_for(payload: dict, params: dict, check: bool = True, weight: float | N
     if body is not None:
         joints = doc.get("body", {}).get("ball_joints", "quaternion")
         doc["body"] = {"height": body.height, "mass": body.mass, "sex": body.sex,
-                       "ball_joints": joints}  # fmt: skip
+                       "toes": body.toes, "ball_joints": joints}  # fmt: skip
     if any(k.startswith("push.") for k in params):
         p = {**PUSH_DEFAULTS, **params}
         if weight is None:

@@ -39,6 +39,7 @@ Parameters (keys of ``set``, ``grid`` and ``sample``):
 
 - ``body.height`` [m], ``body.mass`` [kg] or ``body.bmi`` [kg/m^2], ``body.sex``: a de Leva
   body built for the run (all of height, sex and mass or BMI, or none: the base's body);
+  ``body.toes`` (default true; false: one-piece feet);
 - ``push.force`` [N] or ``push.fraction`` [body weights], ``push.direction`` (forward,
   backward, left, right, or an angle in degrees from forward towards the left),
   ``push.frame``, ``push.start`` [s], ``push.duration`` [s]: one horizontal push;
@@ -70,7 +71,7 @@ __all__ = ["OUTPUTS", "Run", "Study", "load_study", "parse_study"]
 RUN_KINDS = ("scene", "walk")
 KEEP = ("summary", "trajectory")
 DISTRIBUTIONS = ("normal", "uniform", "lognormal", "choice")
-BODY_KEYS = ("height", "mass", "bmi", "sex")
+BODY_KEYS = ("height", "mass", "bmi", "sex", "toes")
 PUSH_KEYS = ("force", "fraction", "direction", "frame", "start", "duration")
 WALK_KEYS = ("speed", "speed_ratio", "steps", "dt", "mu")
 FIGURE_KINDS = ("threshold", "line", "best", "none")
@@ -330,7 +331,7 @@ def _params(table: dict, section: str, run: str, bad, check_values: bool = True)
             if run != "walk":
                 bad(where, "walk.* parameters only with run = 'walk'")
         else:
-            bad(where, "unknown parameter (body.height|mass|bmi|sex, push.force|fraction|"
+            bad(where, "unknown parameter (body.height|mass|bmi|sex|toes, push.force|fraction|"
                        "direction|frame|start|duration, scene.KEY, walk.speed|speed_ratio|"
                        "steps|dt|mu)")  # fmt: skip
         if check_values:
@@ -340,7 +341,10 @@ def _params(table: dict, section: str, run: str, bad, check_values: bool = True)
 
 
 def _check_value(key: str, value, where: str, bad) -> None:
-    if key in ("body.sex", "push.frame"):
+    if key == "body.toes":
+        if not isinstance(value, bool):
+            bad(where, f"true or false, got {value!r}")
+    elif key in ("body.sex", "push.frame"):
         if not isinstance(value, str):
             bad(where, f"a string, got {value!r}")
         if key == "body.sex" and value not in ("male", "female"):

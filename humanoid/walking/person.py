@@ -407,4 +407,4 @@ def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, g
     start = time.perf_counter()
     traj = sim.run(quiet=quiet)
     wall = time.perf_counter() - start
-    return GroundWalk(traj, recorder.record(h.mass, dt), ref, ctl.relaxed, wall, steps)
+    return GroundWalk(traj, recorder.record(h.mass, dt), ref, ctl.relaxed, wall, steps, h)
