@@ -23,7 +23,7 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from .constraints import Baumgarte, solve_kkt, update_kinematics
+from .constraints import Baumgarte, JointLock, solve_kkt, update_kinematics
 from .constraints.ground import ContactSolver, Ground, GroundSettings
 from .constraints.limits import JointRanges
 from .constraints.native import NativeSolution, NativeSolve
@@ -289,7 +289,11 @@ class Simulation:
         for c in contacts:
             if c.spec.start == 0.0 and c.lowest(self.data) <= GROUND_TOLERANCE:
                 c.attach(self.data)
-                rows += [k.jacobian(self.model, self.data) for k in c.constraints]
+                # the feet's own rows (a weld's locked toes) left out: the hold's gains see the
+                # toes free to turn (with them, its toes' gain was the pseudo-inverse of a
+                # near-zero inertia, and the pushed balance scene's toes chattered at 34 rad/s)
+                rows += [k.jacobian(self.model, self.data) for k in c.constraints
+                         if not isinstance(k, JointLock)]  # fmt: skip
                 c.release()
                 self._active = None
                 c.ever_attached = False

@@ -28,7 +28,10 @@ class Trajectory:
             about the sole frame origin; per point contact a force (fx, fy, fz); NaN while the
             contact is released. With ground contact, ``ground``: the floor's total force on
             the body and its moment about the world origin (centre of pressure
-            (-ty / fz, tx / fz, 0)), the mean over the step that follows the record.
+            (-ty / fz, tx / fz, 0)), the mean over the step that follows the record;
+            ``ground_left|right`` per leg, ``joint_ranges`` the ranges' moments (nv). With
+            welded feet that have toes, ``foot_locks``: the moments that hold their hinges
+            locked (nv; with ``tau``, what the hinges carried).
         energy: Kinetic + potential energy [J], (N,).
         residual: Largest constraint position residual [m or rad] at each record, (N,).
         metadata: Model, joint and contact names, dt, scene, events, statistics, status.

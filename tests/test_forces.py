@@ -90,10 +90,10 @@ def test_mujoco_sees_the_same_momentum_change():
     generalised force of a moving point constant over each 1 ms step; ours meets its own
     angular impulse to 1e-9)."""
     pytest.importorskip("mujoco")
-    from humanoid.bench.common import MALE as PEER_MALE
+    from humanoid.bench.common import load_male
     from humanoid.bench.peers import push_momentum
 
-    r = push_momentum(load(PEER_MALE))
+    r = push_momentum(load_male())
     impulse = r["impulse"]
     for engine in ("humanoid", "mujoco"):
         assert np.abs(r[engine]["dp"] - impulse).max() < 1e-9 * np.linalg.norm(impulse)
