@@ -147,7 +147,7 @@ STATURE_FRACTIONS = MappingProxyType({
 # fraction of the foot length in front of the heel.
 HEEL_TO_ANKLE_FRACTION = 0.25
 
-# The toes segment of a body built with ``toes=True`` (:func:`split_foot`), with sources.
+# The toes segment of a body's foot (``toes=True``, the default: :func:`split_foot`), with sources.
 # OPENSIM: gait2392 and Rajagopal 2016 (opensim-org/opensim-models): the mtp joint at
 # x = 0.1788 m in the calcaneus frame, whose foot runs 0.2655 m from the heel (x = -0.0098) to
 # the toe tip (0.2557, from the meshes; the scale marker set's heel and toe-tip markers give the
@@ -197,7 +197,8 @@ class BodyParameters:
             ``forearm``, ``hand``, ``thigh``, ``shank``, ``foot``) or ``ankle_height``.
             Measured chain lengths are kept; the others close the chain to the stature.
         toes: Split each foot at the metatarsophalangeal joint into a rearfoot and a toes
-            segment on a hinge (:func:`split_foot`); the two together keep de Leva's foot.
+            segment on a hinge (:func:`split_foot`; the default); the two together keep de
+            Leva's foot. False: one-piece feet.
 
     Raises:
         BodyParameterError: a value is out of range, not finite, or of an unknown name.

@@ -4,12 +4,13 @@ Frames: world-aligned in the standing pose (x forward, y left, z up); every join
 the upright anatomical pose with arms hanging and palms facing the thighs. The root link is the
 ``pelvis``, its origin at the midpoint of the hip joint centres (de Leva's MIDH).
 
-Tree (33 joint DoF; 39 with the free-flyer root that :func:`humanoid.load` adds)::
+Tree (35 joint DoF; 41 with the free-flyer root that :func:`humanoid.load` adds)::
 
     pelvis -lumbar(3)- abdomen -thoracic(3)- thorax -neck(3)- head
                                                thorax -{side}_shoulder(3)- {side}_upper_arm
                   -{side}_elbow- {side}_forearm -{side}_wrist(2)- {side}_hand
     pelvis -{side}_hip(3)- {side}_thigh -{side}_knee- {side}_shank -{side}_ankle(2)- {side}_foot
+                                                                     -{side}_mtp- {side}_toes
 
 Ball joints (hips, shoulders, lumbar, thoracic, neck) are three revolute joints through two
 massless intermediate links, in the order flexion -> ab/adduction (lateral bending for the spine)
@@ -23,11 +24,11 @@ inversion, radial deviation, on both sides (the axes of the right side are the m
 the left ones), so that left and right share their limits. The spine and neck bend positively to
 the left and rotate positively to the left.
 
-Each foot carries a collision box (the sole box, from the sole to the ankle height), a fixed
+By default each foot is a rearfoot and a toes segment on a ``{side}_mtp`` hinge (35 joint DoF;
+see :func:`_foot_with_toes`). With ``BodyParameters(..., toes=False)`` each foot is one piece
+(33 joint DoF): a collision box (the sole box, from the sole to the ankle height), a fixed
 ``{side}_sole`` frame at the centre of the sole, and four fixed contact points at the sole's
 corners: ``{side}_heel_inner``, ``{side}_heel_outer``, ``{side}_toe_inner``, ``{side}_toe_outer``.
-With ``BodyParameters(..., toes=True)`` each foot is a rearfoot and a toes segment on a
-``{side}_mtp`` hinge (35 joint DoF; see :func:`_foot_with_toes`).
 """
 
 from __future__ import annotations
