@@ -146,7 +146,7 @@ class _Targets:
     """The normative curves the tracking objective follows, as Fourier series."""
 
     def __init__(self, dimensionless_speed: float) -> None:
-        from ..walking.norms import ADULT, norms
+        from ..walking.norms import ADULT, FREE_DIMENSIONLESS_SPEED, norms
 
         n = norms()
         mean, sd = {}, {}
@@ -158,12 +158,15 @@ class _Targets:
             mean[name], sd[name] = m, s
         self.coefficients = {k: fourier(v) for k, v in mean.items()}
         self.sd = {k: float(np.mean(v)) for k, v in sd.items()}
-        # the opposite foot's toe-off ends the first double support: at half the adults' double
-        # support (the middle of ADULT's band), with Schwartz's SD (the children's double
-        # support is a few % of the cycle shorter than an adult's)
+        # the opposite foot's toe-off ends the first double support: at the adults' free speed,
+        # half their double support (the middle of ADULT's band; the children's is a few % of
+        # the cycle shorter); at other speeds moved as Schwartz's moves with the speed (longer
+        # when slower: 13.2 % of the cycle at 0.8 m/s against 9.5 at the free speed), with
+        # Schwartz's SD
         (lo, hi), _, _ = ADULT["double_support"]
-        _, event_sd = n.event("opposite_foot_off", dimensionless_speed)
-        self.events = {"opposite_foot_off": ((lo + hi) / 4, event_sd)}
+        event, event_sd = n.event("opposite_foot_off", dimensionless_speed)
+        free, _ = n.event("opposite_foot_off", FREE_DIMENSIONLESS_SPEED)
+        self.events = {"opposite_foot_off": ((lo + hi) / 4 + event - free, event_sd)}
 
     def __call__(self, name, phi):
         return fourier_eval(self.coefficients[name], phi)
