@@ -529,7 +529,9 @@ def _reduced(model: pin.Model, geoms, joints, q):
 
 def _locked_joints(model: pin.Model, geoms, names, label: str):
     """The model with the named hinges locked at their upright value (:func:`load`'s
-    ``lock``)."""
+    ``lock``), the collision boxes a locked joint's link brings to its parent merged with the
+    parent's into their bounding box (a foot with its toes locked has one sole box: the ground
+    meets the corners of one sole, not two boxes' shared edge twice)."""
     if not names:
         return model, geoms
     ids = []
@@ -540,7 +542,12 @@ def _locked_joints(model: pin.Model, geoms, names, label: str):
         if model.joints[j].nv != 1 or j < 2:
             raise ModelError(f"{label}: cannot lock {name!r}: only hinges are locked")
         ids.append(j)
-    return _reduced(model, geoms, sorted(set(ids)), _upright(model))
+    parents = {model.names[model.parents[j]] for j in ids}
+    reduced, geoms = _reduced(model, geoms, sorted(set(ids)), _upright(model))
+    for name in parents:
+        if reduced.existJointName(name):
+            _merge_boxes(geoms[1], reduced.getJointId(name))
+    return reduced, geoms
 
 
 def lock_foot_hinges(h: Humanoid) -> Humanoid:
@@ -556,10 +563,7 @@ def lock_foot_hinges(h: Humanoid) -> Humanoid:
         names += [model.names[j] for j in foot_hinges(model, h.sole_id(side), points)]
     if not names:
         return h
-    locked = load_recipe(h.recipe | {"lock": [*h.recipe.get("lock", []), *names]})
-    for side in SIDES:  # the rearfoot's and the toes' boxes: one box, as the foot is one piece
-        _merge_boxes(locked.collision_model, locked.model.frames[locked.sole_id(side)].parentJoint)
-    return locked
+    return load_recipe(h.recipe | {"lock": [*h.recipe.get("lock", []), *names]})
 
 
 def _merge_boxes(gm: pin.GeometryModel, joint: int) -> None:

@@ -242,7 +242,12 @@ def test_a_body_with_its_toes_locked_is_the_one_piece_foot_body():
 
     for side in SIDES:
         assert boxes(locked, side) == boxes(plain, side)
-    assert load_recipe(locked.recipe).nq == 47
+    again = load_recipe(locked.recipe)  # (as a saved run reloads it: the same boxes)
+    assert again.nq == 47 and all(boxes(again, side) == boxes(plain, side) for side in SIDES)
+    with pytest.raises(hm.ModelError, match="cannot lock 'tail': the body has no joint"):
+        hm.load("adult_male", lock=["tail"])
+    with pytest.raises(hm.ModelError, match="cannot lock 'root_joint': only hinges"):
+        hm.load("adult_male", lock="root_joint")
     assert lock_foot_hinges(plain) is plain
     # configurations of the body with toes, on the locked one: the toes' angles dropped
     qt = np.tile(toes.standing_configuration(), (2, 1))
