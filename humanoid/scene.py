@@ -245,7 +245,8 @@ class Scene:
         body = r.section(top.get("body", {}), "body", body_keys)
         if "urdf" in body:
             if {"height", "mass", "sex", "toes"} & body.keys():
-                raise SceneError(f"{source}: [body] give either urdf or height/mass/sex, not both")
+                raise SceneError(f"{source}: [body] give either urdf or height/mass/sex/toes, "
+                                 "not both")  # fmt: skip
             urdf = r.typed(body["urdf"], str, "body.urdf")
             p = Path(urdf)
             if base is not None and not p.is_absolute() and (base / p).exists():

@@ -177,7 +177,8 @@ class Recorder:
             self.forces["joint_ranges"] = np.zeros((n, model.nv))
         # the moments with which welded feet hold their own hinges (the toes' MTP) locked, in
         # generalised coordinates: with the controller's torques, what the hinges carried
-        self._locks = [c for c in contacts if c.spec.kind == "weld" and len(c.hinges)]
+        self._locks = [(c, [model.joints[j].idx_v for j in c.hinges]) for c in contacts
+                       if c.spec.kind == "weld" and len(c.hinges)]  # fmt: skip
         if self._locks:
             self.forces["foot_locks"] = np.zeros((n, model.nv))
         for c in contacts:
@@ -218,9 +219,8 @@ class Recorder:
             self.residual[i] = np.abs(e).max()
             Jv = np.concatenate([c.jacobian(model, data) @ v for c in constraints])
             self.velocity_residual = max(self.velocity_residual, float(np.abs(Jv).max()))
-        for c in self._locks:
+        for c, idx in self._locks:
             if c.attached:
-                idx = [model.joints[j].idx_v for j in c.hinges]
                 self.forces["foot_locks"][i, idx] = c.lock_torques
         for c in sim.contacts:
             if c.attached:

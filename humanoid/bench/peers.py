@@ -345,7 +345,8 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             q, v = states.to_pinocchio(d.qpos, d.qvel)
             before = {c.side for c in sim.contacts if c.attached}
             sim.switch_contacts(t, q, v, plan.stance(t))  # MuJoCo's weld stops a landing foot
-            welds = {c.side: c.constraints[0] for c in sim.contacts if c.attached}
+            stance = {c.side: c.constraints for c in sim.contacts if c.attached}
+            welds = {side: constraints[0] for side, constraints in stance.items()}
             for side, i in eq.items():
                 if side in welds and side not in before:
                     frame = model.frames[welds[side].frame_id]
@@ -357,8 +358,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             sim.kinematics(q, v)
             for w in welds.values():
                 drift = max(drift, float(np.linalg.norm(w.residual(model, sim.data)[:3])))
-            tau = ctl.update(t, q, v, {s: c.constraints for c in sim.contacts if c.attached
-                                       for s in (c.side,)})  # fmt: skip
+            tau = ctl.update(t, q, v, stance)
             d.qfrc_applied[:] = states.to_mujoco(q, tau)[1]
             for _ in range(substeps):
                 mujoco.mj_step(m, d)

@@ -87,14 +87,14 @@ def read_motion(args):
     path = Path(args.motion)
     if path.suffix.lower() == ".npz":
         run = Trajectory.load(path)
-        if args.model is None and args.height is None and isinstance(
-                run.metadata.get("body"), dict):  # fmt: skip
+        own = args.model is None and args.height is None  # the body the run was made on
+        if own and isinstance(run.metadata.get("body"), dict):
             from ..viewer import humanoid_for
 
-            # the body the run was made on, as it was loaded (a walk's toes locked)
+            # as it was loaded (a walk's toes locked)
             h, what = humanoid_for(run), f"{run.metadata.get('model')} (the run's)"
         else:
-            if args.model is None and args.height is None:
+            if own:
                 args.model = run.metadata.get("model")
             h, what = subject_body(args)
         if run.q.shape[1] != h.nq:

@@ -87,8 +87,8 @@ FIRST_MOMENTS = (("ankle_flexion", "ankle_plantarflexion_moment", 1.0),)
 MOMENTS = (*FIRST_MOMENTS, ("hip_flexion", "hip_extension_moment", 1.0))
 # From a warm start IPOPT begins near the end of its barrier path and keeps the iterate where
 # it is (the default mu 0.1 and bound push move it back to the middle first): the male cycle
-# from 1.38 to 1.25 m/s in 27 iterations, 43 s, against 101 and 166 with mu_init 1e-4 alone
-# and the defaults.
+# from 1.38 to 1.25 m/s in 27 iterations against 101 with mu_init 1e-4 alone and 166 with the
+# defaults (measured before the hip's moment was tracked; with it, 45 iterations, 54 s).
 WARM = {
     "ipopt.mu_init": 1e-4, "ipopt.warm_start_init_point": "yes",
     "ipopt.warm_start_bound_push": 1e-6, "ipopt.warm_start_mult_bound_push": 1e-6,
@@ -284,6 +284,17 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
         posture = sum(w[k] * ca.sumsqr(c.X[upper, k] - standing[upper]) for k in range(N + 1))
         terms["posture"] = W_POSTURE * posture / T
         return terms
+    terms.update(_tracking_terms(c, om, gait, standing, sagittal))
+    return terms
+
+
+def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, sagittal) -> dict:
+    """The tracking objective's own terms (see :func:`_objective`): the norms' angles, ground
+    forces and sagittal moments, the double support's event, and the untracked joints near
+    standing."""
+    N, w = c.N, c.node_weights()
+    T = c.total_duration()
+    times = c.node_times()
     targets = _Targets(gait["dimensionless_speed"])
     cycle = 2 * T
     idx = om.index
@@ -329,11 +340,8 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
                 m.append(math.sqrt(weight) * (-tau - targets(curve, phase)) / targets.sd[curve])
         moments = moments + w[k] * ca.sumsqr(ca.vertcat(*m))
     # the double support: the first phase lasts until the opposite foot's toe-off
-    events = targets.events
-    loading = (c.durations[0] / cycle - events["opposite_foot_off"][0]) / events[
-        "opposite_foot_off"
-    ][1]
-    terms["events"] = W_EVENT * loading**2
+    event, event_sd = targets.events["opposite_foot_off"]
+    terms = {"events": W_EVENT * ((c.durations[0] / cycle - event) / event_sd) ** 2}
     terms["angles"] = W_ANGLE * angle / T
     terms["forces"] = W_FORCE * force / T
     terms["moments"] = moments / T
