@@ -1,6 +1,8 @@
 """Optimise the gait cycles the package ships (``make gaits``): the default bodies, as shipped
-(with toes) and with one-piece feet (``--no-toes``), at their free speed, the tracking
-objective, into ``humanoid/data/gaits`` (the predictive objective's cycles do not ship yet).
+(with toes) and with one-piece feet (``--no-toes``), at their free speed from scratch, and the
+bodies with toes at :data:`~humanoid.optimal.cycle.SHIPPED_SPEEDS`, each warm-started from its
+neighbour towards the free speed, into ``humanoid/data/gaits``; the tracking objective, and for
+the bodies with toes at their free speed the predictive one too (from the tracking optimum).
 
 Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
 :data:`BODIES`). Each line printed says what was solved, in how many iterations and seconds,
@@ -12,7 +14,7 @@ from __future__ import annotations
 import sys
 
 import humanoid as hm
-from humanoid.optimal.cycle import DATA, gait_file, save_gait
+from humanoid.optimal.cycle import DATA, SHIPPED_SPEEDS, gait_file, save_gait
 from humanoid.optimal.gait import optimise_gait
 
 BODIES = {  # name: the shipped body's name, and whether it has toes
@@ -33,18 +35,32 @@ def main(names) -> int:
         h = hm.load(body)
         if not toes:
             h = hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
-        for objective in ("tracking",):
-            g = optimise_gait(h, None, objective)
-            s = g.solution
-            print(
-                f"{name} {objective}: {g.speed:.2f} m/s, {s.status}, {s.iterations} "
-                f"iterations, {s.seconds:.0f} s, defect {s.defect:.1e}",
-                flush=True,
-            )
-            if not s.success:
-                return 1
-            save_gait(g, DATA / gait_file(g.om, round(g.speed, 2), objective))
+        free = optimise_gait(h, None, "tracking")
+        if not _saved(name, free):
+            return 1
+        if not toes:
+            continue
+        if not _saved(name, optimise_gait(h, free.speed, "predictive", warm=free)):
+            return 1
+        # warm chains: down from the free speed, and up from it
+        for chain in (sorted((v for v in SHIPPED_SPEEDS if v < free.speed), reverse=True),
+                      sorted(v for v in SHIPPED_SPEEDS if v > free.speed)):  # fmt: skip
+            warm = free
+            for speed in chain:
+                warm = optimise_gait(h, speed, "tracking", warm=warm)
+                if not _saved(name, warm):
+                    return 1
     return 0
+
+
+def _saved(name: str, g) -> bool:
+    """Print what was solved; store it if IPOPT succeeded."""
+    s = g.solution
+    print(f"{name} {g.objective}: {g.speed:.2f} m/s, {s.status}, {s.iterations} iterations, "
+          f"{s.seconds:.0f} s, defect {s.defect:.1e}", flush=True)  # fmt: skip
+    if s.success:
+        save_gait(g, DATA / gait_file(g.om, round(g.speed, 2), g.objective))
+    return s.success
 
 
 if __name__ == "__main__":

@@ -299,3 +299,25 @@ def test_a_walk_without_a_stored_cycle_or_casadi_says_what_to_install(tmp_path):
     assert r.returncode == 2, r.stderr
     assert "optimal-control extra" in r.stderr and "Traceback" not in r.stderr, r.stderr
     assert "0.93 m/s" in r.stderr
+
+
+def test_a_cycle_stored_under_another_objective_revision_is_not_found(tmp_path, monkeypatch):
+    """A user's cache from an older objective is not reused: only the objectives' current
+    revision is found (the package's cycles, and the cache's in its place)."""
+    import shutil
+
+    from humanoid.optimal.coordinates import build_ocp_model
+    from humanoid.optimal.cycle import REVISION, default_speed, gait_file, stored
+
+    monkeypatch.setenv("HUMANOID_CACHE", str(tmp_path))
+    h = hm.load("adult_male")
+    om = build_ocp_model(h)
+    speed = default_speed(h)
+    shipped = stored(om, "tracking")[speed]
+    assert shipped.name == gait_file(om, speed, "tracking")
+    (tmp_path / "gaits").mkdir()
+    old = shipped.name.replace(f"-r{REVISION}-", f"-r{REVISION - 1}-")
+    shutil.copy(shipped, tmp_path / "gaits" / old.replace(f"{round(100 * speed):03d}", "093"))
+    assert 0.93 not in stored(om, "tracking")
+    shutil.copy(shipped, tmp_path / "gaits" / gait_file(om, 0.93, "tracking"))
+    assert 0.93 in stored(om, "tracking")

@@ -20,13 +20,16 @@ from ..errors import HumanoidError
 from .coordinates import OcpModel, build_ocp_model
 
 __all__ = [
-    "GaitSolution", "Phase", "Solution", "body_key", "cache_dir", "contact_points",
-    "default_speed", "gait_file", "gait_phases", "load_gait", "save_gait", "stored",
-    "stored_gait",
+    "REVISION", "SHIPPED_SPEEDS", "GaitSolution", "Phase", "Solution", "body_key", "cache_dir",
+    "contact_points", "default_speed", "gait_file", "gait_phases", "load_gait", "save_gait",
+    "stored", "stored_gait",
 ]  # fmt: skip
 
 NODES = (5, 12, 8)  # collocation intervals in the three phases
 OBJECTIVES = ("tracking", "predictive")
+# [m/s] the speeds the default bodies' (with toes) tracking cycles also ship at, beside their
+# free speed: warm-started chains down and up from it (``make gaits``)
+SHIPPED_SPEEDS = (0.8, 1.0, 1.2, 1.6, 1.8)
 
 
 @dataclass(frozen=True)
@@ -190,6 +193,10 @@ def _mirror_name(p: str) -> str:
 
 # -- storage -------------------------------------------------------------------------------
 FORMAT = 1
+# The objectives' revision, in every stored cycle's name: a cycle optimised under an earlier
+# objective (a user's cache from an older version) is not found, and is solved again. Raise it
+# whenever an objective or the problem changes.
+REVISION = 2
 DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
 
 
@@ -214,8 +221,9 @@ def body_key(om: OcpModel) -> str:
 
 
 def gait_file(om: OcpModel, speed: float, objective: str) -> str:
-    """The cache's file name of a body's gait at a speed (to the cm/s) and objective."""
-    return f"{body_key(om)}-{objective}-{round(100 * speed):03d}.npz"
+    """The cache's file name of a body's gait at a speed (to the cm/s) and objective (and the
+    objectives' :data:`REVISION`)."""
+    return f"{body_key(om)}-{objective}-r{REVISION}-{round(100 * speed):03d}.npz"
 
 
 def save_gait(g: GaitSolution, path) -> Path:
@@ -280,7 +288,8 @@ def stored(om: OcpModel, objective: str) -> dict:
     key = body_key(om)
     out = {}
     for folder in (cache_dir(), DATA):
-        for path in sorted(folder.glob(f"{key}-{objective}-*.npz")) if folder.is_dir() else ():
+        pattern = f"{key}-{objective}-r{REVISION}-*.npz"
+        for path in sorted(folder.glob(pattern)) if folder.is_dir() else ():
             out[int(path.stem.rsplit("-", 1)[1]) / 100] = path
     return out
 
