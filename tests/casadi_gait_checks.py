@@ -17,10 +17,9 @@ import pytest
 
 import humanoid as hm
 from humanoid.optimal.coordinates import build_ocp_model
-from humanoid.optimal.cycle import DATA, SHIPPED_SPEEDS, gait_file, load_gait
+from humanoid.optimal.cycle import DATA, SHIPPED_SPEEDS, default_speed, gait_file, load_gait
 from humanoid.optimal.gait import optimise_gait
 from humanoid.optimal.problem import Collocation, Phase
-from humanoid.walking.norms import free_speed
 from humanoid.walking.reference import leg_length
 
 BODIES = {"male": (1.75, 75.0), "female": (1.62, 62.0)}
@@ -141,18 +140,15 @@ def test_a_standing_collocation_converges_and_pinocchio_agrees():
     np.testing.assert_allclose(total, weight, rtol=1e-2)
 
 
-SPEEDS = SHIPPED_SPEEDS  # [m/s] the shipped cycles beside each body's free speed
-
-
 def _shipped():
     # the default bodies as shipped (with toes) and with one-piece feet, at their free speed,
-    # as shipped at SPEEDS, and their predictive cycles at the free speed
+    # as shipped at SHIPPED_SPEEDS, and their predictive cycles at the free speed
     free = [pytest.param(sex, "tracking", toes, None, id=f"{sex}-{'toes' if toes else 'no-toes'}")
             for sex in BODIES for toes in (True, False)]  # fmt: skip
     predictive = [pytest.param(sex, "predictive", True, None, id=f"{sex}-predictive")
                   for sex in BODIES]  # fmt: skip
     return free + predictive + [pytest.param(sex, "tracking", True, v, id=f"{sex}-{v}")
-                                for sex in BODIES for v in SPEEDS]  # fmt: skip
+                                for sex in BODIES for v in SHIPPED_SPEEDS]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -164,7 +160,7 @@ def gaits():
         if key not in cache:
             h = hm.load(f"adult_{sex}") if toes else _body(sex, toes)
             om = build_ocp_model(h)
-            v = round(free_speed(leg_length(h)), 2) if speed is None else speed
+            v = default_speed(h) if speed is None else speed
             cache[key] = load_gait(DATA / gait_file(om, v, objective), h)
         return cache[key]
 
@@ -272,7 +268,7 @@ def test_the_tracking_gait_is_a_persons_at_every_speed(gaits, sex):
     h = hm.load(f"adult_{sex}")
     ell = leg_length(h)
     rows = []
-    for v in SPEEDS:
+    for v in SHIPPED_SPEEDS:
         g = gaits(sex, "tracking", True, v)
         n = _cycle_numbers(g)
         chosen = choose_gait(v, ell)
@@ -301,6 +297,17 @@ def test_a_shipped_gait_is_found_again_from_a_warm_start(gaits):
 
 
 WALK_STEPS = 20
+
+
+def _assert_in_band(s):
+    """The hip's, knee's and ankle's angles inside the norm's mean +- 2 SD for 80 % of the
+    cycle, their moments for 70 % (a walk's :meth:`GaitAnalysis.summary` ``s``)."""
+    for name in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
+        assert s[f"{name}_in_band"] >= 0.8, (name, s)
+    for name in ("hip_extension_moment", "knee_extension_moment", "ankle_plantarflexion_moment"):
+        assert s[f"{name}_in_band"] >= 0.7, (name, s)
+
+
 PREDICTIVE_STEPS = 12
 
 
@@ -333,10 +340,7 @@ def test_the_walk_tracks_the_cycle_on_the_rigid_ground(gaits, sex):
     # the angles inside the norm's mean +- 2 SD (on the body's level pelvis) for 80 % of the
     # cycle, the hip's, knee's and ankle's moments for 70 % (measured: hip 100 and 96 %, knee
     # 88 and 86, ankle 86 and 75, male and female)
-    for name in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
-        assert s[f"{name}_in_band"] >= 0.8, (name, s)
-    for name in ("hip_extension_moment", "knee_extension_moment", "ankle_plantarflexion_moment"):
-        assert s[f"{name}_in_band"] >= 0.7, (name, s)
+    _assert_in_band(s)
     # the pelvis's obliquity and rotation ranges within the norm's range +- its mean SD (the
     # report's band), the arms swinging a person's arc opposite their own hips
     for name in ("pelvis_obliquity", "pelvis_rotation"):
@@ -368,10 +372,7 @@ def test_the_walk_tracks_the_cycle_at_a_slow_and_a_fast_speed(gaits, speed):
         mean, sd = norms().event(event, analysis.dimensionless_speed)
         assert abs(s[ours] - mean) <= 2 * sd, (ours, s[ours], mean, sd)
     assert s["slip"] < 1e-3, s
-    for name in ("hip_flexion", "knee_flexion", "ankle_dorsiflexion"):
-        assert s[f"{name}_in_band"] >= 0.8, (name, s)
-    for name in ("hip_extension_moment", "knee_extension_moment", "ankle_plantarflexion_moment"):
-        assert s[f"{name}_in_band"] >= 0.7, (name, s)
+    _assert_in_band(s)
 
 
 ADULT_RANGES = {"speed": (1.25, 1.45), "cadence": (100.0, 120.0), "step_length": (0.65, 0.80)}

@@ -307,7 +307,7 @@ def test_a_cycle_stored_under_another_objective_revision_is_not_found(tmp_path, 
     import shutil
 
     from humanoid.optimal.coordinates import build_ocp_model
-    from humanoid.optimal.cycle import REVISION, default_speed, gait_file, stored
+    from humanoid.optimal.cycle import REVISION, body_key, default_speed, gait_file, stored
 
     monkeypatch.setenv("HUMANOID_CACHE", str(tmp_path))
     h = hm.load("adult_male")
@@ -316,8 +316,8 @@ def test_a_cycle_stored_under_another_objective_revision_is_not_found(tmp_path, 
     shipped = stored(om, "tracking")[speed]
     assert shipped.name == gait_file(om, speed, "tracking")
     (tmp_path / "gaits").mkdir()
-    old = shipped.name.replace(f"-r{REVISION}-", f"-r{REVISION - 1}-")
-    shutil.copy(shipped, tmp_path / "gaits" / old.replace(f"{round(100 * speed):03d}", "093"))
+    old = f"{body_key(om)}-tracking-r{REVISION - 1}-093.npz"
+    shutil.copy(shipped, tmp_path / "gaits" / old)
     assert 0.93 not in stored(om, "tracking")
     shutil.copy(shipped, tmp_path / "gaits" / gait_file(om, 0.93, "tracking"))
     assert 0.93 in stored(om, "tracking")

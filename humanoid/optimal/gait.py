@@ -191,6 +191,8 @@ class _Targets:
             m, s = n.curve(name, dimensionless_speed, pelvis="level")
             mean[name], sd[name] = m, s
         self.coefficients = {k: fourier(v) for k, v in mean.items()}
+        hip_arc = np.ptp(fourier_eval(self.coefficients["hip_flexion"], np.linspace(0, 1, 101)))
+        self._arm_gain = -ARM_ARC / hip_arc
         self.sd = {k: float(np.mean(v)) for k, v in sd.items()}
         # the opposite foot's toe-off ends the first double support: at the adults' free speed,
         # half their double support (the middle of ADULT's band; the children's is a few % of
@@ -206,8 +208,7 @@ class _Targets:
         """[deg] a shoulder's flexion from standing at its own leg's phase ``phi``: the hip's
         flexion about its mean, scaled to :data:`ARM_ARC` and reversed."""
         hip = self.coefficients["hip_flexion"]
-        arc = np.ptp(fourier_eval(hip, np.linspace(0.0, 1.0, 101)))
-        return -ARM_ARC / arc * (fourier_eval(hip, phi) - hip[0])
+        return self._arm_gain * (fourier_eval(hip, phi) - hip[0])
 
     def __call__(self, name, phi):
         return fourier_eval(self.coefficients[name], phi)
