@@ -103,15 +103,19 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument(
         "--from-standing",
         action="store_true",
-        help="(--gait human) start standing still and stop standing, the feet side by side "
-        "(the last of --steps brings them together; it stops from 0.8 m/s, not yet from a "
-        "person's free speed)",
+        help="start standing still and stop standing, the feet side by side. person: two "
+        "steps to start and two to stop, optimised into and out of the cycle (shipped for "
+        "the default bodies at their free speed; else optimised once, a few minutes), and "
+        "(STEPS - 5) // 2 whole strides (at least one) between; human: the last of --steps "
+        "brings the feet together (it stops from 0.8 m/s, not from a person's free speed)",
     )
     w.add_argument(
         "--radius",
         type=float,
-        help="(--gait human) walk along a circle of this radius [m], positive turning left "
-        "(at least 0.5; a 2 m circle walks at 0.8 m/s, not yet at a person's free speed)",
+        help="walk along a circle of this radius [m], positive turning left. person: a "
+        "stride optimised along the circle, its speed the optimum's (at least 1 m; shipped "
+        "for the default bodies at 2 m, else optimised once, a few minutes); human: the "
+        "fitted cycle bent onto it (at least 0.5; a 2 m circle walks at 0.8 m/s)",
     )
     w.add_argument(
         "--report",
@@ -521,7 +525,7 @@ def _walk(args) -> int:
                             ("--record-rate", args.record_rate != 100.0)) if v]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait person or human")
-    _only_human(args)
+    _on_ground_only(args)
     h = load_any(args, ball_joints="quaternion")
     kw = {"steps": args.steps}
     if args.step_length is not None:
@@ -562,8 +566,6 @@ def _ground_walk_pushes(args) -> list[tuple[str, float]]:
              if v is not None]  # fmt: skip
     if given:
         raise HumanoidError(f"{', '.join(given)}: only with --gait welded")
-    if args.gait == "person":
-        _only_human(args)
     pushes = []
     for spec in args.push:
         direction, _, fraction = spec.partition(":")
@@ -577,12 +579,20 @@ def _ground_walk_pushes(args) -> list[tuple[str, float]]:
                 f"{', '.join(DIRECTIONS)}, FRACTION of body weight in (0, 2]"
             )
         pushes.append((direction, value))
+    if args.largest_push and (args.radius is not None or args.from_standing):
+        raise HumanoidError("--largest-push: a straight walk's; not with --radius or "
+                            "--from-standing")  # fmt: skip
+    if pushes and args.radius is not None:
+        raise HumanoidError("--push: a push is along the room's axes; not with --radius")
     if pushes and args.steps < 8:
         raise HumanoidError(
             f"--push acts in the third stride: give --steps 8 or more, not {args.steps}"
         )
-    if args.from_standing and (pushes or args.steps < 3 or args.radius is not None):
-        raise HumanoidError("--from-standing: give --steps 3 or more, and no --push or --radius")
+    least = 3 if args.gait == "human" else 7
+    if args.from_standing and (pushes or args.steps < least or args.radius is not None):
+        raise HumanoidError(
+            f"--from-standing: give --steps {least} or more, and no --push or --radius"
+        )
     if not (math.isfinite(args.record_rate) and 0.0 < args.record_rate * args.dt <= 1.0 + 1e-9):
         raise HumanoidError(
             f"--record-rate must be positive and at most 1/dt = {1.0 / args.dt:g} Hz, got "
@@ -610,9 +620,7 @@ def _walk_on_ground(args) -> int:
         print(f"largest push survived  {found.survived:.3f} BW {found.direction} "
               f"(0.1 s at mid-stance; smallest fall: {fell})")  # fmt: skip
         return 0
-    kw = {}
-    if args.gait == "human":
-        kw = {"from_standing": args.from_standing, "radius": args.radius}
+    kw = {"from_standing": args.from_standing, "radius": args.radius}
     walk = walker(args.steps, [pelvis_push(h, cycle, f, d) for d, f in pushes], quiet=args.quiet,
                   record_rate=args.record_rate, **kw)  # fmt: skip
     h = walk.body or h  # the body that walked (the fitted cycle's: its toes locked)
@@ -636,10 +644,10 @@ def _walk_on_ground(args) -> int:
         page = export_html(h, args.html, traj=walk.trajectory, title="walk")
         print(f"viewer       {page}")
     speed = cycle.speed if args.gait == "person" else cycle.gait["speed"]
-    if not walk.completed and args.from_standing:
+    if not walk.completed and args.from_standing and args.gait == "human":
         print(f"humanoid walk: it did not stop standing from {speed:.2f} m/s; "
-              "it stops from 0.8 m/s (--speed 0.8), not yet from a person's free speed",
-              file=sys.stderr)  # fmt: skip
+              "it stops from 0.8 m/s (--speed 0.8), not yet from a person's free speed; "
+              "--gait person starts and stops at it", file=sys.stderr)  # fmt: skip
     elif not walk.completed and args.speed is None and not pushes:
         print(f"humanoid walk: it fell at its free speed ({speed:.2f} m/s, a "
               "person's for its leg length); a robot may walk slower: try --speed 0.6",
@@ -647,12 +655,11 @@ def _walk_on_ground(args) -> int:
     return 0 if walk.completed else 3
 
 
-def _only_human(args) -> None:
+def _on_ground_only(args, gaits: str = "person or human") -> None:
     given = [o for o, v in (("--from-standing", args.from_standing),
                             ("--radius", args.radius is not None)) if v]  # fmt: skip
     if given:
-        raise HumanoidError(f"{', '.join(given)}: only with --gait human (the optimised cycle "
-                            "walks straight on at a steady speed)")  # fmt: skip
+        raise HumanoidError(f"{', '.join(given)}: only with --gait {gaits}")
 
 
 def _ground_walker(args, h):
@@ -669,12 +676,16 @@ def _ground_walker(args, h):
                                   pushes=pushes, **kw)  # fmt: skip
 
         return cycle, walk
-    from .walking.person import walk_cycle
+    from .walking.person import walk_cycle, walk_from_standing
 
     cycle = person_gait(h, args.speed, quiet=args.quiet)
 
-    def walk(steps, pushes, **kw):
-        return walk_cycle(h, cycle, steps, dt=args.dt, mu=args.mu, pushes=pushes, **kw)
+    def walk(steps, pushes, from_standing=False, radius=None, **kw):
+        if from_standing:  # two steps to start, two to stop, whole strides between
+            strides = max(1, (steps - 5) // 2)
+            return walk_from_standing(h, cycle, strides, dt=args.dt, mu=args.mu, **kw)
+        return walk_cycle(h, cycle, steps, dt=args.dt, mu=args.mu, pushes=pushes,
+                          radius=radius, **kw)  # fmt: skip
 
     return cycle, walk
 

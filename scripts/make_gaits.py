@@ -2,10 +2,13 @@
 (with toes) and with one-piece feet (``--no-toes``), at their free speed from scratch, and the
 bodies with toes at :data:`~humanoid.optimal.cycle.SHIPPED_SPEEDS`, each warm-started from its
 neighbour towards the free speed, into ``humanoid/data/gaits``; the tracking objective, and for
-the bodies with toes at their free speed the predictive one too (from the tracking optimum).
+the bodies with toes at their free speed the predictive one too (from the tracking optimum),
+and the start from standing, the stop to standing and the turn along a circle of each radius in
+:data:`RADII` of their free-speed tracking cycle.
 
 Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
-:data:`BODIES`). Each line printed says what was solved, in how many iterations and seconds,
+:data:`BODIES`); ``--transitions BODY ...`` solves only the starts, stops and turns, of the
+cycles already shipped. Each line printed says what was solved, in how many iterations and seconds,
 and the collocation's largest defect.
 """
 
@@ -14,8 +17,22 @@ from __future__ import annotations
 import sys
 
 import humanoid as hm
-from humanoid.optimal.cycle import DATA, SHIPPED_SPEEDS, gait_file, save_gait
+from humanoid.optimal.cycle import (
+    DATA,
+    KINDS,
+    SHIPPED_SPEEDS,
+    TurnSolution,
+    gait_file,
+    save_gait,
+    save_transition,
+    save_turn,
+    stored_gait,
+    transition_file,
+    turn_file,
+)  # fmt: skip
 from humanoid.optimal.gait import optimise_gait
+from humanoid.optimal.transitions import optimise_start, optimise_stop
+from humanoid.optimal.turn import optimise_turn
 
 BODIES = {  # name: the shipped body's name, and whether it has toes
     "adult_male": ("adult_male", True),
@@ -23,10 +40,13 @@ BODIES = {  # name: the shipped body's name, and whether it has toes
     "adult_male_no_toes": ("adult_male", False),
     "adult_female_no_toes": ("adult_female", False),
 }
+RADII = (2.0,)  # [m] the turns shipped (positive: to the left)
 SHIPPED = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
 
 
 def main(names) -> int:
+    only_transitions = "--transitions" in names
+    names = [n for n in names if n != "--transitions"]
     for name in names or BODIES:
         if name not in BODIES:
             print(f"make_gaits: no body {name!r}; there are {', '.join(BODIES)}", file=sys.stderr)
@@ -35,10 +55,21 @@ def main(names) -> int:
         h = hm.load(body)
         if not toes:
             h = hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
-        free = optimise_gait(h, None, "tracking")
-        if not _saved(name, free):
+        free = stored_gait(h) if only_transitions else optimise_gait(h, None, "tracking")
+        if free is None or not (only_transitions or _saved(name, free)):
             return 1
         if not toes:
+            continue
+        for kind, solve in zip(KINDS, (optimise_start, optimise_stop), strict=True):
+            tr = solve(free)
+            if not _saved(f"{name} {kind}", tr, transition_file(free, kind)):
+                return 1
+        for radius in RADII:
+            turn = optimise_turn(free, radius)
+            if not _saved(f"{name} turn {radius:g} m ({turn.speed:.2f} m/s)", turn,
+                          turn_file(free, radius)):  # fmt: skip
+                return 1
+        if only_transitions:
             continue
         if not _saved(name, optimise_gait(h, free.speed, "predictive", warm=free)):
             return 1
@@ -53,12 +84,18 @@ def main(names) -> int:
     return 0
 
 
-def _saved(name: str, g) -> bool:
-    """Print what was solved; store it if IPOPT succeeded."""
+def _saved(name: str, g, transition: str | None = None) -> bool:
+    """Print what was solved (a gait, or a transition or turn to store as ``transition``);
+    store it if IPOPT succeeded."""
     s = g.solution
-    print(f"{name} {g.objective}: {g.speed:.2f} m/s, {s.status}, {s.iterations} iterations, "
-          f"{s.seconds:.0f} s, defect {s.defect:.1e}", flush=True)  # fmt: skip
-    if s.success:
+    what = "" if transition else f" {g.objective}: {g.speed:.2f} m/s,"
+    print(f"{name}{what} {s.status}, {s.iterations} iterations, {s.seconds:.0f} s, defect "
+          f"{s.defect:.1e}", flush=True)  # fmt: skip
+    if s.success and transition and isinstance(g, TurnSolution):
+        save_turn(g, DATA / transition)
+    elif s.success and transition:
+        save_transition(g, DATA / transition)
+    elif s.success:
         save_gait(g, DATA / gait_file(g.om, round(g.speed, 2), g.objective))
     return s.success
 

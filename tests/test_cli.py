@@ -402,10 +402,14 @@ def test_feet_option_names_the_soles_and_bad_names_are_one_line(capsys):
     (["--gait", "human", "--push", "up:0.1"], "--push 'up:0.1': give DIRECTION:FRACTION"),
     (["--gait", "human", "--push", "left:x"], "--push 'left:x': give DIRECTION:FRACTION"),
     (["--gait", "human", "--push", "left:0.1"], "--push acts in the third stride"),
-    (["--from-standing"], "--from-standing: only with --gait human"),
-    (["--gait", "welded", "--from-standing"], "--from-standing: only with --gait human"),
+    (["--from-standing"], "--from-standing: give --steps 7 or more"),
+    (["--gait", "welded", "--from-standing"],
+     "--from-standing: only with --gait person or human"),
     (["--gait", "human", "--from-standing"], "--from-standing: give --steps 3 or more"),
-    (["--radius", "2"], "--radius: only with --gait human"),
+    (["--gait", "welded", "--radius", "2"], "--radius: only with --gait person or human"),
+    (["--radius", "0.5"], "a circle's radius must be finite and at least 1.0 m"),
+    (["--radius", "2", "--push", "left:0.1"], "--push: a push is along the room's axes"),
+    (["--from-standing", "--largest-push", "left"], "--largest-push: a straight walk's"),
 ])  # fmt: skip
 def test_walk_options_are_checked_in_their_own_words(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) if "choice" in message else contextlib.nullcontext():

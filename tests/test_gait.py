@@ -321,3 +321,45 @@ def test_a_cycle_stored_under_another_objective_revision_is_not_found(tmp_path, 
     assert 0.93 not in stored(om, "tracking")
     shutil.copy(shipped, tmp_path / "gaits" / gait_file(om, 0.93, "tracking"))
     assert 0.93 in stored(om, "tracking")
+
+
+def test_a_transition_or_turn_is_found_only_for_its_own_cycle(tmp_path, monkeypatch):
+    """The shipped start, stop and 2 m turn of the male cycle are found for it, and not for
+    another body's cycle or for another cycle of the same body at that speed (a cache the
+    cycle was optimised again into): such a file is skipped, not walked."""
+    import dataclasses
+
+    from humanoid.optimal.cycle import (
+        KINDS,
+        load_transition,
+        load_turn,
+        stored,
+        stored_gait,
+        stored_transition,
+        stored_turn,
+        transition_file,
+        turn_file,
+    )  # fmt: skip
+
+    monkeypatch.setenv("HUMANOID_CACHE", str(tmp_path))
+    male = stored_gait(hm.load("adult_male"))
+    female = stored_gait(hm.load("adult_female"))
+    for kind in KINDS:
+        assert stored_transition(male, kind).kind == kind
+    assert stored_turn(male, 2.0).radius == 2.0
+    assert stored_turn(male, 3.0) is None  # not shipped
+    assert sorted(stored(male.om, "tracking")) == [0.8, 1.0, 1.2, 1.38, 1.6, 1.8]  # gaits only
+    path = next(p for p in stored(male.om, "tracking").values()).parent
+    with pytest.raises(HumanoidError, match="another body"):
+        load_transition(path / transition_file(male, "start"), female)
+    # the same body, its cycle optimised again (here: moved 1 mm)
+    x = male.solution.x.copy()
+    x[:, 0] += 1e-3
+    other = dataclasses.replace(male, solution=dataclasses.replace(male.solution, x=x))
+    with pytest.raises(HumanoidError, match="another gait cycle"):
+        load_transition(path / transition_file(male, "stop"), other)
+    with pytest.raises(HumanoidError, match="another gait cycle"):
+        load_turn(path / turn_file(male, 2.0), other)
+    assert stored_transition(other, "start") is None and stored_turn(other, 2.0) is None
+    with pytest.raises(HumanoidError, match="a transition is one of"):
+        stored_transition(male, "walk")

@@ -1,6 +1,8 @@
 """Optimal control of the body: its dynamics as casadi expressions (:mod:`.dynamics`), the body
 in vector-space coordinates (:mod:`.coordinates`), direct collocation through its rigid contact
-dynamics (:mod:`.problem`) and a person's gait cycle optimised with it (:mod:`.gait`).
+dynamics (:mod:`.problem`) and a person's gait cycle optimised with it (:mod:`.gait`), its
+start from standing and stop to standing (:mod:`.transitions`) and its turn along a circle
+(:mod:`.turn`).
 
 :mod:`.coordinates` and :mod:`.cycle` (a solved cycle as data, its storage) need numpy and
 Pinocchio only: a walk reads a shipped or cached cycle without casadi. The rest needs casadi

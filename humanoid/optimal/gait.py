@@ -264,13 +264,13 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
         c.warm_start(warm.solution)
         opti.set_initial(step, warm.step_length * speed / warm.speed)
     standing = om.from_body(h.standing_configuration())
-    terms = _objective(c, om, objective, gait, standing)
+    terms = objective_terms(c, om, objective, gait, standing)
     cost = sum(terms.values())
     if warm is None and objective == "tracking":
         # first without the hip's moment, the arms' swing and the pelvis's and trunk's tighter
         # weights, stopped at a rough point (ROUGH); then with them from there, as from a warm
         # start
-        first = _objective(c, om, objective, gait, standing, first=True)
+        first = objective_terms(c, om, objective, gait, standing, first=True)
         sol = c.solve(sum(first.values()), terms=first, verbose=verbose, max_iter=max_iter,
                       options=ROUGH)  # fmt: skip
         if sol.success:
@@ -302,11 +302,12 @@ def _kinematic_guess(om, cycle, c, durations):
     return xs, vs, np.gradient(vs, t_nodes, axis=0)
 
 
-def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standing,
-               first: bool = False) -> dict:  # fmt: skip
+def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, standing,
+               first: bool = False, heading=None) -> dict:  # fmt: skip
     """The objective's terms (``standing``: the posture the untracked joints stay near: a
     fixed target, so that the optimum does not depend on the initial guess; ``first``: the
-    tracking objective's first solve from scratch, see :func:`_tracking_terms`)."""
+    tracking objective's first solve from scratch, see :func:`_tracking_terms`; ``heading``:
+    the problem is a whole stride along a curve, see :func:`_tracking_terms`)."""
     N, w = c.N, c.node_weights()
     T = c.total_duration()
     times = c.node_times()
@@ -329,21 +330,24 @@ def _objective(c: Collocation, om: OcpModel, objective: str, gait: dict, standin
         level = [om.index("root_roll"), om.index("root_yaw")]
         terms["pelvis"] = W_PELVIS_PREDICTIVE * _squares(c, level, standing) / T
         return terms
-    terms.update(_tracking_terms(c, om, gait, standing, first))
+    terms.update(_tracking_terms(c, om, gait, standing, first, heading))
     return terms
 
 
-def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: bool) -> dict:
-    """The tracking objective's own terms (see :func:`_objective`): the norms' angles, ground
+def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: bool,
+                    heading=None) -> dict:  # fmt: skip
+    """The tracking objective's own terms (see :func:`objective_terms`): the norms' angles, ground
     forces and sagittal moments, the arms' swing, the double support's event, and the untracked
     joints near standing. ``first``: the first of two solves from scratch (a continuation), with
     the ankle's moment only (:data:`FIRST_MOMENTS`), the pelvis at its SD and the trunk and
-    arms at the small posture weight."""
+    arms at the small posture weight. ``heading``: per node, the direction of travel [rad]
+    (expressions): the problem is then a whole stride along a curve (not a half), the pelvis's
+    rotation is tracked about the heading and the anterior force along it."""
     N, w = c.N, c.node_weights()
     T = c.total_duration()
     times = c.node_times()
     targets = _Targets(gait["dimensionless_speed"])
-    cycle = 2 * T
+    cycle = 2 * T if heading is None else T
     idx = om.index
     rd = math.radians
     tracked = set()
@@ -376,14 +380,17 @@ def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: b
         e.append((c.X[idx("root_pitch"), k] - tilt) / rd(targets.sd["pelvis_tilt"]))
         e.append(pelvis * (c.X[idx("root_roll"), k] + rd(1) * targets("pelvis_obliquity", phi))
                  / rd(targets.sd["pelvis_obliquity"]))  # fmt: skip
-        e.append(pelvis * (c.X[idx("root_yaw"), k] - rd(1) * targets("pelvis_rotation", phi))
-                 / rd(targets.sd["pelvis_rotation"]))  # fmt: skip
+        yaw = rd(1) * targets("pelvis_rotation", phi)
+        if heading is not None:
+            yaw = yaw + heading[k]
+        e.append(pelvis * (c.X[idx("root_yaw"), k] - yaw) / rd(targets.sd["pelvis_rotation"]))
         angle = angle + w[k] * ca.sumsqr(ca.vertcat(*e))
         f = []
         for pts, phase in ((right_all, phi), (left_all, phi + 0.5)):
             F = c.foot_force(k, pts) / c.weight
+            ahead = F[0] if heading is None else F[0] * _cos(heading[k]) + F[1] * _sin(heading[k])
             f.append((F[2] - targets("grf_vertical", phase)) / targets.sd["grf_vertical"])
-            f.append((F[0] - targets("grf_anterior", phase)) / targets.sd["grf_anterior"])
+            f.append((ahead - targets("grf_anterior", phase)) / targets.sd["grf_anterior"])
         force = force + w[k] * ca.sumsqr(ca.vertcat(*f))
         # sagittal internal moments per kg (extensor, plantarflexor +: against the hinge's
         # flexion, dorsiflexion)

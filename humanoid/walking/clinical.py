@@ -96,22 +96,30 @@ class LegChain:
         thigh = data.oMi[self.thigh].rotation @ self.knee_placement
         return pelvis, thigh, data.oMi[self.knee].rotation, data.oMf[self.sole].rotation
 
-    def angles(self, data) -> np.ndarray:
-        """The side's :data:`ANGLES` [deg] from kinematics already computed in ``data``."""
+    def angles(self, data, heading: float = 0.0) -> np.ndarray:
+        """The side's :data:`ANGLES` [deg] from kinematics already computed in ``data``; the
+        pelvis's against the room turned to ``heading`` [rad] (the direction of progression,
+        about the vertical: 0 along x)."""
         pelvis, thigh, shank, foot = self.segments(data)
         p0, t0, s0, f0 = self.zero
         sign = 1.0 if self.side == "right" else -1.0
         # each segment against the one above it, in the standing posture's world axes:
         # distal = proximal proximal0^T D distal0, so D = proximal0 proximal^T distal distal0^T
-        tilt, obl, rot = _yxz(pelvis @ p0.T)  # the pelvis against the room
         hip = _yxz(p0 @ pelvis.T @ thigh @ t0.T)
         knee = _yxz(t0 @ thigh.T @ shank @ s0.T)
         ankle = _yxz(s0 @ shank.T @ foot @ f0.T)
-        return np.degrees([
-            tilt, -sign * obl, sign * rot,
-            -hip[0], sign * hip[1], sign * hip[2],
-            knee[0], -ankle[0],
-        ])  # fmt: skip
+        return np.concatenate([self.pelvis_angles(pelvis, heading), np.degrees([
+            -hip[0], sign * hip[1], sign * hip[2], knee[0], -ankle[0],
+        ])])  # fmt: skip
+
+    def pelvis_angles(self, pelvis: np.ndarray, heading: float = 0.0) -> np.ndarray:
+        """(tilt, obliquity, rotation) [deg] of the pelvis's world rotation against the room
+        turned to ``heading`` [rad] (a gait lab's axes along the direction of progression)."""
+        c, s = math.cos(heading), math.sin(heading)
+        room = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        tilt, obl, rot = _yxz(room.T @ pelvis @ self.zero[0].T)
+        sign = 1.0 if self.side == "right" else -1.0
+        return np.degrees([tilt, -sign * obl, sign * rot])
 
 
 def _yxz(R: np.ndarray) -> tuple[float, float, float]:

@@ -525,6 +525,18 @@ class GaitAnalysis:
         return out
 
 
+def progression(com: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:
+    """[rad] the direction of progression at each sample: of the centre of mass's (N, 3)
+    displacement over ``window`` [s] about it (a stride cancels its sway; clipped to the
+    record at its ends), unwrapped."""
+    ahead = np.column_stack([np.interp(np.clip(t + window / 2, t[0], t[-1]), t, com[:, i])
+                             for i in range(2)])  # fmt: skip
+    behind = np.column_stack([np.interp(np.clip(t - window / 2, t[0], t[-1]), t, com[:, i])
+                              for i in range(2)])  # fmt: skip
+    d = ahead - behind
+    return np.unwrap(np.arctan2(d[:, 1], d[:, 0])) if len(t) else np.zeros(0)
+
+
 def low_pass(x: np.ndarray, t: np.ndarray, cutoff: float = CUTOFF) -> np.ndarray:
     """``x`` (N, ...) sampled at times ``t`` [s], through a zero-lag Butterworth low-pass at
     ``cutoff`` [Hz] (second order, forwards and backwards); unchanged if the sampling is too
@@ -571,14 +583,18 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     Args:
         h: The humanoid that walked (a :class:`GroundWalk` knows its own: its toes may have
             been locked). walk: the :class:`GroundWalk` (or its record).
-        skip: Cycles that start before this time [s] are left out (default one cycle period:
-            the start from the reference's state is not a steady walk).
+        skip: Cycles that start before this time [s] are left out (default: the steady walk's
+            start, the reference's ``steady[0]`` if it says, else one cycle period: the start
+            from the reference's state is not a steady walk). Cycles that end after the
+            reference's ``steady[1]`` (a stop) are left out too.
     """
     rec = walk.record if isinstance(walk, GroundWalk) else walk
-    period = walk.cycle.period if isinstance(walk, GroundWalk) else 1.0
+    steady = (1.0, math.inf)
+    if isinstance(walk, GroundWalk):
+        steady = getattr(walk.cycle, "steady", (walk.cycle.period, math.inf))
     if isinstance(walk, GroundWalk) and walk.body is not None:
         h = walk.body
-    skip = period if skip is None else skip
+    skip = steady[0] if skip is None else skip
     model = h.model
     t, g = rec.t, float(np.linalg.norm(model.gravity.linear))
     weight = rec.mass * g
@@ -591,9 +607,11 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     angles = {s: np.zeros((len(ks), len(ANGLES) + len(ARM_ANGLES))) for s in SIDES}
     com = np.zeros((len(ks), 3))
     soles = {s: np.zeros((len(ks), 3)) for s in SIDES}
+    pelvis = np.zeros((len(ks), 3, 3))
     for i, k in enumerate(ks):  # one forward kinematics per sample serves all three
         pin.framesForwardKinematics(model, data, rec.q[k])
         com[i] = pin.centerOfMass(model, data, pin.KinematicLevel.POSITION, False)
+        pelvis[i] = data.oMi[1].rotation
         for s in SIDES:
             angles[s][i, : len(ANGLES)] = chains[s].angles(data)
             if arms:
@@ -610,6 +628,14 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
         events[s] = {"strike": [t[a] for a, _ in contacts[s] if a > 0],
                      "off": [t[b - 1] for _, b in contacts[s] if b < len(t)]}  # fmt: skip
     both = loaded["left"] & loaded["right"]
+    # the pelvis against the direction of progression (a curve turns it; straight on, it is
+    # the walk's drift): the centre of mass's path over one stride about each sample
+    strikes = np.diff([t[a] for a, _ in contacts["right"] if a > 0])
+    heading = progression(com, tk, float(np.median(strikes)) if len(strikes) else 1.0)
+    for s in SIDES:
+        angles[s][:, :3] = [
+            chains[s].pelvis_angles(R, a) for R, a in zip(pelvis, heading, strict=True)
+        ]
     # forces, moments and powers low-passed before the cycles are sampled
     force = {s: low_pass(rec.force[s], t) for s in SIDES}
     kinetics = {s: low_pass(rec.kinetics[s], t) for s in SIDES}
@@ -647,7 +673,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             })  # fmt: skip
         for i0, i1 in zip(strikes[:-1], strikes[1:], strict=True):
             t0, t1 = t[i0], t[i1]
-            if t0 < skip:
+            if t0 < skip or t1 > steady[1]:
                 continue
             offs = [b for _, b in contacts[s] if i0 < b < i1]
             others = [a for a, _ in contacts[other] if i0 < a < i1]
@@ -665,7 +691,8 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
             u = stride / L if L > 0 else np.array([1.0, 0.0])
             f = at(force[s], t, tt) / weight
             curves[s]["grf_vertical"].append(f[:, 2])
-            curves[s]["grf_anterior"].append(f[:, :2] @ u)
+            along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
+            curves[s]["grf_anterior"].append(f[:, 0] * np.cos(along) + f[:, 1] * np.sin(along))
             kin = at(kinetics[s], t, tt) / rec.mass
             for j, name in enumerate(_MOMENTS):
                 curves[s][name].append(kin[:, j])

@@ -16,6 +16,12 @@ actuated and nothing is placed kinematically.
 - **Costs.** The cycle's forces (per point, in body weights), the joints' trajectories, the
   pelvis's orientation, the centre of mass and the swing foot's pose, each a PD law around the
   cycle's acceleration.
+
+The same tracker walks from standing and stops standing (:func:`walk_from_standing`: a start
+and a stop optimised into and out of the cycle, :mod:`humanoid.optimal.transitions`) and along
+a circle (:func:`walk_cycle`'s ``radius``: a whole stride optimised along it,
+:mod:`humanoid.optimal.turn`): each is a reference of the same kind, its forces and contacts
+the optimum's.
 """
 
 from __future__ import annotations
@@ -30,10 +36,18 @@ import pinocchio as pin
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
+from ..optimal.cycle import (
+    KINDS,
+    TurnSolution,
+    check_radius,
+    rotation,
+    stored_transition,
+    stored_turn,
+)  # fmt: skip
 from .gait import FALL_HEIGHT, PHASE0, GaitRecorder, GroundWalk
 from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 
-__all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle"]
+__all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle", "walk_from_standing"]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on the same body
@@ -79,7 +93,11 @@ class CycleReference:
     Within each collocation interval x is the cubic through the nodes' x and v (so v is
     continuous and a piecewise linear, as trapezoidal collocation has it); forces are
     interpolated linearly. Lap n of the stride is the first moved 2 n steps forward.
+    :meth:`through` builds the motion of a start from standing, whole strides and a stop (not
+    periodic: after its end, the last state).
     """
+
+    periodic = True
 
     def __init__(self, gait) -> None:
         self.gait, self.om = gait, gait.om
@@ -87,10 +105,67 @@ class CycleReference:
         self.period = float(self.t[-1])
         self.stride = 2.0 * gait.step_length
         self.sets = gait.contact_sets()
+        # a stride along a circle (:class:`~humanoid.optimal.cycle.TurnSolution`) laps turned
+        self.turn = gait.turn if isinstance(gait, TurnSolution) else None
+        # [s] the steady walk: a gait lab's cycles are taken within it
+        self.steady = (self.period, math.inf)
+
+    @classmethod
+    def through(cls, gait, start, stop, strides: int) -> CycleReference:
+        """A start (:func:`~humanoid.optimal.transitions.optimise_start`), ``strides`` whole
+        strides of ``gait`` and a stop, one after the other: each segment's first node is the
+        previous one's last (where a transition meets the cycle, its own state)."""
+        if strides < 1:
+            raise HumanoidError(f"a walk from standing needs a whole stride, got {strides}")
+        if isinstance(gait, TurnSolution):
+            raise HumanoidError("a walk from standing starts and stops a straight cycle")
+        ref = cls(gait)
+        cycle = (ref.t, ref.x, ref.v, ref.forces, ref.sets)
+        steady_from = float(start.solution.t[-1])
+        # the start meets the cycle at its left heel strike, half a stride in: the stride's
+        # second half first, moved to where the start ends
+        h = len(gait.solution.t) - 1
+        s = start.solution
+        shift = start.join - gait.step_length
+        half = (ref.t[h:], ref.x[h:], ref.v[h:], {p: f[h:] for p, f in ref.forces.items()},
+                ref.sets[h:], shift)  # fmt: skip
+        segments = [(s.t, s.x, s.v, s.forces, start.contact_sets(), 0.0), half]
+        shift += ref.stride
+        for _ in range(strides):
+            segments.append((*cycle, shift))
+            shift += ref.stride
+        s = stop.solution
+        segments.append((s.t, s.x, s.v, s.forces, stop.contact_sets(), shift))
+        steady_until = steady_from + (strides + 0.5) * ref.period
+        names = sorted({p for seg in segments for p in seg[3]})
+        t, x, v, sets = [0.0], [segments[0][1][0]], [segments[0][2][0]], []
+        forces = {p: [segments[0][3].get(p, np.zeros((1, 3)))[0]] for p in names}
+        for ts, xs, vs, fs, ss, dx in segments:
+            t += list(t[-1] + ts[1:] - ts[0])
+            xs = xs[1:].copy()
+            xs[:, 0] += dx
+            x += list(xs)
+            v += list(vs[1:])
+            for p in names:
+                forces[p] += list(fs[p][1:] if p in fs else np.zeros((len(ts) - 1, 3)))
+            sets += list(ss)
+        ref.t, ref.x, ref.v = np.array(t), np.array(x), np.array(v)
+        ref.forces = {p: np.array(f) for p, f in forces.items()}
+        ref.sets = sets
+        # (a heel strike's event, from the force, lands within a few % of the cycle's)
+        slack = 0.05 * ref.period
+        ref.steady = (steady_from - slack, steady_until + slack)
+        ref.periodic = False
+        ref.period = float(ref.t[-1])
+        ref.stride = 0.0
+        return ref
 
     def _interval(self, t: float) -> tuple[int, int, float]:
-        lap = math.floor(t / self.period)
-        tau = t - lap * self.period
+        if self.periodic:
+            lap = math.floor(t / self.period)
+            tau = t - lap * self.period
+        else:
+            lap, tau = 0, min(max(t, 0.0), self.period)
         k = int(np.clip(np.searchsorted(self.t, tau, side="right") - 1, 0, len(self.t) - 2))
         return lap, k, tau - self.t[k]
 
@@ -112,6 +187,8 @@ class CycleReference:
         x = h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1
         v = (d00 * x0 + d10 * h * v0 + d01 * x1 + d11 * h * v1) / h
         a = (e00 * x0 + e10 * h * v0 + e01 * x1 + e11 * h * v1) / h**2
+        if self.turn is not None:
+            return self.gait.lapped(x, v, a, lap)
         x = x.copy()
         x[0] += lap * self.stride
         return x, v, a
@@ -124,13 +201,25 @@ class CycleReference:
         _, v1 = self.om.to_body(*self.coordinates(t + h)[:2])
         return q, vb, (v1 - v0) / (2 * h)
 
+    def heading(self, t: float) -> float:
+        """[rad] the direction of travel at t: 0 straight on; along a circle, turning at the
+        stride's steady rate (positive to the left)."""
+        if self.turn is None:
+            return 0.0
+        lap, k, s = self._interval(t)
+        return self.turn * (lap + (self.t[k] + s) / self.period)
+
     def force(self, t: float, point: str) -> np.ndarray:
+        """[N] the cycle's force at ``point`` at t, world axes."""
         lap, k, s = self._interval(t)
         f = self.forces.get(point)
         if f is None:
             return np.zeros(3)
         u = s / (self.t[k + 1] - self.t[k])
-        return (1 - u) * f[k] + u * f[k + 1]
+        out = (1 - u) * f[k] + u * f[k + 1]
+        if self.turn is not None and lap:
+            out[:2] = rotation(lap * self.turn) @ out[:2]
+        return out
 
     def contacts(self, t: float) -> set:
         """The cycle's points in contact at t."""
@@ -141,7 +230,7 @@ class CycleReference:
         """[s] until the cycle lifts ``point`` (inf if it stays down for a whole stride)."""
         lap, k, s = self._interval(t)
         n = len(self.sets)
-        for j in range(n):
+        for j in range(n if self.periodic else n - k):
             if point not in self.sets[(k + j) % n]:
                 kk = k + j
                 lapj, kj = divmod(kk, n)
@@ -188,7 +277,9 @@ class CycleTracker(Effect):
         z = pin.centerOfMass(model, self.data, reference.state(t0)[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
         self.loaded_before = set()
-        self.com_ref = None  # the last step's reference centre of mass: x [m], x' [m/s]
+        # the last step's reference centre of mass: (x, y) [m], the direction of travel, and
+        # the speed along it [m/s]
+        self.com_ref = None
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -240,7 +331,9 @@ class CycleTracker(Effect):
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
         c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
-        self.com_ref = (float(c_r[0]), float(dc_r[0]))
+        heading = ref.heading(tc)
+        ahead = np.array([math.cos(heading), math.sin(heading)])
+        self.com_ref = (c_r[:2].copy(), ahead, float(dc_r[:2] @ ahead))
         Jcom = pin.jacobianCenterOfMass(model, data, q)
         task(Jcom, ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc) - com_drift, g.w_com)
         # a swing foot: its pose, its landing moved by the capture point's error
@@ -293,16 +386,16 @@ class CycleTracker(Effect):
 
     def _advance_clock(self, t: float, q) -> float:
         """The cycle's time at t: real time, sped up or slowed down by how far the body's
-        centre of mass is ahead of the cycle's at the last step (a phase variable, as hybrid
-        zero dynamics uses one)."""
+        centre of mass is ahead of the cycle's (along the direction of travel) at the last step
+        (a phase variable, as hybrid zero dynamics uses one)."""
         g = self.gains
         if self.t_last is not None:
             rate = 1.0
             if g.phase_time > 0:
-                cx = pin.centerOfMass(self.model, self.data, q)[0]
-                c_p, dc_p = self.com_ref
-                speed = max(dc_p, 0.3)
-                rate = float(np.clip(1.0 + (cx - c_p) / (speed * g.phase_time), 0.3, 2.0))
+                c = pin.centerOfMass(self.model, self.data, q)[:2]
+                c_p, ahead, dc_p = self.com_ref
+                lead = float((c - c_p) @ ahead)  # along the direction of travel
+                rate = float(np.clip(1.0 + lead / (max(dc_p, 0.3) * g.phase_time), 0.3, 2.0))
             self.tc += (t - self.t_last) * rate
         self.t_last = t
         return self.tc
@@ -377,19 +470,80 @@ def smooth(u: float) -> float:
 
 
 def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, gains=None,
-               phase0: float = PHASE0, quiet: bool = True, pushes=(),
-               record_rate=100.0):  # fmt: skip
-    """Simulate ``h`` walking ``steps`` heel strikes along the optimised ``gait``; returns a
+               phase0: float = PHASE0, quiet: bool = True, pushes=(), record_rate=100.0,
+               radius: float | None = None):  # fmt: skip
+    """Simulate ``h`` walking ``steps`` heel strikes along the optimised ``gait`` (along a
+    circle of ``radius`` [m], positive turning left, or straight on); returns a
     :class:`~humanoid.walking.gait.GroundWalk`."""
-    from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
-    from ..simulation import Simulation
-
     if steps < 1:
         raise HumanoidError(f"steps must be at least 1, got {steps}")
+    if radius is not None:
+        gait = _turned(gait, check_radius(radius), quiet)
     ref = CycleReference(gait)
     t0 = phase0 * ref.period
     first = (1.0 - phase0) % 0.5 or 0.5
     duration = (first + (steps - 1) / 2) * ref.period + 0.3
+    return _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate)
+
+
+def walk_from_standing(h, gait, strides: int = 2, *, start=None, stop=None, dt: float = 1e-3,
+                       mu: float = 0.8, gains=None, quiet: bool = True, rest: float = 1.0,
+                       record_rate=100.0):  # fmt: skip
+    """Simulate ``h`` starting from standing, walking ``strides`` whole strides of ``gait`` and
+    stopping to stand, then ``rest`` seconds standing; a
+    :class:`~humanoid.walking.gait.GroundWalk` of ``2 strides + 5`` heel strikes.
+
+    The start and the stop (:class:`~humanoid.optimal.cycle.Transition`) are ``start`` and
+    ``stop`` if given, else the ones shipped or cached for this very cycle, else optimised now
+    (:func:`humanoid.optimal.transitions.transition`, which needs casadi) and cached.
+    """
+    ends = [start, stop]
+    for i, kind in enumerate(KINDS):
+        if ends[i] is None:
+            ends[i] = stored_transition(gait, kind) or _optimised_transition(gait, kind, quiet)
+    ref = CycleReference.through(gait, *ends, strides)
+    return _walk(h, ref, 0.0, ref.period + rest, 2 * strides + 5, dt, mu, gains, quiet, (),
+                 record_rate)  # fmt: skip
+
+
+def _optimised_transition(gait, kind: str, quiet: bool):
+    def solve():
+        from ..optimal.transitions import transition
+
+        return transition(gait, kind)
+
+    return _optimised(f"the {kind} of the {gait.speed:.2f} m/s gait cycle", quiet, solve)
+
+
+def _turned(gait, radius: float, quiet: bool):
+    """``gait`` along a circle of ``radius``: shipped, cached or optimised now."""
+
+    def solve():
+        from ..optimal.turn import turn
+
+        return turn(gait, radius)
+
+    what = f"the {gait.speed:.2f} m/s gait cycle along a {radius:g} m circle"
+    return stored_turn(gait, radius) or _optimised(what, quiet, solve)
+
+
+def _optimised(what: str, quiet: bool, solve):
+    """``solve()`` (which imports casadi), saying so unless ``quiet``."""
+    if not quiet:
+        print(f"optimising {what} (once, a few minutes; cached)", flush=True)
+    try:
+        return solve()
+    except ImportError as exc:
+        raise HumanoidError(
+            f"{what} is not shipped or cached, and optimising it needs the optimal-control "
+            f"extra ({exc})"
+        ) from exc
+
+
+def _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate):
+    from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
+    from ..simulation import Simulation
+
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
         integrator="semi_implicit_euler", record_rate=record_rate,
