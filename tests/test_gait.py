@@ -363,3 +363,34 @@ def test_a_transition_or_turn_is_found_only_for_its_own_cycle(tmp_path, monkeypa
     assert stored_transition(other, "start") is None and stored_turn(other, 2.0) is None
     with pytest.raises(HumanoidError, match="a transition is one of"):
         stored_transition(male, "walk")
+
+
+def test_the_pelvis_and_the_anterior_force_are_measured_along_the_progression(male):
+    """The same walk drawn by hand along x, then turned 90 deg to walk along y, then with its
+    pelvis rotated 10 deg and its feet braking along the direction of travel: the pelvis's
+    angles and the anterior force are against the direction of progression, not the room's x
+    (a curve turns it; the lab's axes follow it)."""
+    import dataclasses
+
+    rec = _synthetic_record(male)
+    weight = male.mass * 9.81
+    for s in SIDES:  # a braking force along the travel, while each foot is loaded
+        rec.force[s][rec.force[s][:, 2] > 0, 0] = -0.1 * weight
+    turned = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # Rz(90 deg)
+    yaw = pin.Quaternion(turned)
+    twist = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, np.radians(10.0)))
+    q = rec.q.copy()
+    q[:, :3] = q[:, :3] @ turned.T
+    for k in range(len(q)):
+        q[k, 3:7] = (yaw * twist * pin.Quaternion(q[k, 6], *q[k, 3:6])).coeffs()
+    along_y = dataclasses.replace(rec, q=q, force={s: f @ turned.T for s, f in rec.force.items()})
+    a, b = analyse(male, rec, skip=0.5), analyse(male, along_y, skip=0.5)
+    assert b.summary["speed"] == pytest.approx(a.summary["speed"], abs=1e-9)
+    np.testing.assert_allclose(b.mean("grf_anterior"), a.mean("grf_anterior"), atol=1e-9)
+    assert a.mean("grf_anterior").min() == pytest.approx(-0.1, abs=5e-3)  # (the filter)
+    # the pelvis: 10 deg of rotation, none of it in tilt or obliquity (the room's axes would
+    # read the walk's 90 deg turn into all three)
+    np.testing.assert_allclose(b.mean("pelvis_rotation", "right"), 10.0, atol=1e-6)
+    np.testing.assert_allclose(b.mean("pelvis_rotation", "left"), -10.0, atol=1e-6)
+    np.testing.assert_allclose(b.mean("pelvis_tilt"), a.mean("pelvis_tilt"), atol=1e-6)
+    np.testing.assert_allclose(b.mean("pelvis_obliquity"), a.mean("pelvis_obliquity"), atol=1e-6)

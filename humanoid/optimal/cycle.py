@@ -451,8 +451,9 @@ def _write(s: Solution, meta: dict, path) -> Path:
     return path
 
 
-def _read(path, body: str, what: str) -> tuple[Solution, dict]:
-    """What :func:`_write` wrote, checked to be the body ``body``'s (its key)."""
+def _read(path, body: str, what: str, cycle: str | None = None) -> tuple[Solution, dict]:
+    """What :func:`_write` wrote, checked to be the body ``body``'s (its key) and, if given,
+    made for the gait cycle whose digest is ``cycle``."""
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
@@ -463,6 +464,8 @@ def _read(path, body: str, what: str) -> tuple[Solution, dict]:
         raise HumanoidError(f"{path}: {what} format {meta.get('format')}, expected {FORMAT}")
     if meta["body"] != body:
         raise HumanoidError(f"{path}: the {what} of another body ({meta['body']})")
+    if cycle is not None and meta.get("cycle") != cycle:
+        raise HumanoidError(f"{path}: a {what} of another gait cycle")
     forces = dict(zip(meta["points"], arrays["forces"], strict=True))
     sol = Solution(
         arrays["t"], arrays["x"], arrays["v"], arrays["a"], arrays["tau"], forces,
@@ -495,9 +498,7 @@ def load_transition(path, gait: GaitSolution) -> Transition:
     Raises:
         HumanoidError: the file is not such a transition, or it meets another cycle.
     """
-    sol, meta = _read(path, body_key(gait.om), "transition")
-    if meta.get("cycle") != _digest(gait):
-        raise HumanoidError(f"{path}: a transition of another gait cycle")
+    sol, meta = _read(path, body_key(gait.om), "transition", _digest(gait))
     kind = meta["kind"]
     return Transition(kind, sol, gait, tuple(transition_phases(gait, kind)))
 
@@ -542,9 +543,7 @@ def load_turn(path, gait: GaitSolution) -> TurnSolution:
     Raises:
         HumanoidError: the file is not such a turn, or it bends another cycle.
     """
-    sol, meta = _read(path, body_key(gait.om), "turn")
-    if meta.get("cycle") != _digest(gait):
-        raise HumanoidError(f"{path}: a turn of another gait cycle")
+    sol, meta = _read(path, body_key(gait.om), "turn", _digest(gait))
     return TurnSolution(sol, gait, float(meta["radius"]), tuple(meta["nodes"]))
 
 

@@ -630,8 +630,8 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     both = loaded["left"] & loaded["right"]
     # the pelvis against the direction of progression (a curve turns it; straight on, it is
     # the walk's drift): the centre of mass's path over one stride about each sample
-    strikes = np.diff([t[a] for a, _ in contacts["right"] if a > 0])
-    heading = progression(com, tk, float(np.median(strikes)) if len(strikes) else 1.0)
+    strides = np.diff([t[a] for a, _ in contacts["right"] if a > 0])  # [s]
+    heading = progression(com, tk, float(np.median(strides)) if len(strides) else 1.0)
     for s in SIDES:
         angles[s][:, :3] = [
             chains[s].pelvis_angles(R, a) for R, a in zip(pelvis, heading, strict=True)
