@@ -655,11 +655,11 @@ def _walk_on_ground(args) -> int:
     return 0 if walk.completed else 3
 
 
-def _on_ground_only(args, gaits: str = "person or human") -> None:
+def _on_ground_only(args) -> None:
     given = [o for o, v in (("--from-standing", args.from_standing),
                             ("--radius", args.radius is not None)) if v]  # fmt: skip
     if given:
-        raise HumanoidError(f"{', '.join(given)}: only with --gait {gaits}")
+        raise HumanoidError(f"{', '.join(given)}: only with --gait person or human")
 
 
 def _ground_walker(args, h):

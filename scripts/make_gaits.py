@@ -84,17 +84,17 @@ def main(names) -> int:
     return 0
 
 
-def _saved(name: str, g, transition: str | None = None) -> bool:
-    """Print what was solved (a gait, or a transition or turn to store as ``transition``);
-    store it if IPOPT succeeded."""
+def _saved(name: str, g, file: str | None = None) -> bool:
+    """Print what was solved (a gait, or a transition or turn to store as ``file``); store it
+    if IPOPT succeeded."""
     s = g.solution
-    what = "" if transition else f" {g.objective}: {g.speed:.2f} m/s,"
+    what = "" if file else f" {g.objective}: {g.speed:.2f} m/s,"
     print(f"{name}{what} {s.status}, {s.iterations} iterations, {s.seconds:.0f} s, defect "
           f"{s.defect:.1e}", flush=True)  # fmt: skip
-    if s.success and transition and isinstance(g, TurnSolution):
-        save_turn(g, DATA / transition)
-    elif s.success and transition:
-        save_transition(g, DATA / transition)
+    if s.success and file and isinstance(g, TurnSolution):
+        save_turn(g, DATA / file)
+    elif s.success and file:
+        save_transition(g, DATA / file)
     elif s.success:
         save_gait(g, DATA / gait_file(g.om, round(g.speed, 2), g.objective))
     return s.success

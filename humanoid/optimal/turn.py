@@ -65,7 +65,8 @@ def turn(gait: GaitSolution, radius: float, *, cache: bool = True,
     Raises:
         HumanoidError: the radius is out of range, or IPOPT did not converge.
     """
-    found = stored_turn(gait, check_radius(radius))
+    radius = check_radius(radius)
+    found = stored_turn(gait, radius)
     if found is not None:
         return found
     out = optimise_turn(gait, radius, verbose=verbose)
@@ -131,14 +132,14 @@ def _bent(gait: GaitSolution, radius: float) -> Solution:
     """The straight cycle's whole stride bent onto the circle: the pelvis at (x, y) to arc x on
     the circle of radius ``radius - y`` about (0, radius), its yaw and the forces turned by
     x / radius (the guess)."""
-    t, x, v, forces = gait.stride()
+    t, x, v_straight, forces = gait.stride()
     x = x.copy()
     theta = x[:, 0] / radius
     r = radius - x[:, 1]
     x[:, 0], x[:, 1] = r * np.sin(theta), radius - r * np.cos(theta)
     x[:, 3] += theta
     v = np.gradient(x, t, axis=0)
-    v[:, 2:] = gait.stride()[2][:, 2:]
+    v[:, 2:] = v_straight[:, 2:]
     a = np.gradient(v, t, axis=0)
     turned = {}
     for p, f in forces.items():
