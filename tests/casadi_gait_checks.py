@@ -365,8 +365,7 @@ def test_the_walk_starts_from_standing_and_stops_to_stand(gaits, sex):
     """Standing at rest, two steps into the cycle, three strides, two steps to standing at
     rest (the shipped transitions, tracked like the cycle): the pelvis never actuated, the
     steady strides a person's, at rest at both ends with both feet flat (the toes of the last
-    step may stay raised: their contact points under the MTP joint hold them where they
-    land)."""
+    step may stay raised, and with them their points under the MTP joint: see the README)."""
     from humanoid.walking.gait import analyse
     from humanoid.walking.person import walk_from_standing
 
@@ -386,10 +385,11 @@ def test_the_walk_starts_from_standing_and_stops_to_stand(gaits, sex):
     last = np.flatnonzero(tr.t >= tr.t[-1] - 0.5)  # its last half second: standing still
     assert max(com_speed(k) for k in last) < 0.01
     pin.framesForwardKinematics(model, data, tr.q[-1])
-    for side in ("left", "right"):  # the heels and the metatarsal heads on the floor
-        z = [data.oMf[h.frame_id(f"{side}_{p}_{e}")].translation[2] for p in ("heel", "meta")
-             for e in ("inner", "outer")]  # fmt: skip
+    for side in ("left", "right"):  # the heels on the floor, the soles flat (not the toes)
+        z = [data.oMf[h.frame_id(f"{side}_heel_{e}")].translation[2] for e in ("inner", "outer")]
         assert np.abs(z).max() < 2e-3, (side, z)
+        normal = data.oMf[h.sole_id(side)].rotation[:, 2]
+        assert math.degrees(math.acos(min(1.0, normal[2]))) < 2.0, (side, normal)
     analysis = analyse(h, w)
     s = analysis.summary
     assert s["cycles"] >= 5, analysis.cycles  # the steady strides', both sides
