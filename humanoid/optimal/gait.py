@@ -303,7 +303,7 @@ def _kinematic_guess(om, cycle, c, durations):
 
 
 def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, standing,
-               first: bool = False, heading=None) -> dict:  # fmt: skip
+                    first: bool = False, heading=None) -> dict:  # fmt: skip
     """The objective's terms (``standing``: the posture the untracked joints stay near: a
     fixed target, so that the optimum does not depend on the initial guess; ``first``: the
     tracking objective's first solve from scratch, see :func:`_tracking_terms`; ``heading``:
@@ -336,13 +336,14 @@ def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, st
 
 def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: bool,
                     heading=None) -> dict:  # fmt: skip
-    """The tracking objective's own terms (see :func:`objective_terms`): the norms' angles, ground
-    forces and sagittal moments, the arms' swing, the double support's event, and the untracked
-    joints near standing. ``first``: the first of two solves from scratch (a continuation), with
-    the ankle's moment only (:data:`FIRST_MOMENTS`), the pelvis at its SD and the trunk and
-    arms at the small posture weight. ``heading``: per node, the direction of travel [rad]
-    (expressions): the problem is then a whole stride along a curve (not a half), the pelvis's
-    rotation is tracked about the heading and the anterior force along it."""
+    """The tracking objective's own terms (see :func:`objective_terms`): the norms' angles,
+    ground forces and sagittal moments, the arms' swing, the double support's event, and the
+    untracked joints near standing. ``first``: the first of two solves from scratch (a
+    continuation), with the ankle's moment only (:data:`FIRST_MOMENTS`), the pelvis at its SD
+    and the trunk and arms at the small posture weight. ``heading``: per node, the direction
+    of travel [rad] (expressions): the problem is then a whole stride along a curve (not a
+    half), the pelvis's rotation is tracked about the heading and the anterior force along
+    it."""
     N, w = c.N, c.node_weights()
     T = c.total_duration()
     times = c.node_times()

@@ -525,6 +525,29 @@ class GaitAnalysis:
         return out
 
 
+def _kinematics(h, qs: np.ndarray, chains, arms):
+    """Per configuration of ``qs``: each side's angles (:data:`ANGLES`, the pelvis's against
+    the room, then :data:`ARM_ANGLES` if the body has arms), the centre of mass, the soles'
+    positions and the pelvis's rotation."""
+    model = h.model
+    data = model.createData()
+    n = len(qs)
+    angles = {s: np.zeros((n, len(ANGLES) + len(ARM_ANGLES))) for s in SIDES}
+    com = np.zeros((n, 3))
+    soles = {s: np.zeros((n, 3)) for s in SIDES}
+    pelvis = np.zeros((n, 3, 3))
+    for i, q in enumerate(qs):  # one forward kinematics per sample serves all of them
+        pin.framesForwardKinematics(model, data, q)
+        com[i] = pin.centerOfMass(model, data, pin.KinematicLevel.POSITION, False)
+        pelvis[i] = data.oMi[1].rotation
+        for s in SIDES:
+            angles[s][i, : len(ANGLES)] = chains[s].angles(data)
+            if arms:
+                angles[s][i, len(ANGLES) :] = arms[s].angles(data)
+            soles[s][i] = data.oMf[h.sole_id(s)].translation
+    return angles, com, soles, pelvis
+
+
 def progression(com: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:
     """[rad] the direction of progression at each sample: of the centre of mass's (N, 3)
     displacement over ``window`` [s] about it (a stride cancels its sway; clipped to the
@@ -603,20 +626,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     # kinematics at 100 Hz: angles, centre of mass, soles
     ks = np.arange(0, len(t), EVERY)
     tk = t[ks]
-    data = model.createData()
-    angles = {s: np.zeros((len(ks), len(ANGLES) + len(ARM_ANGLES))) for s in SIDES}
-    com = np.zeros((len(ks), 3))
-    soles = {s: np.zeros((len(ks), 3)) for s in SIDES}
-    pelvis = np.zeros((len(ks), 3, 3))
-    for i, k in enumerate(ks):  # one forward kinematics per sample serves all three
-        pin.framesForwardKinematics(model, data, rec.q[k])
-        com[i] = pin.centerOfMass(model, data, pin.KinematicLevel.POSITION, False)
-        pelvis[i] = data.oMi[1].rotation
-        for s in SIDES:
-            angles[s][i, : len(ANGLES)] = chains[s].angles(data)
-            if arms:
-                angles[s][i, len(ANGLES) :] = arms[s].angles(data)
-            soles[s][i] = data.oMf[h.sole_id(s)].translation
+    angles, com, soles, pelvis = _kinematics(h, rec.q[ks], chains, arms)
     # events from the raw vertical force, with hysteresis
     loaded, events, contacts = {}, {}, {}
     for s in SIDES:

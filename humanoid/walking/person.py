@@ -317,15 +317,7 @@ class CycleTracker(Effect):
         e = pin.difference(model, q, q_r)[6:]
         task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
              g.w_joint)  # fmt: skip
-        # pelvis orientation
-        J = pin.getFrameJacobian(model, data, self.pelvis, LWA)[3:]
-        w_now = pin.getFrameVelocity(model, data, self.pelvis, LWA).angular
-        drift = pin.getFrameAcceleration(model, data, self.pelvis, LWA).angular
-        R, R_r = data.oMf[self.pelvis].rotation, rd.oMf[self.pelvis].rotation
-        w_r = pin.getFrameVelocity(model, rd, self.pelvis, LWA).angular
-        dw_r = pin.getFrameAcceleration(model, rd, self.pelvis, LWA).angular
-        a_des = dw_r + g.pelvis_kp * (R @ pin.log3(R.T @ R_r)) + g.pelvis_kd * (w_r - w_now)
-        task(J, a_des - drift, g.w_pelvis)
+        task(*self._pelvis_task(), g.w_pelvis)
         # centre of mass
         c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
         dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
@@ -352,17 +344,7 @@ class CycleTracker(Effect):
                        hvec, q, v, dt, self.weight, g, self.ranges,
                        self.ground.settings.correction, g.range_margin, g.range_time,
                        [self._drift(cms[i]) for i in loaded])  # fmt: skip
-        # the cycle's forces: shared among the corners matched to one point
-        count = {}
-        for m in match:
-            count[m] = count.get(m, 0) + 1
-        target = np.zeros(3 * len(loaded))
-        upper = np.zeros(len(loaded))
-        for j, m in enumerate(match):
-            f_ref = ref.force(tc, m) / self.weight / count[m]
-            target[3 * j : 3 * j + 3] = f_ref
-            fade = min(1.0, ref.time_to_lift(tc, m) / g.ramp)
-            upper[j] = f_ref[2] + g.margin * fade / count[m]
+        target, upper = self._cycle_forces(tc, match)
         # contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2
         qv = p.q.copy()
         qv[nv:] -= g.w_force * target
@@ -383,6 +365,36 @@ class CycleTracker(Effect):
         self.tau = np.concatenate([np.zeros(6), tau[6:]])
         self.last = (dv, f.reshape(-1, 3), match)
         return self.tau
+
+    def _pelvis_task(self):
+        """The pelvis's orientation: (J, rhs) with J dv = rhs the PD law around the reference's
+        angular acceleration (``data`` and ``rdata`` up to date)."""
+        model, data, rd, g = self.model, self.data, self.rdata, self.gains
+        J = pin.getFrameJacobian(model, data, self.pelvis, LWA)[3:]
+        w_now = pin.getFrameVelocity(model, data, self.pelvis, LWA).angular
+        drift = pin.getFrameAcceleration(model, data, self.pelvis, LWA).angular
+        R, R_r = data.oMf[self.pelvis].rotation, rd.oMf[self.pelvis].rotation
+        w_r = pin.getFrameVelocity(model, rd, self.pelvis, LWA).angular
+        dw_r = pin.getFrameAcceleration(model, rd, self.pelvis, LWA).angular
+        a_des = dw_r + g.pelvis_kp * (R @ pin.log3(R.T @ R_r)) + g.pelvis_kd * (w_r - w_now)
+        return J, a_des - drift
+
+    def _cycle_forces(self, tc: float, match) -> tuple[np.ndarray, np.ndarray]:
+        """The loaded corners' forces from the cycle's at its time ``tc`` [body weights], each
+        point's shared among the corners matched to it, and their vertical upper bounds: the
+        cycle's plus a margin that fades to zero before the cycle lifts the point."""
+        g, ref = self.gains, self.ref
+        count = {}
+        for m in match:
+            count[m] = count.get(m, 0) + 1
+        target = np.zeros(3 * len(match))
+        upper = np.zeros(len(match))
+        for j, m in enumerate(match):
+            f_ref = ref.force(tc, m) / self.weight / count[m]
+            target[3 * j : 3 * j + 3] = f_ref
+            fade = min(1.0, ref.time_to_lift(tc, m) / g.ramp)
+            upper[j] = f_ref[2] + g.margin * fade / count[m]
+        return target, upper
 
     def _advance_clock(self, t: float, q) -> float:
         """The cycle's time at t: real time, sped up or slowed down by how far the body's
