@@ -316,7 +316,7 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
     samples."""
     import proxsuite
 
-    from ..walking.qp import pyramid_rows
+    from ..control.qp import pyramid_rows
 
     model = h.model
     data = model.createData()

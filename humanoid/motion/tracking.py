@@ -35,11 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..control.tasks import CentreOfMassTask, FrameTask, PostureTask, TaskStack
 from ..effects import Effect
 from ..errors import HumanoidError, RunFailed
 from ..model import SIDES
-from ..walking.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
-from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH, closest_in_hull
+from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives
 from .loads import Load
@@ -148,7 +149,6 @@ class MotionTracker(Effect):
 
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
-        nv = model.nv
         M, hvec = dynamics_terms(model, data, q, v)
         cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
         on = {s: self.in_contact(s, t) for s in SIDES}
@@ -156,13 +156,6 @@ class MotionTracker(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        rows, rhs, weights = [], [], []
-
-        def task(J, a, w):
-            rows.append(J)
-            rhs.append(a)
-            weights.append(np.broadcast_to(w, J.shape[0]))
-
         loaded, free = [], []
         for i, s in enumerate(side_of):
             ok = False
@@ -180,45 +173,30 @@ class MotionTracker(Effect):
                 )
             (loaded if ok else free).append(i)
         bearing = {side_of[i] for i in loaded}
+        tasks = TaskStack(model, data, q, v)
         # the root: position and orientation
-        e_root = pin.difference(model, q, q_r)[:6]
-        J_root = np.zeros((6, nv))
-        J_root[:, :6] = np.eye(6)
-        task(J_root, a_r[:6] + g.root_kp * e_root + g.root_kd * (v_r[:6] - v[:6]), g.w_root)
+        tasks.add(PostureTask(q_r, g.root_kp, g.root_kd, g.w_root, v_r, a_r, dofs="root"))
         # the centre of mass, its horizontal acceleration one the loaded soles can carry
-        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
-        dc, drift = data.vcom[0].copy(), data.acom[0].copy()
         c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
-        ddc = ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc)
-        support = [points[i][:2] for i in loaded]
-        if support:
-            gz = float(np.linalg.norm(model.gravity.linear)) + ddc[2]
-            cop = c[:2] - ddc[:2] * c[2] / gz
-            ddc[:2] = (c[:2] - closest_in_hull(cop, np.array(support))) * gz / c[2]
-        task(pin.jacobianCenterOfMass(model, data, q), ddc - drift, g.w_com)
+        support = np.array([points[i][:2] for i in loaded]).reshape(-1, 2)
+        tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, g.com_kp, g.com_kd, g.w_com, support))
         # free feet follow the motion's
         for s in SIDES:
-            if s in bearing:
-                continue
-            task(*frame_task(model, data, rd, self.sole[s], g.foot_kp, g.foot_kd), g.w_foot)
-        # the joints
-        e = pin.difference(model, q, q_r)[6:]
-        task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
-             g.w_joint)  # fmt: skip
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M, hvec,
-                       q, v, dt, self.weight, g, self.ranges, self.ground.settings.correction,
+            if s not in bearing:
+                tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
+                                              g.w_foot))  # fmt: skip
+        tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, g.w_joint, v_r, a_r))
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, self.ground.settings.correction,
                        RANGE_MARGIN, RANGE_TIME)  # fmt: skip
-        x = self.qp.solve(p.P, p.q, p.A, p.b, p.G, p.h)
-        if x is None:  # the dynamics and the loaded points' cones only
-            self.relaxed += 1
-            x = self.qp.solve(p.P, p.q, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
+        x, relaxed = p.solve(self.qp)
+        self.relaxed += relaxed
         if x is None or not np.all(np.isfinite(x)):
             raise HumanoidError(f"the tracking QP has no solution at t = {t:.3f} s ({self.qp.why})")
-        dv, f = x[:nv], self.weight * x[nv:]
-        tau = M @ dv + hvec - p.Jc.T @ f
-        self.last = (dv, f.reshape(-1, 3), loaded)
-        return np.concatenate([np.zeros(6), tau[6:]])
+        tau, dv, f = p.torques(x, M, hvec, self.weight)
+        self.last = (dv, f, loaded)
+        return tau
 
 
 @dataclass

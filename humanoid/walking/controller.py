@@ -27,12 +27,20 @@ import pinocchio as pin
 from ..constraints import Weld
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
+from ..control.qp import WarmQP, dynamics_terms, frame_jacobians, range_damper, whole_body_qp
+from ..control.tasks import (
+    CentreOfMassTask,
+    ForceTask,
+    FrameTask,
+    OrientationTask,
+    PostureTask,
+    TaskStack,
+)
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..linalg import cross, spd_solve
 from ..model import SIDES
 from .clinical import torso_frame
-from .qp import WarmQP, pyramid_rows, range_damper
 
 __all__ = ["ControllerGains", "WalkingController"]
 
@@ -106,7 +114,6 @@ class WalkingController(Effect):
         self._solved_for = None  # the stance set of the last solve
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
-        self._pyramids = {}  # the friction pyramids' rows by (mu, stance feet, nv)
         self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
         for _ in range(model.njoints):
             self._fext.append(pin.Force.Zero())
@@ -186,110 +193,46 @@ class WalkingController(Effect):
     def update(self, t: float, q, v, welds: dict) -> np.ndarray:
         """Solve the QP at (t, q, v) with the plant's stance welds; returns and holds tau."""
         model, data, g = self.model, self.data, self.gains
-        nv = model.nv
-        pin.forwardKinematics(model, data, q, v, self._zero)
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        M = pin.crba(model, data, q)  # both triangles (tests/test_dynamics.py)
-        hvec = pin.nle(model, data, q, v)
+        M, hvec = dynamics_terms(model, data, q, v)
         stance = [s for s in ("left", "right") if s in welds]
         nf = 12 * len(stance)
-        n = nv + nf
-        rows, rhs, weights = [], [], []  # the tasks on dv (the posture's is added apart)
-
-        def task(J, a, w):
-            rows.append(J)
-            rhs.append(a)
-            weights.append(np.full(J.shape[0], w))
-
-        # centre of mass
+        tasks = TaskStack(model, data, q, v)
         c_ref, dc_ref, ddc_ref = self.com_reference(t)
-        c = pin.centerOfMass(model, data, q, v, self._zero)
-        dc, drift = data.vcom[0].copy(), data.acom[0].copy()
-        Jcom = pin.jacobianCenterOfMass(model, data, q)
-        a_com = ddc_ref + g.com_kp * (c_ref - c) + g.com_kd * (dc_ref - dc)
-        task(Jcom, a_com - drift, g.w_com)
-        # swing foot
+        tasks.add(CentreOfMassTask(c_ref, dc_ref, ddc_ref, g.com_kp, g.com_kd, g.w_com))
         ref = self.plan.swing_reference(t)
         swing = self.plan.swing(t)
-        if ref is not None and swing.side not in welds:
-            fid = self.sole[swing.side]
+        if ref is not None and swing.side not in welds:  # the swing foot, level
             p_ref, v_ref, a_ref = ref
-            J = pin.getFrameJacobian(model, data, fid, LWA)
-            vel = pin.getFrameVelocity(model, data, fid, LWA)
-            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
-            M_f = data.oMf[fid]
-            a_lin = (
-                a_ref + g.swing_kp * (p_ref - M_f.translation) + g.swing_kd * (v_ref - vel.linear)
-            )
-            a_ang = -g.swing_kp * pin.log3(M_f.rotation) - g.swing_kd * vel.angular
-            task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_swing)
-        # upright pelvis and torso (orientation only, world axes)
-        for frame in self.trunk_frames():
-            J = pin.getFrameJacobian(model, data, frame, LWA)[3:]
-            vel = pin.getFrameVelocity(model, data, frame, LWA).angular
-            acc = pin.getFrameAcceleration(model, data, frame, LWA).angular
-            R = data.oMf[frame].rotation
-            yaw = np.arctan2(R[1, 0], R[0, 0])
-            err = pin.log3(pin.utils.rotate("z", yaw).T @ R)  # tilt only; yaw left free
-            task(J, -g.trunk_kp * (R @ err) - g.trunk_kd * vel - acc, g.w_trunk)
-        # the costs 1/2 sum w |J dv - a|^2 as P, q over x = (dv, f): the tasks' rows, then the
-        # posture (J = the joints' rows of the identity) and the forces' pull added in place
-        B, W = np.vstack(rows), np.concatenate(weights)
-        P = np.zeros((n, n))
-        qv = np.zeros(n)
-        P[:nv, :nv] = B.T @ (W[:, None] * B)
-        qv[:nv] = -B.T @ (W * np.concatenate(rhs))
-        e = pin.difference(model, q, self.q_posture)
-        P.flat[6 * (n + 1) : nv * (n + 1) : n + 1] += g.w_posture
-        qv[6:nv] -= g.w_posture * (g.posture_kp * e[6:] - g.posture_kd * v[6:])
+            zero = np.zeros(3)
+            tasks.add(FrameTask(self.sole[swing.side], pin.SE3(np.eye(3), p_ref), g.swing_kp,
+                                g.swing_kd, g.w_swing, np.concatenate([v_ref, zero]),
+                                np.concatenate([a_ref, zero])))  # fmt: skip
+        for frame in self.trunk_frames():  # upright pelvis and torso (their yaw left free)
+            tasks.add(OrientationTask(frame, None, g.trunk_kp, g.trunk_kd, g.w_trunk,
+                                      tilt_only=True))  # fmt: skip
+        tasks.add(PostureTask(self.q_posture, g.posture_kp, g.posture_kd, g.w_posture))
         # load sharing: the stance feet share the weight as the ZMP reference says, so that a
-        # foot is unloaded when the plan lifts it (forces are in body weights, see below)
+        # foot is unloaded when the plan lifts it (forces are in body weights)
         f_ref = np.zeros(nf)
         for k, share in enumerate(self.shares(t, stance, data)):
             f_ref[12 * k + 2 : 12 * k + 12 : 3] = share / 4.0
-        P.flat[nv * (n + 1) :: n + 1] += g.w_force
-        qv[nv:] -= g.w_force * f_ref
-        P.flat[:: n + 1] += 1e-9
-
-        # equalities: base rows of the dynamics, stance-foot accelerations
-        Jc = np.zeros((nf, nv))
-        for k, s in enumerate(stance):
-            for j, fid in enumerate(self.corners[s]):
-                Jc[12 * k + 3 * j : 12 * k + 3 * j + 3] = pin.getFrameJacobian(
-                    model, data, fid, LWA
-                )[:3]
-        # forces are solved in body weights (O(1), like the accelerations): f = weight * f'
-        weight = self.weight
-        A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
-        b_eq = [-hvec[:6]]
+        Jc = frame_jacobians(model, data, [f for s in stance for f in self.corners[s]])
         # the stance welds' rows exactly as the plant stacks them (same Baumgarte terms)
-        J, gamma = stack(model, data, [w for s in stance for w in welds[s]], v, self.baumgarte)
-        A_eq.append(np.hstack([J, np.zeros((len(J), nf))]))
-        b_eq.append(gamma)
-        A_eq, b_eq = np.vstack(A_eq), np.concatenate(b_eq)
-        # inequalities: friction pyramids, and the joint ranges' velocity damper
-        key = (g.mu, len(stance), nv)
-        if key not in self._pyramids:
-            self._pyramids[key] = pyramid_rows(g.mu, 4 * len(stance), n, nv)
-        G = self._pyramids[key]
-        h_ineq = np.zeros(G.shape[0])
+        welded = stack(model, data, [w for s in stance for w in welds[s]], v, self.baumgarte)
         Jr, bound = range_damper(self.ranges, q, v, self.period, RANGE_MARGIN, RANGE_TIME)
-        if len(Jr):
-            G = np.vstack([G, np.hstack([-Jr, np.zeros((len(Jr), nf))])])
-            h_ineq = np.concatenate([h_ineq, bound])
-        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
+        weight = self.weight
+        p = whole_body_qp(M, hvec, weight, tasks, Jc, g.mu, forces=[ForceTask(f_ref, g.w_force)],
+                          motion=[welded], bounds=[(-Jr, bound)], ridge=1e-9)  # fmt: skip
+        x, _ = p.solve(self.qp, relax=False)
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
             raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s")
-        dv, f = x[:nv], weight * x[nv:]
-        tau = M @ dv + hvec - Jc.T @ f
-        self.tau = np.concatenate([np.zeros(6), tau[6:]])
-        self.last = (dv, {s: f[12 * k : 12 * k + 12].reshape(4, 3) for k, s in enumerate(stance)})
+        self.tau, dv, f = p.torques(x, M, hvec, weight)
+        self.last = (dv, {s: f[4 * k : 4 * k + 4] for k, s in enumerate(stance)})
         if self.every > 1:
             # the range rows the solve holds at their damper's bound keep their acceleration
             tight = -Jr @ dv >= bound - 1e-6 * np.maximum(1.0, np.abs(bound))
-            self._held = (dv, self._external(stance, f), Jr[tight])
+            self._held = (dv, self._external(stance, f.ravel()), Jr[tight])
         return self.tau
 
     def _external(self, stance, f) -> pin.StdVec_Force:

@@ -5,7 +5,7 @@ through the body's own rigid contact dynamics (:mod:`humanoid.optimal.gait`), mi
 whole stride. Its joint trajectories, its contact schedule and its contact forces are the feed
 forward; the plant is the ground of :mod:`humanoid.constraints.ground` (every foot corner a
 unilateral Coulomb contact) with the joint ranges in the same solve. Each step a task-space
-inverse-dynamics QP (:func:`~humanoid.walking.qp.contact_qp`) finds the accelerations and the
+inverse-dynamics QP (:func:`~humanoid.control.qp.contact_qp`) finds the accelerations and the
 forces of the loaded points, and only the joint torques leave it; the free flyer is never
 actuated and nothing is placed kinematically.
 
@@ -33,6 +33,15 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, ramped_bound
+from ..control.tasks import (
+    CentreOfMassTask,
+    ForceTask,
+    FrameTask,
+    OrientationTask,
+    PostureTask,
+    TaskStack,
+)
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
@@ -45,7 +54,6 @@ from ..optimal.cycle import (
     stored_turn,
 )  # fmt: skip
 from .gait import FALL_HEIGHT, PHASE0, GaitRecorder, GroundWalk
-from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, frame_task
 
 __all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle", "walk_from_standing"]
 
@@ -289,7 +297,6 @@ class CycleTracker(Effect):
 
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
-        nv = model.nv
         tc = self._advance_clock(t, q)
         M, hvec = dynamics_terms(model, data, q, v)
         cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {})
@@ -306,28 +313,18 @@ class CycleTracker(Effect):
         loaded, free, match = self._corners(joint_of, phi, pts, ref.contacts(tc))
         bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
         self._reanchor(t, match)
-        rows, rhs, weights = [], [], []
-
-        def task(J, a, w):
-            rows.append(J)
-            rhs.append(a)
-            weights.append(np.broadcast_to(w, J.shape[0]))
-
-        # joints
-        e = pin.difference(model, q, q_r)[6:]
-        task(np.eye(nv)[6:], a_r[6:] + g.joint_kp * e + g.joint_kd * (v_r[6:] - v[6:]),
-             g.w_joint)  # fmt: skip
-        task(*self._pelvis_task(), g.w_pelvis)
+        tasks = TaskStack(model, data, q, v)
+        tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, g.w_joint, v_r, a_r))
+        tasks.add(OrientationTask.following(model, rd, self.pelvis, g.pelvis_kp, g.pelvis_kd,
+                                            g.w_pelvis))  # fmt: skip
         # centre of mass
-        c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
-        dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
         c_r = pin.centerOfMass(model, rd, q_r, v_r, a_r)
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
+        com = tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, g.com_kp, g.com_kd, g.w_com))
+        c, dc = com.c, com.dc
         heading = ref.heading(tc)
         ahead = np.array([math.cos(heading), math.sin(heading)])
         self.com_ref = (c_r[:2].copy(), ahead, float(dc_r[:2] @ ahead))
-        Jcom = pin.jacobianCenterOfMass(model, data, q)
-        task(Jcom, ddc_r + g.com_kp * (c_r - c) + g.com_kd * (dc_r - dc) - com_drift, g.w_com)
         # a swing foot: its pose, its landing moved by the capture point's error
         xi = c[:2] + dc[:2] / self.omega
         xi_r = c_r[:2] + dc_r[:2] / self.omega
@@ -336,48 +333,25 @@ class CycleTracker(Effect):
         if norm > g.max_shift:
             shift *= g.max_shift / norm
         for s in SIDES:
-            if s in bearing:
-                continue
-            J, a_foot = frame_task(model, data, rd, self.sole[s], g.foot_kp, g.foot_kd, shift)
-            task(J, a_foot, g.w_foot)
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M,
-                       hvec, q, v, dt, self.weight, g, self.ranges,
-                       self.ground.settings.correction, g.range_margin, g.range_time,
-                       [self._drift(cms[i]) for i in loaded])  # fmt: skip
+            if s not in bearing:
+                tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
+                                              g.w_foot, shift))  # fmt: skip
+        # the cycle's forces: contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2, the
+        # normal forces under the cycle's plus a margin that ramps to zero before it lifts
         target, upper = self._cycle_forces(tc, match)
-        # contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2
-        qv = p.q.copy()
-        qv[nv:] -= g.w_force * target
-        G, hh = p.G, p.h
-        if loaded:
-            rows_up = np.zeros((len(loaded), nv + 3 * len(loaded)))
-            for j in range(len(loaded)):
-                rows_up[j, nv + 3 * j + 2] = 1.0
-            G, hh = np.vstack([G, rows_up]), np.concatenate([hh, upper])
-        x = self.qp.solve(p.P, qv, p.A, p.b, G, hh)
-        if x is None:
-            self.relaxed += 1
-            x = self.qp.solve(p.P, qv, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, self.ground.settings.correction,
+                       g.range_margin, g.range_time,
+                       drift=[self._drift(cms[i]) for i in loaded],
+                       forces=[ForceTask(target, g.w_force)],
+                       upper=upper if loaded else None)  # fmt: skip
+        x, relaxed = p.solve(self.qp)
+        self.relaxed += relaxed
         if x is None or not np.all(np.isfinite(x)):
             raise HumanoidError(f"the cycle tracker's QP has no solution at t = {t:.3f} s")
-        dv, f = x[:nv], self.weight * x[nv:]
-        tau = M @ dv + hvec - p.Jc.T @ f
-        self.tau = np.concatenate([np.zeros(6), tau[6:]])
-        self.last = (dv, f.reshape(-1, 3), match)
+        self.tau, dv, f = p.torques(x, M, hvec, self.weight)
+        self.last = (dv, f, match)
         return self.tau
-
-    def _pelvis_task(self):
-        """The pelvis's orientation: (J, rhs) with J dv = rhs the PD law around the reference's
-        angular acceleration (``data`` and ``rdata`` up to date)."""
-        model, data, rd, g = self.model, self.data, self.rdata, self.gains
-        J = pin.getFrameJacobian(model, data, self.pelvis, LWA)[3:]
-        w_now = pin.getFrameVelocity(model, data, self.pelvis, LWA).angular
-        drift = pin.getFrameAcceleration(model, data, self.pelvis, LWA).angular
-        R, R_r = data.oMf[self.pelvis].rotation, rd.oMf[self.pelvis].rotation
-        w_r = pin.getFrameVelocity(model, rd, self.pelvis, LWA).angular
-        dw_r = pin.getFrameAcceleration(model, rd, self.pelvis, LWA).angular
-        a_des = dw_r + g.pelvis_kp * (R @ pin.log3(R.T @ R_r)) + g.pelvis_kd * (w_r - w_now)
-        return J, a_des - drift
 
     def _cycle_forces(self, tc: float, match) -> tuple[np.ndarray, np.ndarray]:
         """The loaded corners' forces from the cycle's at its time ``tc`` [body weights], each
@@ -392,8 +366,7 @@ class CycleTracker(Effect):
         for j, m in enumerate(match):
             f_ref = ref.force(tc, m) / self.weight / count[m]
             target[3 * j : 3 * j + 3] = f_ref
-            fade = min(1.0, ref.time_to_lift(tc, m) / g.ramp)
-            upper[j] = f_ref[2] + g.margin * fade / count[m]
+            upper[j] = ramped_bound(f_ref[2], ref.time_to_lift(tc, m), g.ramp, g.margin / count[m])
         return target, upper
 
     def _advance_clock(self, t: float, q) -> float:

@@ -65,15 +65,22 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
-from scipy.spatial import ConvexHull, QhullError
 
 from ..constraints.limits import JointRanges
+from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..control.tasks import (
+    CentreOfMassTask,
+    ForceTask,
+    FrameTask,
+    OrientationTask,
+    PostureTask,
+    TaskStack,
+)
 from ..effects import Effect
 from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
-from .qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
 
 __all__ = ["CyclePlayer", "GaitController", "TrackingGains", "bend"]
 
@@ -173,25 +180,6 @@ class TrackingGains:
     # ahead: a toe descending at 0.5 m/s 1 cm above the floor is slowed over 20 ms, not stopped
     # within one 1 ms step (which asked 1e4-1e5 rad/s^2 of the joints and made the plant
     # diverge); at 10 ms the female body fell, the male's feet slid 0.9 mm (2.1 at 20 ms)
-
-
-def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """The point of the convex hull of 2D points ``pts`` nearest to p (p itself if inside)."""
-    try:
-        hull = ConvexHull(pts)
-        if np.all(hull.equations[:, :2] @ p + hull.equations[:, 2] <= 1e-12):
-            return p
-        edges = [(pts[a], pts[b]) for a, b in hull.simplices]
-    except (QhullError, ValueError):  # fewer than 3 points, or all on a line
-        edges = [(a, b) for a in pts for b in pts]
-    best, dist = pts[0], np.inf
-    for a, b in edges:
-        ab = b - a
-        u = 0.0 if ab @ ab < 1e-18 else float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
-        x = a + u * ab
-        if np.linalg.norm(x - p) < dist:
-            best, dist = x, float(np.linalg.norm(x - p))
-    return best
 
 
 def ankle_stop(h, chain) -> tuple[int, float, float] | None:
@@ -521,7 +509,7 @@ class GaitController(Effect):
         pin.updateFramePlacements(model, rd)
         c_r, dc_r, ddc_r = self.com_reference(t)
         c = pin.centerOfMass(model, data, q, v, np.zeros(nv))
-        dc, com_drift = data.vcom[0].copy(), data.acom[0].copy()
+        dc = data.vcom[0].copy()
         A = self.body_anchor(t, float(c_r[0]))
         R_A = _rot(A)
         if self.radius is not None:  # along a curve, the centre of mass turns with it, on a
@@ -571,13 +559,6 @@ class GaitController(Effect):
                 if self.ends is not None:  # a stop's shorter steps
                     back = self.ends.moved.get((s, k + 1), 0.0)
                     self.anchors[s][k + 1][:2] -= (_rot(base) @ [back, 0.0, 0.0])[:2]
-        rows, rhs, weights = [], [], []
-
-        def task(J, a, w):  # w: one weight, or one per row
-            rows.append(J)
-            rhs.append(a)
-            weights.append(np.broadcast_to(w, J.shape[0]))
-
         # contacts, split into loaded (sticking) and free points
         loaded, free, bearing = [], [], set()
         for i, side in enumerate(side_of):
@@ -596,19 +577,18 @@ class GaitController(Effect):
             (loaded if ok else free).append(i)
             if ok:
                 bearing.add(side)
+        tasks = TaskStack(model, data, q, v)
         # feet: the cycle's pose, on the foot's own anchor (a swing foot moves from the
         # anchor of the step it left to that of the step it lands)
         for s in SIDES:
             k, psi = steps[s]
             fid = self.sole[s]
-            J = pin.getFrameJacobian(model, data, fid, LWA)
-            vel = pin.getFrameVelocity(model, data, fid, LWA)
-            acc = pin.getFrameClassicalAcceleration(model, data, fid, LWA)
             M_f = data.oMf[fid]
             M_r = rd.oMf[fid]
             vf_r = pin.getFrameVelocity(model, rd, fid, LWA).vector
             af_r = pin.getFrameClassicalAcceleration(model, rd, fid, LWA).vector
             if kinds[s] == 0:
+                vel = pin.getFrameVelocity(model, data, fid, LWA)
                 M_ref, v_ref, a_ref = self.swing_path(s, k, psi, M_f, vel.linear,
                                                       (M_r, vf_r, af_r))  # fmt: skip
             else:
@@ -621,86 +601,55 @@ class GaitController(Effect):
                     M_ref.translation[2] -= REACH
                 if s in flat:  # kept flat (a start or a stop), pointing its anchor's way
                     M_ref.rotation = Rz
-            a_lin = (
-                a_ref[:3]
-                + g.foot_kp * (M_ref.translation - M_f.translation)
-                + g.foot_kd * (v_ref[:3] - vel.linear)
-            )
-            a_ang = (
-                a_ref[3:]
-                + g.foot_kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_ref.rotation))
-                + g.foot_kd * (v_ref[3:] - vel.angular)
-            )
             # a bearing foot's sticking points hold it (it rolls freely); a foot that should
             # bear and does not touch yet reaches for the floor
             if s not in bearing:
-                task(J, np.concatenate([a_lin - acc.linear, a_ang - acc.angular]), g.w_foot)
+                tasks.add(FrameTask(fid, M_ref, g.foot_kp, g.foot_kd, g.w_foot, v_ref, a_ref))
             else:  # it rolls freely over its heel or toes, but not over its sides
-                R_f = M_f.rotation
-                task(J[:3], a_lin - acc.linear, g.w_stance_foot)
-                rows.append(R_f.T @ J[3:])
-                rhs.append(R_f.T @ (a_ang - acc.angular))
                 w_pitch = g.w_flat if kinds[s] == 2 else g.w_stance_foot
                 w_roll = g.w_flat if kinds[s] == 2 else g.w_foot
-                weights.append(np.array([w_roll, w_pitch, g.w_foot]))
+                weight = np.array([*[g.w_stance_foot] * 3, w_roll, w_pitch, g.w_foot])
+                tasks.add(FrameTask(fid, M_ref, g.foot_kp, g.foot_kd, weight, v_ref, a_ref,
+                                    local_angular=True))  # fmt: skip
         # centre of mass: the feedback's horizontal acceleration is one the feet can carry (its
-        # centre of pressure, c - ddc z / (g + z''), clipped to the touching soles' hull)
-        Jcom = pin.jacobianCenterOfMass(model, data, q)
+        # centre of pressure clipped to the hull of the points that may carry load: a swing
+        # foot skimming the floor carries none)
         kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
         kd = np.array([g.com_kd, g.com_kd, g.com_z_kd])
-        ddc_des = ddc_r + kp * (c_r - c) + kd * (dc_r - dc)
-        # (the points that may carry load: a swing foot skimming the floor carries none)
-        support = [points[i][:2] for i in loaded]
-        if support:
-            gz = float(np.linalg.norm(model.gravity.linear)) + ddc_des[2]
-            cop = c[:2] - ddc_des[:2] * c[2] / gz
-            cop_in = closest_in_hull(cop, np.array(support))
-            ddc_des[:2] = (c[:2] - cop_in) * gz / c[2]
-        task(Jcom, ddc_des - com_drift, g.w_com)
+        support = np.array([points[i][:2] for i in loaded]).reshape(-1, 2)
+        tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, kp, kd, g.w_com, support))
         # pelvis and trunk orientation
         for frame in [self.pelvis] + ([self.torso] if self.torso is not None else []):
-            J = pin.getFrameJacobian(model, data, frame, LWA)[3:]
-            vel = pin.getFrameVelocity(model, data, frame, LWA).angular
-            acc = pin.getFrameAcceleration(model, data, frame, LWA).angular
-            R = data.oMf[frame].rotation
-            a_des = g.trunk_kp * (R @ pin.log3(R.T @ R_A)) - g.trunk_kd * vel
-            task(J, a_des - acc, g.w_trunk)
+            tasks.add(OrientationTask(frame, R_A, g.trunk_kp, g.trunk_kd, g.w_trunk))
         # joints: the cycle's angles
-        v_post = v_r[6:]
+        v_post = v_r.copy()
         if self.ends is not None:  # starting and stopping: lean to the standing posture
             w = self.ends.standing_weight(t)
             if w > 0.0:
                 q_r = pin.interpolate(model, q_r, self.ends.q0, w)
                 v_post = (1.0 - w) * v_post
-        e = pin.difference(model, q, q_r)[6:]
-        task(np.eye(nv)[6:], g.posture_kp * e + g.posture_kd * (v_post - v[6:]), self.w_posture)
-
-        problem = contact_qp(model, data, (cms, cds, phi), loaded, free, (rows, rhs, weights), M,
-                        hvec, q, v, dt, self.weight, g, self.ranges,
-                        self.ground.settings.correction, RANGE_MARGIN, RANGE_TIME)  # fmt: skip
+        tasks.add(PostureTask(q_r, g.posture_kp, g.posture_kd, self.w_posture, v_post))
+        forces = [ForceTask(0.0, g.w_force)]
         share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
         if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
-            row = np.zeros(nv + 3 * len(loaded))
-            row[nv:] = share
-            problem.P += g.w_share * np.outer(row, row)
-        p = problem
-        P, qv, A_eq, b_eq, G, h_ineq, Jc, U = p.P, p.q, p.A, p.b, p.G, p.h, p.Jc, p.U
-        x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
+            forces.append(ForceTask(0.0, g.w_share, share))
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, self.ground.settings.correction,
+                       RANGE_MARGIN, RANGE_TIME, forces=forces)  # fmt: skip
+        x, _ = p.solve(self.qp, relax=False)
         if x is None and loaded:
             # two sticking points of a tilted sole at different depths cannot both close
             # their gaps exactly (the plant's solve resolves that in its own least squares):
             # stick without the gap terms
-            b_eq[6:] = -(U.T @ (Jc @ v)) / max(dt, g.contact_time)
-            x = self.qp.solve(P, qv, A_eq, b_eq, G, h_ineq)
+            p.b[6:] = -(p.U.T @ (p.Jc @ v)) / max(dt, g.contact_time)
+            x, _ = p.solve(self.qp, relax=False)
         if x is None:  # the last resort: the dynamics and the loaded points only (no range
             # dampers, no floor rows for the other points: the plant enforces both)
             self.relaxed += 1
-            x = self.qp.solve(P, qv, A_eq, b_eq, G[: p.cones], h_ineq[: p.cones])
+            x = self.qp.solve(p.P, p.q, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
             raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.qp.why})")
-        dv, f = x[:nv], self.weight * x[nv:]
-        tau = M @ dv + hvec - Jc.T @ f
-        self.tau = np.concatenate([np.zeros(6), tau[6:]])
-        self.last = (dv, f.reshape(-1, 3), [int(i) for i in loaded])
+        self.tau, dv, f = p.torques(x, M, hvec, self.weight)
+        self.last = (dv, f, [int(i) for i in loaded])
         return self.tau

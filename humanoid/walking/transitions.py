@@ -42,10 +42,10 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import solve_banded
 
+from ..control.qp import WarmQP
 from ..errors import HumanoidError
 from ..model import SIDES
 from .plan import smooth_step
-from .qp import WarmQP
 from .tracking import contact_kind, footstep_phase
 
 __all__ = ["ComPiece", "StartStop", "pendulum_path", "start_stop"]

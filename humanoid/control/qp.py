@@ -1,5 +1,15 @@
-"""What the walking controllers' QPs share: the warm-started ProxQP solve, the friction pyramid
-of a set of contact points, and the joint ranges' velocity dampers."""
+"""The one whole-body QP of the toolkit's controllers (the welded walk, the person's walk, the
+human gait and motion tracking): over x = (dv, f / weight), the generalised acceleration and the
+loaded contact points' forces in body weights,
+
+- costs: the tasks on dv (:mod:`humanoid.control.tasks`) and the force tasks on f;
+- equalities: the free flyer's six rows of the dynamics (never actuated), and the contacts'
+  motion rows (points brought to rest on the ground, or the plant's welds);
+- inequalities: a friction pyramid per loaded point, each point's normal force under its
+  upper bound (a bound that ramps to zero unloads a point before it lifts), the free points
+  kept off the floor, the joint ranges as velocity dampers.
+
+Solved by ProxQP (proxsuite's dense solver), kept between ticks and warm-started."""
 
 from __future__ import annotations
 
@@ -8,14 +18,19 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from .tasks import ForceTask
+
 __all__ = [
     "ContactQP",
     "WarmQP",
     "contact_qp",
     "dynamics_terms",
     "feet_contacts",
+    "frame_jacobians",
     "pyramid_rows",
+    "ramped_bound",
     "range_damper",
+    "whole_body_qp",
 ]
 
 # ProxQP's default inner cap (1500) let one infeasible tick of a Talos walk take 1.4 million
@@ -114,28 +129,6 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
     return M, pin.nle(model, data, q, v)  # (Pinocchio's binding fills both triangles)
 
 
-def frame_task(model, data, rdata, fid: int, kp: float, kd: float, shift=None):
-    """A frame's pose task on dv: (J, rhs) with J dv = rhs the PD law around the reference's
-    classical acceleration (LOCAL_WORLD_ALIGNED), the reference read from ``rdata`` (its
-    kinematics up to date), moved by ``shift`` (x, y) [m] if given."""
-    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-    J = pin.getFrameJacobian(model, data, fid, lwa)
-    vel = pin.getFrameVelocity(model, data, fid, lwa)
-    acc = pin.getFrameClassicalAcceleration(model, data, fid, lwa)
-    M_f, M_r = data.oMf[fid], rdata.oMf[fid].copy()
-    if shift is not None:
-        M_r.translation[:2] += shift
-    vr = pin.getFrameVelocity(model, rdata, fid, lwa)
-    ar = pin.getFrameClassicalAcceleration(model, rdata, fid, lwa)
-    lin = ar.linear + kp * (M_r.translation - M_f.translation) + kd * (vr.linear - vel.linear)
-    ang = (
-        ar.angular
-        + kp * (M_f.rotation @ pin.log3(M_f.rotation.T @ M_r.rotation))
-        + kd * (vr.angular - vel.angular)
-    )
-    return J, np.concatenate([lin - acc.linear, ang - acc.angular])
-
-
 def feet_contacts(ground, model, data, foot_joint: dict):
     """The plant's own ground detection (constraint models and datas, signed distances, world
     points) and, per point, the side whose foot it is on (None: another body)."""
@@ -147,11 +140,11 @@ def feet_contacts(ground, model, data, foot_joint: dict):
 
 @dataclass
 class ContactQP:
-    """A task-space inverse-dynamics QP over x = (dv, f / weight) (see :func:`contact_qp`):
-    minimise 1/2 x'Px + q'x subject to A x = b, G x <= h. ``Jc``: the loaded points'
-    Jacobian (3 rows each); ``U``: the independent combinations of its rows that the sticking
-    equalities use (after the root's 6 rows of A); ``cones``: how many rows of G, first, keep
-    the forces in their pyramids."""
+    """The whole-body QP: minimise 1/2 x'Px + q'x subject to A x = b, G x <= h, over
+    x = (dv, f / weight). ``Jc``: the loaded points' Jacobian (3 rows each, world axes);
+    ``U``: the independent combinations of its rows that the sticking equalities use (after
+    the root's 6 rows of A); ``cones``: how many rows of G, first, keep the forces in their
+    pyramids (then each point's upper bound, if any)."""
 
     P: np.ndarray
     q: np.ndarray
@@ -163,26 +156,115 @@ class ContactQP:
     U: np.ndarray
     cones: int
 
+    def solve(self, solver: WarmQP, relax: bool = True):
+        """(x, relaxed): the solution, and whether only the dynamics and the loaded points'
+        pyramids held (``relax``: tried when the whole problem has no solution; the plant
+        enforces the free points and the ranges itself). x is None if neither solved."""
+        x = solver.solve(self.P, self.q, self.A, self.b, self.G, self.h)
+        if x is not None or not relax:
+            return x, False
+        return solver.solve(self.P, self.q, self.A, self.b, self.G[: self.cones],
+                            self.h[: self.cones]), True  # fmt: skip
+
+    def torques(self, x: np.ndarray, M: np.ndarray, hvec: np.ndarray, weight: float):
+        """(tau, dv, f): the joint torques of solution x (the free flyer's zero), its
+        acceleration and the loaded points' forces [N] (k, 3)."""
+        nv = M.shape[0]
+        dv, f = x[:nv], weight * x[nv:]
+        tau = M @ dv + hvec - self.Jc.T @ f
+        tau[:6] = 0.0
+        return tau, dv, f.reshape(-1, 3)
+
+
+def whole_body_qp(M, hvec, weight: float, tasks, Jc, mu: float, *, forces=(), motion=(),
+                  bounds=(), upper=None, ridge: float = 0.0, U=None) -> ContactQP:  # fmt: skip
+    """The QP of the module docstring.
+
+    Args:
+        M, hvec: the mass matrix and the nonlinear effects at the state.
+        weight: the body's weight [N] (forces are solved in body weights).
+        tasks: the :class:`~humanoid.control.tasks.TaskStack` of the costs on dv.
+        Jc: the loaded points' Jacobian (3k, nv), world axes.
+        mu: the friction pyramids' coefficient (inscribed in the cone).
+        forces: :class:`~humanoid.control.tasks.ForceTask` s on the k points' forces.
+        motion: (A, b) equalities A dv = b (sticking rows, welds).
+        bounds: (C, d) inequalities C dv <= d (free points, joint ranges).
+        upper: the k points' normal-force upper bounds [body weights], or None.
+        ridge: added to P's diagonal.
+        U: see :class:`ContactQP` (kept for a caller's fallback).
+    """
+    nv = M.shape[0]
+    nf = Jc.shape[0]
+    n = nv + nf
+    B, a, W = tasks.stacked()
+    P = np.zeros((n, n))
+    qv = np.zeros(n)
+    P[:nv, :nv] = B.T @ (W[:, None] * B)
+    qv[:nv] = -B.T @ (W * a)
+    for task in forces:
+        Pf, qf = task.terms(nf)
+        P[nv:, nv:] += Pf
+        qv[nv:] += qf
+    if ridge:
+        P.flat[:: n + 1] += ridge
+    A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
+    b_eq = [-hvec[:6]]
+    for A, b in motion:
+        A_eq.append(np.hstack([A, np.zeros((len(A), nf))]))
+        b_eq.append(b)
+    k = nf // 3
+    G = [pyramid_rows(mu, k, n, nv)]
+    h = [np.zeros(5 * k)]
+    cones = 5 * k
+    if upper is not None and k:
+        rows = np.zeros((k, n))
+        rows[np.arange(k), nv + 3 * np.arange(k) + 2] = 1.0
+        G.append(rows)
+        h.append(np.asarray(upper, dtype=float))
+    for C, d in bounds:
+        if len(C):
+            G.append(np.hstack([C, np.zeros((len(C), nf))]))
+            h.append(d)
+    U = np.zeros((0, 0)) if U is None else U
+    return ContactQP(P, qv, np.vstack(A_eq), np.concatenate(b_eq), np.vstack(G),
+                     np.concatenate(h), Jc, U, cones)  # fmt: skip
+
+
+def ramped_bound(force: float, time_to_lift: float, ramp: float, margin: float) -> float:
+    """A loaded point's normal-force upper bound: its planned ``force`` plus a ``margin`` (same
+    unit) that ramps linearly to zero over the last ``ramp`` [s] before the plan lifts the
+    point (``time_to_lift`` [s]), so that a point carries nothing more than planned when it
+    leaves the ground."""
+    return force + margin * min(1.0, max(time_to_lift, 0.0) / ramp)
+
+
+def frame_jacobians(model, data, frames) -> np.ndarray:
+    """The linear rows (world axes) of the frames' Jacobians, stacked (3 per frame)."""
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    if not frames:
+        return np.zeros((0, model.nv))
+    return np.vstack([pin.getFrameJacobian(model, data, f, lwa)[:3] for f in frames])
+
 
 def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: float,
-               weight: float, gains, ranges, correction: float,
-               range_margin: float, range_time: float, drift=None) -> ContactQP:  # fmt: skip
-    """The walking and tracking controllers' QP on the rigid ground.
+               weight: float, gains, ranges, correction: float, range_margin: float,
+               range_time: float, *, drift=None, forces=None, upper=None) -> ContactQP:  # fmt: skip
+    """:func:`whole_body_qp` on the plant's rigid ground.
 
     ``contacts``: the plant's detection (constraint models and datas, signed distances);
     ``loaded`` and ``free``: indices of its points that stick (their forces are unknowns) and
-    that only must not go through the floor; ``tasks``: (rows, right-hand sides, weights) of the
-    costs on dv; ``gains``: ``w_force``, ``mu``, ``settle``, ``contact_time``, ``horizon``.
+    that only must not go through the floor; ``tasks``: the costs on dv; ``gains``:
+    ``w_force``, ``mu``, ``settle``, ``contact_time``, ``horizon``; ``forces``: the force
+    tasks (None: ``w_force`` |f|^2, small forces); ``upper``: the loaded points' normal-force
+    bounds [body weights].
 
-    - Equalities: the free flyer's six rows of the dynamics (never actuated); each loaded
-      point's velocity brought to rest over ``contact_time`` (J (v + T dv) + gap = 0; a point
-      still above the floor settles onto it over ``settle``), on an independent set of the
-      rows (one sole's four points are twelve dependent rows: rank deficient equalities make
-      the solver crawl).
-    - Inequalities: the loaded points' forces in friction pyramids; every free point kept off
-      the floor within the ``horizon`` H, -(J_n (v + H dv) + depth / H) <= 0 (the plant stops
-      what is left within its step); the joint ranges as velocity dampers over H.
-    - Costs: the tasks, and small forces (``w_force``).
+    - Each loaded point's velocity is brought to rest over ``contact_time``
+      (J (v + T dv) + gap = 0; a point still above the floor settles onto it over ``settle``),
+      on an independent set of the rows (one sole's four points are twelve dependent rows:
+      rank deficient equalities make the solver crawl).
+    - Every free point is kept off the floor within the ``horizon`` H,
+      -(J_n (v + H dv) + depth / H) <= 0 (the plant stops what is left within its step); the
+      joint ranges are velocity dampers over H.
 
     ``drift``: the loaded points' accelerations at dv = 0 (J' v, world axes, 3 per point), or
     None. With it the sticking rows are J dv + J' v = -(J v + gap) / T: a point at rest on a
@@ -197,38 +279,25 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
     Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
     depth = np.where(phi >= 0.0, phi, correction * phi)
     gap = depth / dt
-    nf = 3 * len(loaded)
-    n = nv + nf
     Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
-    rows, rhs, weights = tasks
-    A_cost = np.hstack([np.vstack(rows), np.zeros((sum(len(r) for r in rows), nf))])
-    W = np.concatenate(weights)
-    P = A_cost.T @ (W[:, None] * A_cost)
-    qv = -A_cost.T @ (W * np.concatenate(rhs))
-    P[nv:, nv:] += g.w_force * np.eye(nf)
-    A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
-    b_eq = [-hvec[:6]]
-    U = np.zeros((0, 0))
+    motion, U = [], None
     if loaded:
         target = -Jc @ v
         for j, i in enumerate(loaded):
             target[3 * j + 2] -= gap[i] if phi[i] <= 0.0 or not g.settle else phi[i] / g.settle
         U, S, _ = np.linalg.svd(Jc, full_matrices=False)
         U = U[:, S > 1e-9 * S[0]]
-        A_eq.append(np.hstack([U.T @ Jc, np.zeros((U.shape[1], nf))]))
         rate = target / max(dt, g.contact_time)
         if drift is not None:
             rate = rate - np.asarray(drift, dtype=float).ravel()
-        b_eq.append(U.T @ rate)
-    G = [pyramid_rows(g.mu, len(loaded), n, nv)]
-    h_ineq = [np.zeros(5 * len(loaded))]
+        motion.append((U.T @ Jc, U.T @ rate))
+    bounds = []
     if free:
         Jn = np.vstack([Jall[3 * i + 2] for i in free])
-        G.append(np.hstack([-Jn, np.zeros((len(free), nf))]))
-        h_ineq.append((Jn @ v + depth[free] / g.horizon) / g.horizon)
+        bounds.append((-Jn, (Jn @ v + depth[free] / g.horizon) / g.horizon))
     Jr, bound = range_damper(ranges, q, v, g.horizon, range_margin, range_time)
-    if len(Jr):
-        G.append(np.hstack([-Jr, np.zeros((len(Jr), nf))]))
-        h_ineq.append(bound)
-    return ContactQP(P, qv, np.vstack(A_eq), np.concatenate(b_eq), np.vstack(G),
-                     np.concatenate(h_ineq), Jc, U, 5 * len(loaded))  # fmt: skip
+    bounds.append((-Jr, bound))
+    return whole_body_qp(M, hvec, weight, tasks, Jc, g.mu, motion=motion, bounds=bounds,
+                         forces=[ForceTask(0.0, g.w_force)] if forces is None else forces,
+                         upper=upper,
+                         U=U)  # fmt: skip

@@ -1,0 +1,232 @@
+"""The control layer (humanoid.control): every task's rows against Pinocchio's own kinematics,
+its PD law converging (the sign of every error), and the whole-body QP's constraints."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from conftest import get_model, random_state
+
+from humanoid.control import (
+    CentreOfMassTask,
+    ForceTask,
+    FrameTask,
+    MomentumTask,
+    OrientationTask,
+    PostureTask,
+    TaskStack,
+    WarmQP,
+    dynamics_terms,
+    whole_body_qp,
+)
+from humanoid.control.qp import frame_jacobians, ramped_bound
+from humanoid.errors import HumanoidError
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+TOL = 1e-9
+
+
+@pytest.fixture(scope="module")
+def state():
+    """The male body at a random state, its pelvis rotated and moving (seeded)."""
+    h = get_model("male", "quaternion")
+    q, v = random_state(h, np.random.default_rng(3))
+    data = h.model.createData()
+    dynamics_terms(h.model, data, q, v)
+    return h, data, q, v
+
+
+def _reached(h, task, q, v):
+    """The smallest dv with J dv = a for ``task`` alone, and the data at (q, v, dv)."""
+    model = h.model
+    data = model.createData()
+    dynamics_terms(model, data, q, v)
+    J, a = task.compute(model, data, q, v)
+    dv = np.linalg.lstsq(J, a, rcond=None)[0]
+    assert np.allclose(J @ dv, a, atol=TOL)  # (every task here has full row rank)
+    out = model.createData()
+    pin.forwardKinematics(model, out, q, v, dv)
+    pin.updateFramePlacements(model, out)
+    return dv, out
+
+
+def test_a_frame_task_without_feedback_gives_the_frame_its_reference_acceleration(state):
+    h, _, q, v = state
+    fid = h.sole_id("left")
+    a_ref = np.array([0.3, -1.2, 2.0, 4.0, -0.5, 1.5])
+    task = FrameTask(fid, pin.SE3.Identity(), 0.0, 0.0, 1.0, np.zeros(6), a_ref)
+    _, out = _reached(h, task, q, v)
+    got = pin.getFrameClassicalAcceleration(h.model, out, fid, LWA).vector
+    assert np.abs(got - a_ref).max() < TOL
+
+
+def test_a_frame_tasks_local_angular_rows_are_pinocchios_local_jacobian(state):
+    h, data, q, v = state
+    fid = h.sole_id("right")
+    task = FrameTask(fid, pin.SE3.Identity(), 1.0, 1.0, 1.0, local_angular=True)
+    J, _ = task.compute(h.model, data, q, v)
+    local = pin.getFrameJacobian(h.model, data, fid, pin.ReferenceFrame.LOCAL)
+    assert np.abs(J[3:] - local[3:]).max() < TOL
+    assert np.abs(J[:3] - pin.getFrameJacobian(h.model, data, fid, LWA)[:3]).max() < TOL
+
+
+def test_an_orientation_task_gives_the_frames_angular_acceleration(state):
+    h, _, q, v = state
+    fid = h.sole_id("right")  # at the end of a moving chain: its drift J'v is not zero
+    dw = np.array([1.0, -2.0, 0.5])
+    task = OrientationTask(fid, np.eye(3), 0.0, 0.0, 1.0, np.zeros(3), dw)
+    _, out = _reached(h, task, q, v)
+    assert np.abs(pin.getFrameAcceleration(h.model, out, fid, LWA).angular - dw).max() < TOL
+
+
+def test_a_centre_of_mass_task_gives_the_centre_of_mass_its_acceleration(state):
+    h, _, q, v = state
+    ddc = np.array([0.4, -0.3, 1.1])
+    task = CentreOfMassTask(np.zeros(3), np.zeros(3), ddc, 0.0, 0.0, 1.0)
+    dv, _ = _reached(h, task, q, v)
+    data = h.model.createData()
+    pin.centerOfMass(h.model, data, q, v, dv)
+    assert np.abs(data.acom[0] - ddc).max() < TOL
+    assert np.allclose(task.c, data.com[0]) and np.allclose(task.dc, data.vcom[0])
+
+
+def test_a_momentum_task_damps_the_centroidal_angular_momentum_at_its_rate(state):
+    h, _, q, v = state
+    kd, k_ref = 7.0, np.array([0.5, -1.0, 2.0])
+    dv, _ = _reached(h, MomentumTask(kd, 1.0, k_ref), q, v)
+    data = h.model.createData()
+    k = pin.computeCentroidalMomentum(h.model, data, q, v).angular.copy()
+    dk = pin.computeCentroidalMomentumTimeVariation(h.model, data, q, v, dv).angular
+    assert np.abs(dk - kd * (k_ref - k)).max() < 1e-8 * max(1.0, np.abs(dk).max())
+
+
+def test_a_posture_task_sets_the_joints_or_the_roots_acceleration(state):
+    h, data, q, v = state
+    nv = h.model.nv
+    rng = np.random.default_rng(4)
+    q_ref, v_ref, a_ref = pin.integrate(h.model, q, rng.normal(size=nv) * 0.1), v * 0.5, v * 2
+    for dofs, rows in (("joints", slice(6, None)), ("root", slice(0, 6))):
+        J, a = PostureTask(q_ref, 3.0, 2.0, 1.0, v_ref, a_ref, dofs).compute(h.model, data, q, v)
+        e = pin.difference(h.model, q, q_ref)
+        assert np.array_equal(J, np.eye(nv)[rows])
+        assert np.allclose(a, a_ref[rows] + 3.0 * e[rows] + 2.0 * (v_ref - v)[rows], atol=TOL)
+    with pytest.raises(HumanoidError, match="dofs must be one of"):
+        PostureTask(q_ref, 1.0, 1.0, 1.0, dofs="arms")
+
+
+def _converge(h, make, error, seconds=3.0, dt=2e-3):
+    """Kinematic integration of dv = the smallest solution of ``make(q, v)``'s rows from the
+    standing pose, moving and tilted: the task's error [m or rad] at the start and the end."""
+    model = h.model
+    data = model.createData()
+    q = h.standing_configuration()
+    q[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5)).coeffs()
+    v = np.zeros(model.nv)
+    v[:6] = [0.2, -0.1, 0.1, 0.5, -0.3, 0.2]
+    first = None
+    for _ in range(int(seconds / dt)):
+        dynamics_terms(model, data, q, v)
+        e = error(data, q)
+        first = e if first is None else first
+        stack = TaskStack(model, data, q, v)
+        stack.add(make(q, v))
+        J, a, _ = stack.stacked()
+        dv = np.linalg.lstsq(J, a, rcond=None)[0]
+        v = v + dt * dv
+        q = pin.integrate(model, q, dt * v)
+    dynamics_terms(model, data, q, v)
+    return first, error(data, q)
+
+
+@pytest.mark.parametrize("kind", ["frame", "orientation", "centre_of_mass"])
+def test_every_tasks_feedback_drives_its_error_to_zero(kind):
+    """The PD laws' signs: each task alone, from a tilted, moving body, reaches its target
+    (kp 25, kd 10: critically damped; 3 s is 15 time constants)."""
+    h = get_model("male", "quaternion")
+    model = h.model
+    fid = h.sole_id("left")
+    pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+    target = pin.SE3(pin.rpy.rpyToMatrix(0.1, 0.2, -0.3), np.array([0.2, 0.1, 0.3]))
+    c_target = np.array([0.1, -0.05, 0.8])
+    if kind == "frame":
+        first, last = _converge(
+            h, lambda q, v: FrameTask(fid, target, 25.0, 10.0, 1.0),
+            lambda d, q: np.linalg.norm(pin.log6(d.oMf[fid].actInv(target)).vector))  # fmt: skip
+    elif kind == "orientation":
+        first, last = _converge(
+            h,
+            lambda q, v: OrientationTask(pelvis, target.rotation, 25.0, 10.0, 1.0),
+            lambda d, q: np.linalg.norm(pin.log3(d.oMf[pelvis].rotation.T @ target.rotation)),
+        )
+    else:
+        first, last = _converge(
+            h,
+            lambda q, v: CentreOfMassTask(c_target, np.zeros(3), np.zeros(3), 25.0, 10.0, 1.0),
+            lambda d, q: np.linalg.norm(pin.centerOfMass(h.model, d, q) - c_target),
+        )
+    assert first > 0.05 and last < 1e-3 * first, (first, last)
+
+
+def test_a_tilt_only_orientation_task_leaves_the_yaw_free(state):
+    h, data, q, v = state
+    pelvis = h.model.getFrameId(h.model.names[1], pin.FrameType.JOINT)
+    R = data.oMf[pelvis].rotation
+    yaw = np.arctan2(R[1, 0], R[0, 0])
+    tilt = OrientationTask(pelvis, None, 9.0, 0.0, 1.0, tilt_only=True)
+    level = OrientationTask(pelvis, pin.utils.rotate("z", yaw), 9.0, 0.0, 1.0)
+    assert np.allclose(tilt.compute(h.model, data, q, v)[1], level.compute(h.model, data, q, v)[1])
+
+
+def test_a_force_task_is_its_weight_times_the_squared_residual():
+    rng = np.random.default_rng(5)
+    S, target, f = rng.normal(size=(2, 9)), rng.normal(size=2), rng.normal(size=9)
+    P, qf = ForceTask(target, 3.0, S).terms(9)
+    cost = 0.5 * f @ P @ f + qf @ f + 1.5 * target @ target
+    assert cost == pytest.approx(1.5 * np.sum((S @ f - target) ** 2), rel=1e-12)
+    P, qf = ForceTask(0.25, 2.0).terms(3)
+    assert np.allclose(P, 2.0 * np.eye(3)) and np.allclose(qf, -0.5)
+
+
+def test_a_ramped_bound_falls_to_the_planned_force_when_the_point_lifts():
+    assert ramped_bound(0.3, 1.0, 0.05, 0.2) == pytest.approx(0.5)
+    assert ramped_bound(0.3, 0.025, 0.05, 0.2) == pytest.approx(0.4)
+    assert ramped_bound(0.3, 0.0, 0.05, 0.2) == pytest.approx(0.3)
+    assert ramped_bound(0.3, -0.01, 0.05, 0.2) == pytest.approx(0.3)
+
+
+def test_the_whole_body_qp_keeps_its_constraints_and_its_torques_leave_the_root_alone():
+    """The male body standing on its soles' points: the free flyer's rows of the dynamics hold
+    with the solved forces, the forces stay in their pyramids and under their bounds (one
+    point's at zero), the sticking rows hold, and tau = M dv + h - Jc' f has a zero root."""
+    h = get_model("male", "quaternion")
+    model = h.model
+    data = model.createData()
+    q = h.standing_configuration()
+    q[3:7] = pin.Quaternion(pin.utils.rotate("z", 0.7)).coeffs()  # a rotated pelvis
+    v = np.zeros(model.nv)
+    M, hvec = dynamics_terms(model, data, q, v)
+    weight = h.mass * 9.81
+    points = [h.frame_id(n) for s in ("left", "right") for n in h.require_contact_points(s)]
+    Jc = frame_jacobians(model, data, points)
+    tasks = TaskStack(model, data, q, v)
+    tasks.add(CentreOfMassTask(pin.centerOfMass(model, data, q), np.zeros(3),
+                               np.array([0.3, 0.0, 0.0]), 0.0, 0.0, 1.0))  # fmt: skip
+    tasks.add(PostureTask(q, 10.0, 5.0, 1e-2))
+    k = len(points)
+    upper = np.full(k, 10.0)
+    upper[0] = 0.0
+    mu = 0.6
+    p = whole_body_qp(M, hvec, weight, tasks, Jc, mu, forces=[ForceTask(0.0, 1e-3)],
+                      motion=[(Jc, np.zeros(3 * k))], upper=upper)  # fmt: skip
+    x, relaxed = p.solve(WarmQP(eps_abs=1e-10, max_iter=1000, primal=1e-8, dual=1e-6))
+    assert x is not None and not relaxed
+    tau, dv, f = p.torques(x, M, hvec, weight)
+    assert np.abs(M[:6] @ dv + hvec[:6] - Jc.T[:6] @ f.ravel()).max() < 1e-6 * weight
+    assert np.abs(Jc @ dv).max() < 1e-6
+    assert np.all(f[:, 2] >= -1e-6 * weight) and f[0, 2] < 1e-6 * weight
+    assert np.all(np.abs(f[:, :2]) <= mu / np.sqrt(2) * f[:, 2:] + 1e-6 * weight)
+    assert np.all(f[:, 2] <= upper * weight + 1e-6 * weight)
+    full = M @ dv + hvec - Jc.T @ f.ravel()
+    assert np.abs(tau[:6]).max() == 0.0 and np.allclose(tau[6:], full[6:])
+    # the forces carry the weight and push the centre of mass forward at 0.3 m/s^2
+    assert f[:, 2].sum() == pytest.approx(weight, rel=0.05)
+    assert f[:, 0].sum() == pytest.approx(h.mass * 0.3, rel=0.05)
