@@ -230,3 +230,40 @@ def test_the_whole_body_qp_keeps_its_constraints_and_its_torques_leave_the_root_
     # the forces carry the weight and push the centre of mass forward at 0.3 m/s^2
     assert f[:, 2].sum() == pytest.approx(weight, rel=0.05)
     assert f[:, 0].sum() == pytest.approx(h.mass * 0.3, rel=0.05)
+
+
+def test_a_supported_centre_of_mass_task_asks_only_what_its_support_can_carry():
+    """Asked to accelerate forward at 3 m/s^2 over a 10 cm square around it, the centre of mass
+    gets the acceleration whose centre of pressure is the square's back edge:
+    c'' = (c - p) g / z (the pressure centre behind the centre of mass pushes it forward)."""
+    h = get_model("male", "quaternion")
+    model = h.model
+    data = model.createData()
+    q, v = h.standing_configuration(), np.zeros(model.nv)
+    dynamics_terms(model, data, q, v)
+    c = pin.centerOfMass(model, data, q).copy()
+    square = c[:2] + np.array([[-0.05, -0.05], [0.05, -0.05], [0.05, 0.05], [-0.05, 0.05]])
+    task = CentreOfMassTask(c, np.zeros(3), np.array([3.0, 0.0, 0.0]), 0.0, 0.0, 1.0, square)
+    _, a = task.compute(model, data, q, v)  # (at rest the drift is zero)
+    g = float(np.linalg.norm(model.gravity.linear))
+    assert a == pytest.approx([0.05 * g / c[2], 0.0, 0.0], abs=1e-9)
+    inside = CentreOfMassTask(c, np.zeros(3), np.array([0.1, 0.0, 0.0]), 0.0, 0.0, 1.0, square)
+    assert inside.compute(model, data, q, v)[1] == pytest.approx([0.1, 0.0, 0.0], abs=1e-12)
+
+
+def test_the_friction_pyramid_is_inscribed_in_the_cone():
+    """|f_x|, |f_y| <= (mu / sqrt 2) f_z: a force on the pyramid's edge passes, one a little
+    beyond it (inside the cone) does not."""
+    from humanoid.control.qp import pyramid_rows
+
+    mu = 0.6
+    G = pyramid_rows(mu, 2, 7, 1)
+    edge = mu / np.sqrt(2.0)
+    ok = np.array([9.0, edge, -edge, 1.0, 0.0, 0.0, 2.0])
+    assert np.all(G @ ok <= 1e-15)
+    beyond = ok.copy()
+    beyond[4] = 1.01 * edge * 2.0  # the second point's f_x, still inside the cone mu f_z
+    assert np.any(G @ beyond > 0) and np.hypot(beyond[4], beyond[5]) < mu * beyond[6]
+    lifting = ok.copy()
+    lifting[3] = -1e-3
+    assert np.any(G @ lifting > 0)
