@@ -4,7 +4,9 @@ bodies with toes at :data:`~humanoid.optimal.cycle.SHIPPED_SPEEDS`, each warm-st
 neighbour towards the free speed, into ``humanoid/data/gaits``; the tracking objective, and for
 the bodies with toes at their free speed the predictive one too (from the tracking optimum),
 and the start from standing, the stop to standing and the turn along a circle of each radius in
-:data:`RADII` of their free-speed tracking cycle.
+:data:`RADII` of their free-speed tracking cycle; and the free-speed tracking cycles of the
+small and the tall body of :data:`SIZES` (the 1.50 m, 45 kg female and the 1.95 m, 100 kg male
+that ``make test`` walks).
 
 Run from the repository: ``python scripts/make_gaits.py [BODY ...]`` (default all of
 :data:`BODIES`); ``--transitions BODY ...`` solves only the starts, stops and turns, of the
@@ -39,7 +41,11 @@ BODIES = {  # name: the shipped body's name, and whether it has toes
     "adult_female": ("adult_female", True),
     "adult_male_no_toes": ("adult_male", False),
     "adult_female_no_toes": ("adult_female", False),
+    "small_female": ("small_female", True),
+    "tall_male": ("tall_male", True),
 }
+# bodies of other sizes: (height [m], mass [kg], sex); only their free-speed tracking cycle
+SIZES = {"small_female": (1.50, 45.0, "female"), "tall_male": (1.95, 100.0, "male")}
 RADII = (2.0,)  # [m] the turns shipped (positive: to the left)
 SHIPPED = {"adult_male": (1.75, 75.0, "male"), "adult_female": (1.62, 62.0, "female")}
 
@@ -52,13 +58,16 @@ def main(names) -> int:
             print(f"make_gaits: no body {name!r}; there are {', '.join(BODIES)}", file=sys.stderr)
             return 2
         body, toes = BODIES[name]
-        h = hm.load(body)
-        if not toes:
+        if body in SIZES:
+            h = hm.load(hm.build_urdf(hm.BodyParameters(*SIZES[body])))
+        elif toes:
+            h = hm.load(body)
+        else:
             h = hm.load(hm.build_urdf(hm.BodyParameters(*SHIPPED[body], toes=False)))
         free = stored_gait(h) if only_transitions else optimise_gait(h, None, "tracking")
         if free is None or not (only_transitions or _saved(name, free)):
             return 1
-        if not toes:
+        if not toes or body in SIZES:
             continue
         for kind, solve in zip(KINDS, (optimise_start, optimise_stop), strict=True):
             tr = solve(free)
