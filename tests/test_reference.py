@@ -8,13 +8,14 @@ import pytest
 
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
+from humanoid.control.tasks import closest_in_hull
 from humanoid.model import lock_foot_hinges
 from humanoid.scene import Effects, GroundSpec, JointLimitSpec, Scene
 from humanoid.simulation import Simulation
 from humanoid.walking.clinical import ANGLES, arm_chains, clinical_angles
 from humanoid.walking.norms import norms
 from humanoid.walking.reference import CLEARANCE, fit_cycle, periodic_pendulum
-from humanoid.walking.tracking import CyclePlayer, GaitController, TrackingGains, closest_in_hull
+from humanoid.walking.tracking import CyclePlayer, GaitController, TrackingGains
 
 
 @pytest.fixture(scope="module")
