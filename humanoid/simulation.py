@@ -619,7 +619,18 @@ class Simulation:
         divergence (``diverged``: non-finite or exploding state, an adaptive step that will
         not converge) and on any other :class:`~humanoid.errors.HumanoidError` raised inside
         the loop (``failed``: a fall seen by a monitor, a controller without a solution).
+
+        The run's dense algebra (BLAS, LAPACK, OpenMP) uses one thread whatever the
+        environment says: on matrices of a body's size (39 x 39) threads only cost (the
+        balance scene's step took 25 times longer with two); runs in parallel get their
+        threads from a study's workers.
         """
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1):
+            return self._run(quiet)
+
+    def _run(self, quiet: bool) -> Trajectory:
         scene, model = self.scene, self.model
         dt = scene.dt
         n_steps = self.n_steps

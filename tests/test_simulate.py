@@ -381,3 +381,26 @@ def test_shipped_scenes_open_by_name():
     assert Scene.load("push").name == "push"
     with pytest.raises(hm.SceneError, match="shipped scenes: balance, collapse"):
         Scene.load("psuh")
+
+
+def test_a_run_does_its_dense_algebra_on_one_thread():
+    """Whatever the environment's thread pools, every step of a run sees one BLAS/OpenMP thread
+    (threads only cost on a body's 39 x 39 matrices) and the pools are as they were after it."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    seen = []
+
+    class Probe:
+        def before_step(self, sim, k, t, q, v):
+            seen.append(max(p["num_threads"] for p in threadpool_info()))
+
+        def force(self, model, data, t, q, v):
+            return np.zeros(model.nv)
+
+    with threadpool_limits(limits=2):
+        before = [p["num_threads"] for p in threadpool_info()]
+        sim = Simulation(_scene(duration=0.01))
+        sim.controller = Probe()
+        sim.run(quiet=True)
+        assert [p["num_threads"] for p in threadpool_info()] == before
+    assert seen and set(seen) == {1}
