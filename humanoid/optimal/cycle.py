@@ -23,12 +23,12 @@ from ..errors import HumanoidError
 from .coordinates import OcpModel, build_ocp_model
 
 __all__ = [
-    "KINDS", "MIN_RADIUS", "REVISION", "SHIPPED_SPEEDS", "GaitSolution", "Phase", "Solution",
-    "Transition", "TurnSolution", "body_key", "cache_dir", "check_radius", "contact_points",
-    "default_speed", "gait_file", "gait_phases", "interval_sets", "load_gait", "load_transition",
-    "load_turn", "save_gait", "save_transition", "save_turn", "stored", "stored_gait",
-    "stored_transition", "stored_turn", "transition_file", "transition_phases", "turn_file",
-    "turn_phases",
+    "KINDS", "MIN_RADIUS", "REVISION", "SHIPPED_SPEEDS", "TURN_REVISION", "GaitSolution",
+    "Phase", "Solution", "Transition", "TurnSolution", "body_key", "cache_dir", "check_radius",
+    "contact_points", "default_speed", "gait_file", "gait_phases", "interval_sets", "load_gait",
+    "load_transition", "load_turn", "save_gait", "save_transition", "save_turn", "stored",
+    "stored_gait", "stored_transition", "stored_turn", "transition_file", "transition_phases",
+    "turn_file", "turn_phases",
 ]  # fmt: skip
 
 NODES = (5, 12, 8)  # collocation intervals in the three phases
@@ -382,6 +382,9 @@ FORMAT = 1
 # objective (a user's cache from an older version) is not found, and is solved again. Raise it
 # whenever an objective or the problem changes.
 REVISION = 2
+# The turns' own revision, in their names besides the cycle's (2: the second double support's
+# event is tracked too)
+TURN_REVISION = 2
 DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
 
 
@@ -527,7 +530,7 @@ def _found(name: str, load):
 def turn_file(gait: GaitSolution, radius: float) -> str:
     """The cache's file name of ``gait`` bent onto a circle of ``radius`` (to the cm)."""
     return gait_file(gait.om, round(gait.speed, 2), gait.objective).replace(
-        ".npz", f"-turn{round(100 * radius):+05d}.npz")  # fmt: skip
+        ".npz", f"-turn{round(100 * radius):+05d}-t{TURN_REVISION}.npz")  # fmt: skip
 
 
 def save_turn(turn: TurnSolution, path) -> Path:

@@ -16,6 +16,7 @@ the tracking objective) with these changes:
   stride) and each foot's anterior force along it;
 - the stride's turn, and with it the speed along the circle, is free between :data:`SLOWEST`
   of the straight cycle's and the straight cycle's; the cycle time is the straight cycle's;
+- both double supports' events are tracked (the half stride tracks its one);
 - the warm start is the straight cycle's stride bent onto the circle.
 
 The stance feet then stay put while the hips turn the body over them, and the body leans into
@@ -24,8 +25,8 @@ pelvis's start free the optimum moved the pelvis in to a 1.63 m circle (1.14 m/s
 speed held at the straight cycle's, IPOPT stopped at an acceptable point whose feet landed on
 one circle 2 cm apart (the straight cycle's 11 cm) and the walk fell in its third step (held
 apart by a step-width term, IPOPT had not converged after 500 iterations); with the speed free
-the optimum slows to 1.14 m/s (the female's to 1.06), and the turn's cost rises steeply above
-it, so the bound holds the speed at a person's.
+down to half the straight cycle's the optimum slows to 80 % (1.11 m/s, the female's 1.03) and
+its push-off power falls below a person's; at 92 % (1.27 and 1.20 m/s) both walk 20 steps.
 """
 
 from __future__ import annotations
@@ -53,7 +54,12 @@ from .problem import Collocation
 
 __all__ = ["optimise_turn", "turn"]
 
-SLOWEST = 0.5  # the turn's speed is free, at most the straight cycle's and at least this of it
+# the turn's speed is free between this share of the straight cycle's and the straight cycle's:
+# with the floor at 0.5 the optimum slowed to 80 % (the male 1.11 m/s, the female 1.03), its
+# push-off power below the adults' (2.0 and 2.1 W/kg); at 0.92 (1.27 and 1.20 m/s) both walk
+# 20 steps with the adults' stance, double support and ankle; at 0.965 (1.33 and 1.25) both
+# fell (at 2.7 and 4.6 s: the stance foot pivots on its forefoot)
+SLOWEST = 0.92
 
 
 def turn(gait: GaitSolution, radius: float, *, cache: bool = True,

@@ -15,7 +15,10 @@ actuated and nothing is placed kinematically.
   to zero over ``ramp`` before the cycle lifts it, so a point is unloaded before it leaves.
 - **Costs.** The cycle's forces (per point, in body weights), the joints' trajectories, the
   pelvis's orientation, the centre of mass and the swing foot's pose, each a PD law around the
-  cycle's acceleration.
+  cycle's acceleration; a stance foot on its heel (or forefoot) where the cycle has it flat is
+  turned flat.
+- **Footsteps.** At each heel strike the reference moves (blended) to where the foot landed; on
+  a circle only along the direction of travel, so that the circle keeps its centre.
 
 The same tracker walks from standing and stops standing (:func:`walk_from_standing`: a start
 and a stop optimised into and out of the cycle, :mod:`humanoid.optimal.transitions`) and along
@@ -312,7 +315,7 @@ class CycleTracker(Effect):
         pin.updateFramePlacements(model, rd)
         loaded, free, match = self._corners(joint_of, phi, pts, ref.contacts(tc))
         bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
-        self._reanchor(t, match)
+        self._reanchor(t, tc, match)
         tasks = TaskStack(model, data, q, v)
         tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, g.w_joint, v_r, a_r))
         tasks.add(OrientationTask.following(model, rd, self.pelvis, g.pelvis_kp, g.pelvis_kd,
@@ -332,10 +335,17 @@ class CycleTracker(Effect):
         norm = np.linalg.norm(shift)
         if norm > g.max_shift:
             shift *= g.max_shift / norm
+        in_contact = ref.contacts(tc)
         for s in SIDES:
             if s not in bearing:
                 tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
                                               g.w_foot, shift))  # fmt: skip
+            elif any(p in in_contact and p not in match for p in self.points[s]):
+                # a foot on its heel (or its forefoot) where the cycle has it flat is turned
+                # flat: its loaded points alone leave it free to pitch (landing behind the
+                # cycle, a turn's stance foot rose onto its heel, 14 degrees toes up in 0.3 s)
+                tasks.add(OrientationTask.following(model, rd, self.sole[s], g.foot_kp,
+                                                    g.foot_kd, g.w_foot))  # fmt: skip
         # the cycle's forces: contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2, the
         # normal forces under the cycle's plus a margin that ramps to zero before it lifts
         target, upper = self._cycle_forces(tc, match)
@@ -421,8 +431,10 @@ class CycleTracker(Effect):
         self.loaded_before = set(match)
         return loaded, free, match
 
-    def _reanchor(self, t: float, match) -> None:
-        """At a heel strike, the reference moves (over ``blend``) to where the foot landed."""
+    def _reanchor(self, t: float, tc: float, match) -> None:
+        """At a heel strike, the reference moves (over ``blend``) to where the foot landed; on
+        a circle only along the direction of travel (moved sideways, the circle's centre would
+        follow the feet: the body drifted outwards, 11 cm in five steps, and fell)."""
         data, rd = self.data, self.rdata
         for s in SIDES:
             heel_down = any(m in self.heels[s] for m in match)
@@ -431,8 +443,13 @@ class CycleTracker(Effect):
                                   for p in self.heels[s]], axis=0)  # fmt: skip
                 planned = np.mean([rd.oMf[self.point_id[p]].translation[:2]
                                    for p in self.heels[s]], axis=0)  # fmt: skip
+                moved = actual - planned
+                if self.ref.turn is not None:
+                    heading = self.ref.heading(tc)
+                    ahead = np.array([math.cos(heading), math.sin(heading)])
+                    moved = (moved @ ahead) * ahead
                 self.offset_from = self.offset.copy()
-                self.offset_to = self.offset + (actual - planned)
+                self.offset_to = self.offset + moved
                 self.offset_t = t
             self.landed[s] = heel_down or (self.landed[s] and any(
                 m.startswith(s) for m in match))  # fmt: skip
