@@ -313,7 +313,8 @@ class CycleTracker(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        loaded, free, match = self._corners(joint_of, phi, pts, ref.contacts(tc))
+        in_contact = ref.contacts(tc)
+        loaded, free, match = self._corners(joint_of, phi, pts, in_contact)
         bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
         self._reanchor(t, tc, match)
         tasks = TaskStack(model, data, q, v)
@@ -335,7 +336,6 @@ class CycleTracker(Effect):
         norm = np.linalg.norm(shift)
         if norm > g.max_shift:
             shift *= g.max_shift / norm
-        in_contact = ref.contacts(tc)
         for s in SIDES:
             if s not in bearing:
                 tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
