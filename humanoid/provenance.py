@@ -28,4 +28,13 @@ def machine() -> str:
     date = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     return (f"{cpu}, {os.cpu_count()} cores, {platform.system()}; {date}; humanoid "
             f"{__version__}, Pinocchio {pin.__version__}, NumPy {np.__version__}, Python "
-            f"{platform.python_version()}")  # fmt: skip
+            f"{platform.python_version()}; {threads()}")  # fmt: skip
+
+
+def threads() -> str:
+    """The thread pools a simulation runs with (one: :meth:`Simulation.run
+    <humanoid.simulation.Simulation.run>` limits them) and the environment's own."""
+    from threadpoolctl import threadpool_info
+
+    pools = ", ".join(f"{p['internal_api']} {p['num_threads']}" for p in threadpool_info())
+    return f"each run on 1 thread (the environment's pools: {pools or 'none loaded'})"

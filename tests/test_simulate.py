@@ -404,3 +404,19 @@ def test_a_run_does_its_dense_algebra_on_one_thread():
         sim.run(quiet=True)
         assert [p["num_threads"] for p in threadpool_info()] == before
     assert seen and set(seen) == {1}
+
+
+def test_the_benchmarks_say_the_threads_they_ran_with():
+    from humanoid.bench.common import best_time
+    from humanoid.provenance import machine
+
+    assert "each run on 1 thread (the environment's pools:" in machine()
+    seen = []
+
+    def probe():
+        from threadpoolctl import threadpool_info
+
+        seen.append(max((p["num_threads"] for p in threadpool_info()), default=1))
+
+    best_time(probe, 2, 2)
+    assert set(seen) == {1}

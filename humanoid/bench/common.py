@@ -65,13 +65,17 @@ def state_error(model, ref, qs, vs) -> float:
 
 def best_time(fn, n: int, rounds: int) -> float:
     """Best per-call wall time [s] of ``fn()`` over ``rounds`` rounds of ``n`` calls (the
-    machine is shared and noisy: the best round is the least disturbed)."""
+    machine is shared and noisy: the best round is the least disturbed), on one BLAS/OpenMP
+    thread as a simulation runs (:meth:`~humanoid.simulation.Simulation.run`)."""
+    from threadpoolctl import threadpool_limits
+
     best = float("inf")
-    for _ in range(rounds):
-        start = time.perf_counter()
-        for _ in range(n):
-            fn()
-        best = min(best, (time.perf_counter() - start) / n)
+    with threadpool_limits(limits=1):
+        for _ in range(rounds):
+            start = time.perf_counter()
+            for _ in range(n):
+                fn()
+            best = min(best, (time.perf_counter() - start) / n)
     return best
 
 
