@@ -267,3 +267,25 @@ def test_the_friction_pyramid_is_inscribed_in_the_cone():
     lifting = ok.copy()
     lifting[3] = -1e-3
     assert np.any(G @ lifting > 0)
+
+
+def test_no_task_disturbs_what_the_next_one_reads(state):
+    """Tasks are evaluated one after the other on one data: each leaves the kinematics the
+    others read (placements, velocities, drift accelerations, Jacobians) as it found them."""
+    h, _, q, v = state
+    model = h.model
+    data = model.createData()
+    dynamics_terms(model, data, q, v)
+    fid = h.sole_id("left")
+    probe = FrameTask(fid, pin.SE3.Identity(), 3.0, 2.0, 1.0)
+    before = probe.compute(model, data, q, v)
+    pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+    for task in (
+        MomentumTask(5.0, 1.0),
+        CentreOfMassTask(np.zeros(3), np.zeros(3), np.zeros(3), 1.0, 1.0, 1.0),
+        OrientationTask(pelvis, np.eye(3), 1.0, 1.0, 1.0, tilt_only=True),
+        PostureTask(h.standing_configuration(), 1.0, 1.0, 1.0),
+    ):
+        task.compute(model, data, q, v)
+        after = probe.compute(model, data, q, v)
+        assert np.array_equal(after[0], before[0]) and np.array_equal(after[1], before[1]), task
