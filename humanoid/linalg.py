@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cholesky_lapack", "cross", "spd_solve"]
+__all__ = ["cholesky_lapack", "cross", "one_thread", "spd_solve"]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -14,6 +14,17 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def one_thread():
+    """A context in which every BLAS, LAPACK and OpenMP pool runs one thread (threadpoolctl):
+    on a body's 39 x 39 matrices threads only cost (the balance scene's step took 2.3 times
+    longer with two). scipy.linalg, whose own BLAS the solves load on first use, is loaded
+    first: a pool loaded after the limit is set is not limited."""
+    import scipy.linalg  # noqa: F401
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1)
 
 
 def cholesky_lapack():

@@ -40,7 +40,7 @@ from .effects import (
 )
 from .errors import DivergenceError, HumanoidError, SceneError
 from .integrators import STEPPERS, CoordinateSpace, DormandPrince, LieGroupSpace
-from .linalg import cholesky_lapack
+from .linalg import cholesky_lapack, one_thread
 from .model import Humanoid
 from .scene import Contact, Scene, load_body
 from .trajectory import Progress, Recorder, Trajectory
@@ -621,13 +621,10 @@ class Simulation:
         the loop (``failed``: a fall seen by a monitor, a controller without a solution).
 
         The run's dense algebra (BLAS, LAPACK, OpenMP) uses one thread whatever the
-        environment says: on matrices of a body's size (39 x 39) threads only cost (the
-        balance scene's step took 25 times longer with two); runs in parallel get their
+        environment says (:func:`~humanoid.linalg.one_thread`); runs in parallel get their
         threads from a study's workers.
         """
-        from threadpoolctl import threadpool_limits
-
-        with threadpool_limits(limits=1):
+        with one_thread():
             return self._run(quiet)
 
     def _run(self, quiet: bool) -> Trajectory:

@@ -67,10 +67,10 @@ def best_time(fn, n: int, rounds: int) -> float:
     """Best per-call wall time [s] of ``fn()`` over ``rounds`` rounds of ``n`` calls (the
     machine is shared and noisy: the best round is the least disturbed), on one BLAS/OpenMP
     thread as a simulation runs (:meth:`~humanoid.simulation.Simulation.run`)."""
-    from threadpoolctl import threadpool_limits
+    from ..linalg import one_thread
 
     best = float("inf")
-    with threadpool_limits(limits=1):
+    with one_thread():
         for _ in range(rounds):
             start = time.perf_counter()
             for _ in range(n):
