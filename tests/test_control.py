@@ -289,3 +289,17 @@ def test_no_task_disturbs_what_the_next_one_reads(state):
         task.compute(model, data, q, v)
         after = probe.compute(model, data, q, v)
         assert np.array_equal(after[0], before[0]) and np.array_equal(after[1], before[1]), task
+
+
+def test_a_qp_without_solution_fails_the_run_with_a_typed_error_naming_when_and_why():
+    from humanoid.control.qp import checked
+    from humanoid.errors import RunFailed
+
+    solver = WarmQP(eps_abs=1e-9, max_iter=10, primal=1e-7, dual=1e-4)
+    solver.why = "PROXQP_MAX_ITER_REACHED: primal 1.0e-02, dual 3.0e+00"
+    with pytest.raises(RunFailed, match=r"walking QP has no solution at t = 1\.250 s \(PROXQP_MAX"):
+        checked(None, "walking", 1.25, solver)
+    with pytest.raises(RunFailed, match="not finite"):
+        checked(np.array([0.0, np.nan]), "tracking", 0.0, solver)
+    x = np.ones(3)
+    assert checked(x, "walking", 0.0, solver) is x

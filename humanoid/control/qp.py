@@ -18,11 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..errors import RunFailed
 from .tasks import ForceTask
 
 __all__ = [
     "ContactQP",
     "WarmQP",
+    "checked",
     "contact_qp",
     "dynamics_terms",
     "feet_contacts",
@@ -94,6 +96,16 @@ class WarmQP:
             return qp.results.x.copy()
         self.why = f"{info.status}: primal {info.pri_res:.1e}, dual {info.dua_res:.1e}"
         return None
+
+
+def checked(x, what: str, t: float, solver: WarmQP) -> np.ndarray:
+    """``x``, a controller's QP solution, or :class:`~humanoid.errors.RunFailed` naming the
+    controller (``what``), the time [s] and why ProxQP refused (the run stops as failed and
+    keeps what it computed)."""
+    if x is None or not np.all(np.isfinite(x)):
+        why = solver.why if x is None else "a solution that is not finite"
+        raise RunFailed(f"the {what} QP has no solution at t = {t:.3f} s ({why})")
+    return x
 
 
 def pyramid_rows(mu: float, points: int, columns: int, offset: int) -> np.ndarray:

@@ -35,10 +35,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..control.qp import WarmQP, checked, contact_qp, dynamics_terms, feet_contacts
 from ..control.tasks import CentreOfMassTask, FrameTask, PostureTask, TaskStack
 from ..effects import Effect
-from ..errors import HumanoidError, RunFailed
+from ..errors import RunFailed
 from ..model import SIDES
 from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
 from .coordinates import lowest_sole_point
@@ -192,9 +192,7 @@ class MotionTracker(Effect):
                        RANGE_MARGIN, RANGE_TIME)  # fmt: skip
         x, relaxed = p.solve(self.qp)
         self.relaxed += relaxed
-        if x is None or not np.all(np.isfinite(x)):
-            raise HumanoidError(f"the tracking QP has no solution at t = {t:.3f} s ({self.qp.why})")
-        tau, dv, f = p.torques(x, M, hvec, self.weight)
+        tau, dv, f = p.torques(checked(x, "tracking", t, self.qp), M, hvec, self.weight)
         self.last = (dv, f, loaded)
         return tau
 

@@ -27,7 +27,14 @@ import pinocchio as pin
 from ..constraints import Weld
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
-from ..control.qp import WarmQP, dynamics_terms, frame_jacobians, range_damper, whole_body_qp
+from ..control.qp import (
+    WarmQP,
+    checked,
+    dynamics_terms,
+    frame_jacobians,
+    range_damper,
+    whole_body_qp,
+)
 from ..control.tasks import (
     CentreOfMassTask,
     ForceTask,
@@ -37,7 +44,6 @@ from ..control.tasks import (
     TaskStack,
 )
 from ..effects import Effect
-from ..errors import HumanoidError
 from ..linalg import cross, spd_solve
 from ..model import SIDES
 from .clinical import torso_frame
@@ -226,8 +232,7 @@ class WalkingController(Effect):
         x, _ = p.solve(self.qp, relax=False)
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
-            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s")
-        self.tau, dv, f = p.torques(x, M, hvec, weight)
+        self.tau, dv, f = p.torques(checked(x, "walking", t, self.qp), M, hvec, weight)
         self.last = (dv, {s: f[4 * k : 4 * k + 4] for k, s in enumerate(stance)})
         if self.every > 1:
             # the range rows the solve holds at their damper's bound keep their acceleration

@@ -36,7 +36,14 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts, ramped_bound
+from ..control.qp import (
+    WarmQP,
+    checked,
+    contact_qp,
+    dynamics_terms,
+    feet_contacts,
+    ramped_bound,
+)
 from ..control.tasks import (
     CentreOfMassTask,
     ForceTask,
@@ -361,9 +368,8 @@ class CycleTracker(Effect):
                        upper=upper if loaded else None)  # fmt: skip
         x, relaxed = p.solve(self.qp)
         self.relaxed += relaxed
-        if x is None or not np.all(np.isfinite(x)):
-            raise HumanoidError(f"the cycle tracker's QP has no solution at t = {t:.3f} s")
-        self.tau, dv, f = p.torques(x, M, hvec, self.weight)
+        self.tau, dv, f = p.torques(checked(x, "cycle tracker's", t, self.qp), M, hvec,
+                                    self.weight)  # fmt: skip
         self.last = (dv, f, match)
         return self.tau
 

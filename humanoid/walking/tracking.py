@@ -67,7 +67,7 @@ import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
 from ..constraints.limits import JointRanges
-from ..control.qp import WarmQP, contact_qp, dynamics_terms, feet_contacts
+from ..control.qp import WarmQP, checked, contact_qp, dynamics_terms, feet_contacts
 from ..control.tasks import (
     CentreOfMassTask,
     ForceTask,
@@ -77,7 +77,6 @@ from ..control.tasks import (
     TaskStack,
 )
 from ..effects import Effect
-from ..errors import HumanoidError
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
@@ -649,7 +648,6 @@ class GaitController(Effect):
             x = self.qp.solve(p.P, p.q, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
         if x is None or not np.all(np.isfinite(x)):
             self.failures += 1
-            raise HumanoidError(f"the walking QP has no solution at t = {t:.3f} s ({self.qp.why})")
-        self.tau, dv, f = p.torques(x, M, hvec, self.weight)
+        self.tau, dv, f = p.torques(checked(x, "walking", t, self.qp), M, hvec, self.weight)
         self.last = (dv, f, [int(i) for i in loaded])
         return self.tau
