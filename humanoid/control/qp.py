@@ -170,13 +170,19 @@ class ContactQP:
 
     def solve(self, solver: WarmQP, relax: bool = True):
         """(x, relaxed): the solution, and whether only the dynamics and the loaded points'
-        pyramids held (``relax``: tried when the whole problem has no solution; the plant
-        enforces the free points and the ranges itself). x is None if neither solved."""
+        pyramids held (``relax``: :meth:`solve_cones`, tried when the whole problem has no
+        solution). x is None if neither solved."""
         x = solver.solve(self.P, self.q, self.A, self.b, self.G, self.h)
         if x is not None or not relax:
             return x, False
+        return self.solve_cones(solver), True
+
+    def solve_cones(self, solver: WarmQP):
+        """The solution with only the equalities and the loaded points' pyramids (no force
+        bounds, no floor rows for the free points, no range dampers: the plant enforces the
+        last two itself), or None."""
         return solver.solve(self.P, self.q, self.A, self.b, self.G[: self.cones],
-                            self.h[: self.cones]), True  # fmt: skip
+                            self.h[: self.cones])  # fmt: skip
 
     def torques(self, x: np.ndarray, M: np.ndarray, hvec: np.ndarray, weight: float):
         """(tau, dv, f): the joint torques of solution x (the free flyer's zero), its

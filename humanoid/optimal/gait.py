@@ -334,6 +334,16 @@ def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, st
     return terms
 
 
+def _event_term(c: Collocation, targets, cycle, whole_stride: bool):
+    """The double support's event: the first phase lasts until the opposite foot's toe-off,
+    at the norm's time (``cycle``: the stride's duration); in a whole stride, a turn's, the
+    mirrored phase too, the other foot's (free, the male's turn at 1.27 m/s took 16 % of
+    double support and walked it so)."""
+    event, event_sd = targets.events["opposite_foot_off"]
+    supports = (0, len(c.durations) // 2) if whole_stride else (0,)
+    return W_EVENT * sum(((c.durations[i] / cycle - event) / event_sd) ** 2 for i in supports)
+
+
 def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: bool,
                     heading=None) -> dict:  # fmt: skip
     """The tracking objective's own terms (see :func:`objective_terms`): the norms' angles,
@@ -401,13 +411,7 @@ def _tracking_terms(c: Collocation, om: OcpModel, gait: dict, standing, first: b
                 tau = c.tau[k][idx(f"{side}_{joint}") - 6] / mass
                 m.append(math.sqrt(weight) * (-tau - targets(curve, phase)) / targets.sd[curve])
         moments = moments + w[k] * ca.sumsqr(ca.vertcat(*m))
-    # the double support: the first phase lasts until the opposite foot's toe-off (in a whole
-    # stride, a turn's, the fourth too: the other foot's; free, the male's turn at 1.27 m/s
-    # took 16 % of double support and walked it so)
-    event, event_sd = targets.events["opposite_foot_off"]
-    supports = (0,) if heading is None else (0, len(c.durations) // 2)
-    terms = {"events": W_EVENT * sum(((c.durations[i] / cycle - event) / event_sd) ** 2
-                                     for i in supports)}  # fmt: skip
+    terms = {"events": _event_term(c, targets, cycle, whole_stride=heading is not None)}
     terms["angles"] = W_ANGLE * angle / T
     terms["forces"] = W_FORCE * force / T
     terms["moments"] = moments / T

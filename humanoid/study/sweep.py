@@ -98,10 +98,10 @@ def run_study(study: Study, folder: str | Path | None = None, *, scheduler: str 
 
     try:
         if serial or not pending:
-            from threadpoolctl import threadpool_limits
+            from ..linalg import one_thread
 
             # one BLAS thread, as on a Dask worker: the same round-off, the same rows
-            with threadpool_limits(1):
+            with one_thread():
                 for run in pending:
                     finished(execute(payload, asdict(run), str(folder)))
         else:

@@ -322,7 +322,6 @@ class GaitController(Effect):
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
         self.lift = {}  # side -> (footstep it left, its pose and velocity errors there, u0)
         self.last = None
-        self.failures = 0
         self.relaxed = 0  # steps solved without the range dampers and floor rows
         self.down = {}  # side -> whether it was a stance foot at the last step
         z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
@@ -645,9 +644,7 @@ class GaitController(Effect):
         if x is None:  # the last resort: the dynamics and the loaded points only (no range
             # dampers, no floor rows for the other points: the plant enforces both)
             self.relaxed += 1
-            x = self.qp.solve(p.P, p.q, p.A, p.b, p.G[: p.cones], p.h[: p.cones])
-        if x is None or not np.all(np.isfinite(x)):
-            self.failures += 1
+            x = p.solve_cones(self.qp)
         self.tau, dv, f = p.torques(checked(x, "walking", t, self.qp), M, hvec, self.weight)
         self.last = (dv, f, [int(i) for i in loaded])
         return self.tau
