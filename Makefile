@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models gaits bench bench-accuracy studies wheel-check clean
+.PHONY: demo test lint format models gaits walk-tables bench bench-accuracy studies wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +38,11 @@ format: $(STAMP)
 # The optimised gait cycles shipped as package data (a few minutes per body and objective).
 gaits: $(STAMP)
 	$(PY) scripts/make_gaits.py
+
+# The README's tables of the person's walks (about 10 minutes on 2 cores).
+walk-tables: $(STAMP)
+	$(PY) scripts/walk_tables.py
+	$(PY) scripts/readme_tables.py
 
 bench: $(STAMP)
 	$(PY) -m humanoid bench step -o docs/bench

@@ -2,7 +2,8 @@
 """Put the tables that the benchmarks and the studies wrote into the README, between its
 ``<!-- NAME: begin -->`` / ``<!-- NAME: end -->`` markers: the speed tables of ``humanoid bench
 step|walk -o docs/bench`` (docs/bench/speed.md, walk.md) and the results of ``humanoid sweep
-push_standing|walk_speed`` (copied to docs/studies/*.md).
+push_standing|walk_speed`` (copied to docs/studies/*.md), and the person's walks' tables of
+``scripts/walk_tables.py`` (docs/walks/*.md).
 
 ``make bench`` and ``make studies`` run it. tests/test_readme.py checks that the README carries
 the files' text and that the speed tables' columns are the benchmarks' CSV columns.
@@ -18,6 +19,10 @@ BLOCKS = {
     "walk-speed": "bench/walk.md",
     "study-push": "studies/push_standing.md",
     "study-walk": "studies/walk_speed.md",
+    **{
+        f"walk-{name}": f"walks/{name}.md"
+        for name in ("cycles", "straight", "speeds", "predictive", "standing", "circle", "sizes")
+    },
 }
 
 

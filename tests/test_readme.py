@@ -121,3 +121,14 @@ def test_the_study_results_are_the_sweeps_output():
         spec = load_study(resolve(study))
         assert len(rows) == len(spec.runs())
         assert result_table(rows, spec.figure) in written
+
+
+def test_the_walk_tables_are_the_measured_ones():
+    """The README's tables of the person's walks are what `make walk-tables` measured
+    (scripts/walk_tables.py writes docs/walks/NAME.md; scripts/readme_tables.py pastes them)."""
+    for name in ("cycles", "straight", "speeds", "predictive", "standing", "circle", "sizes"):
+        block = README.split(f"<!-- walk-{name}: begin -->\n", 1)[1].split(
+            f"<!-- walk-{name}: end -->")[0]  # fmt: skip
+        written = (ROOT / "docs" / "walks" / f"{name}.md").read_text()
+        assert block == written, f"README walk-{name} differs from docs/walks/{name}.md"
+        assert written.startswith("| ") and written.count("\n") >= 3

@@ -380,8 +380,8 @@ def _mirror_name(p: str) -> str:
 FORMAT = 1
 # The objectives' revision, in every stored cycle's name: a cycle optimised under an earlier
 # objective (a user's cache from an older version) is not found, and is solved again. Raise it
-# whenever an objective or the problem changes.
-REVISION = 2
+# whenever an objective or the problem changes (3: the knee's moment tracked).
+REVISION = 3
 # The turns' own revision, in their names besides the cycle's (2: the second double support's
 # event is tracked too)
 TURN_REVISION = 2
