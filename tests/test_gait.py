@@ -394,3 +394,28 @@ def test_the_pelvis_and_the_anterior_force_are_measured_along_the_progression(ma
     np.testing.assert_allclose(b.mean("pelvis_rotation", "left"), -10.0, atol=1e-6)
     np.testing.assert_allclose(b.mean("pelvis_tilt"), a.mean("pelvis_tilt"), atol=1e-6)
     np.testing.assert_allclose(b.mean("pelvis_obliquity"), a.mean("pelvis_obliquity"), atol=1e-6)
+
+
+def test_a_peak_is_each_sides_averaged_not_the_peak_of_the_sides_mean_curve():
+    """A gait lab reports each limb's peaks: two sides braking at 0.16 and 0.15 BW, at 10 and
+    16 % of the cycle, brake at 0.155 BW on average; the peak of their mean curve is lower
+    (the male's turn: 0.11 BW from per-side peaks of 0.165 and 0.151)."""
+    from collections import defaultdict
+
+    from humanoid.walking.gait import GaitAnalysis
+
+    def curves(depth, at):
+        c = defaultdict(lambda: np.zeros((1, len(PERCENT))))
+        c["grf_anterior"] = -depth * np.exp(-(((PERCENT - at) / 3.0) ** 2))[None]
+        c["grf_vertical"] = np.where(PERCENT < 60, 1.0, 0.0)[None]
+        return c
+
+    a = GaitAnalysis(
+        events={}, cycles={"left": [(0.0, 1.0)], "right": [(0.0, 1.0)]},
+        curves={"left": curves(0.16, 10.0), "right": curves(0.15, 16.0)},
+        table={"stance": [0.6], "double_support": [0.2]}, feet={"left": [], "right": []},
+        dimensionless_speed=0.45, mass=75.0,
+    )  # fmt: skip
+    s = a.summary
+    assert abs(s["braking"] - 0.155) < 1e-3, s["braking"]
+    assert -a.mean("grf_anterior").min() < 0.13  # the sides' mean curve's peak

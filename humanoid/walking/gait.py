@@ -474,19 +474,18 @@ class GaitAnalysis:
         mean, _ = norms().curve(name, self.dimensionless_speed)
         return float(np.abs(np.diff(c)).sum() / np.abs(np.diff(mean)).sum())
 
-    @property
-    def summary(self) -> dict:
-        """The walk's key numbers (means over the analysed cycles of both sides)."""
-        out = {k: float(np.mean(v)) if len(v) else float("nan") for k, v in self.table.items()}
-        stance = out["stance"] * 100.0 if math.isfinite(out["stance"]) else 60.0
+    def _peaks(self, side: str | None, stance: float) -> dict:
+        """The peaks and troughs of one side's mean curves (``side`` None: both sides' mean),
+        ``stance`` [% of the cycle] placing their windows."""
         pct = PERCENT
 
         def window(name, lo, hi, fn):
-            c = self.mean(name)
+            c = self.mean(name, side)
             sel = (pct >= lo) & (pct <= hi)
             return float(fn(c[sel])) if sel.any() else float("nan")
 
-        fz = self.mean("grf_vertical")
+        out = {}
+        fz = self.mean("grf_vertical", side)
         half = stance / 2
         first = (pct <= half) & (pct >= 5)
         second = (pct >= half) & (pct <= stance)
@@ -497,11 +496,25 @@ class GaitAnalysis:
         out["grf_trough"] = float(fz[i1 : i2 + 1].min()) if i2 > i1 else float("nan")
         out["braking"] = -window("grf_anterior", 0, half, np.min)
         out["propulsion"] = window("grf_anterior", half, stance, np.max)
-        out["knee_at_strike"] = float(self.mean("knee_flexion")[0])
+        out["knee_at_strike"] = float(self.mean("knee_flexion", side)[0])
         out["knee_loading"] = window("knee_flexion", 0, 25, np.max)
         out["knee_swing"] = window("knee_flexion", stance, 100, np.max)
         out["ankle_moment_peak"] = window("ankle_plantarflexion_moment", 0, stance, np.max)
         out["ankle_power_peak"] = window("ankle_power", 0, stance + 10, np.max)
+        return out
+
+    @property
+    def summary(self) -> dict:
+        """The walk's key numbers (means over the analysed cycles of both sides). A peak is
+        each side's (of its mean curve), averaged over the sides, as a gait lab reports a
+        limb's peaks: the peak of the two sides' mean curve is lower wherever the sides peak
+        at different phases (a turn's inner and outer foot: the male's braking peaks were
+        0.165 and 0.151 BW, their mean curve's 0.11)."""
+        out = {k: float(np.mean(v)) if len(v) else float("nan") for k, v in self.table.items()}
+        stance = out["stance"] * 100.0 if math.isfinite(out["stance"]) else 60.0
+        sides = [s for s in SIDES if len(self.curves[s]["grf_vertical"])] or [None]
+        peaks = [self._peaks(s, stance) for s in sides]
+        out.update({k: float(np.mean([p[k] for p in peaks])) for k in peaks[0]})
         # the pelvis's and the arms' motion (each side's own curves, averaged)
         for name in ("pelvis_obliquity", "pelvis_rotation", "shoulder_flexion"):
             c = [np.ptp(self.mean(name, s)) for s in SIDES if len(self.curves[s][name])]
