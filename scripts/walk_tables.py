@@ -103,9 +103,10 @@ def _range(s: dict, names) -> str:
     return f"{min(v):.0f}" if round(min(v)) == round(max(v)) else f"{min(v):.0f}-{max(v):.0f}"
 
 
-def _off(s: dict, key: str, value: float, fmt: str, scale: float = 1.0, unit: str = "") -> str:
-    """``value`` with how far it is outside the adults' band, e.g. ``51.7 % (-6.3)``."""
+def _off(s: dict, key: str, fmt: str, scale: float = 1.0, unit: str = "") -> str:
+    """``s[key]`` with how far it is outside the adults' band, e.g. ``51.7 % (-6.3)``."""
     lo, hi = BANDS[key]
+    value = s[key]
     text = format(value * scale, fmt) + unit
     if value < lo:
         text += f" ({(value - lo) * scale:+{fmt}})"
@@ -226,21 +227,21 @@ def table(name: str, results: list[dict]) -> str:
                      "arm swing")  # fmt: skip
         for label, s in zip(BODIES, results, strict=True):
             text += _row([
-                label, _off(s, "speed", s["speed"], ".2f", unit=" m/s"),
-                _off(s, "cadence", s["cadence"], ".0f", unit=" /min"),
-                _off(s, "step_length", s["step_length"], ".3f", unit=" m"),
-                _off(s, "stance", s["stance"], ".1f", 100, " %"),
-                _off(s, "double_support", s["double_support"], ".1f", 100, " %"),
-                f"{_off(s, 'grf_first_peak', s['grf_first_peak'], '.2f')}, "
-                f"{_off(s, 'grf_second_peak', s['grf_second_peak'], '.2f')} / "
-                f"{_off(s, 'grf_trough', s['grf_trough'], '.2f')} BW",
-                f"{_off(s, 'braking', s['braking'], '.2f')} / "
-                f"{_off(s, 'propulsion', s['propulsion'], '.2f')} BW",
-                f"{_off(s, 'ankle_moment_peak', s['ankle_moment_peak'], '.2f')}, "
-                f"{_off(s, 'ankle_power_peak', s['ankle_power_peak'], '.2f')}",
+                label, _off(s, "speed", ".2f", unit=" m/s"),
+                _off(s, "cadence", ".0f", unit=" /min"),
+                _off(s, "step_length", ".3f", unit=" m"),
+                _off(s, "stance", ".1f", 100, " %"),
+                _off(s, "double_support", ".1f", 100, " %"),
+                f"{_off(s, 'grf_first_peak', '.2f')}, "
+                f"{_off(s, 'grf_second_peak', '.2f')} / "
+                f"{_off(s, 'grf_trough', '.2f')} BW",
+                f"{_off(s, 'braking', '.2f')} / "
+                f"{_off(s, 'propulsion', '.2f')} BW",
+                f"{_off(s, 'ankle_moment_peak', '.2f')}, "
+                f"{_off(s, 'ankle_power_peak', '.2f')}",
                 f"{_range(s, ANGLES)} / {_range(s, MOMENTS)} %",
-                f"{_off(s, 'pelvis_obliquity', s['pelvis_obliquity'], '.1f')} / "
-                f"{_off(s, 'pelvis_rotation', s['pelvis_rotation'], '.1f')} deg",
+                f"{_off(s, 'pelvis_obliquity', '.1f')} / "
+                f"{_off(s, 'pelvis_rotation', '.1f')} deg",
                 f"{s['shoulder_flexion']:.0f} deg (r {s['arm_leg_correlation']:.2f})",
             ])  # fmt: skip
         return text

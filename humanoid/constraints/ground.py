@@ -110,10 +110,14 @@ class _Shape:
         else:
             raise ValueError(f"no contact points for a {type(shape).__name__} ({g.name})")
 
+    def placed(self, oMi: pin.SE3, rows=slice(None)) -> np.ndarray:
+        """World positions of (some of) the fixed points, the joint at ``oMi``."""
+        return self.fixed[rows] @ oMi.rotation.T + oMi.translation
+
     def lowest(self, oMi: pin.SE3) -> np.ndarray:
         """World points of the shape that can be lowest, (n, 3)."""
         R, t = oMi.rotation, oMi.translation
-        pts = [self.fixed @ R.T + t] if len(self.fixed) else []
+        pts = [self.placed(oMi)] if len(self.fixed) else []
         down = np.array([0.0, 0.0, -1.0])
         for c, r in self.spheres:
             pts.append((R @ c + t + r * down)[None])
@@ -169,7 +173,7 @@ def _shared_corners(model: pin.Model, shapes) -> list[tuple[int, int, np.ndarray
     shape, child shape, the parent's point indices, the child's matching ones)."""
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))
-    world = [s.fixed @ data.oMi[s.joint].rotation.T + data.oMi[s.joint].translation for s in shapes]
+    world = [s.placed(data.oMi[s.joint]) for s in shapes]
     out = []
     for a, parent in enumerate(shapes):
         for b, child in enumerate(shapes):
@@ -272,9 +276,7 @@ class Ground:
         out = {}
         for a, b, ia, ib in self.shared:
             pa, pb = self.shapes[a], self.shapes[b]
-            Ma, Mb = data.oMi[pa.joint], data.oMi[pb.joint]
-            wa = pa.fixed[ia] @ Ma.rotation.T + Ma.translation
-            wb = pb.fixed[ib] @ Mb.rotation.T + Mb.translation
+            wa, wb = pa.placed(data.oMi[pa.joint], ia), pb.placed(data.oMi[pb.joint], ib)
             near = ia[np.linalg.norm(wa - wb, axis=1) < SHARED]
             if len(near):
                 out.setdefault(a, []).extend(near.tolist())
