@@ -204,7 +204,8 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("motion", help="coordinates (.mot/.sto), a run (.npz), or markers (.trc, "
                     ".c3d) and keypoints (.npy, .npz with --layout): fitted first")  # fmt: skip
     _subject_options(tr)
-    tr.add_argument("--loads", help="measured ground forces (.mot): when each foot is down")
+    tr.add_argument("--loads", help="measured ground forces (.mot, or a C3D's force plates): "
+                    "when each foot is down")  # fmt: skip
     tr.add_argument("--loads-xml", help="their ExternalLoads .xml")
     tr.add_argument(
         "--loads-side",
@@ -237,7 +238,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "or a run (.npz: its own ground forces are the loads)")  # fmt: skip
     _subject_options(d)
     d.add_argument("--loads", help="external loads (.mot, OpenSim's layout: "
-                   "<prefix>force_vx..., <prefix>force_px..., <prefix>torque_x...)")  # fmt: skip
+                   "<prefix>force_vx..., <prefix>force_px..., <prefix>torque_x...), or a C3D: "
+                   "its force plates, given to the feet by its markers")  # fmt: skip
     d.add_argument("--loads-xml", help="the loads' ExternalLoads .xml (which foot each is on; "
                    "default: the .xml of the same name next to them)")  # fmt: skip
     d.add_argument(
@@ -277,6 +279,17 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--figure", help="figure (PNG); default: next to the output")
     d.add_argument("--html", help="also write the motion's viewer, the loads drawn (one HTML "
                    "file)")  # fmt: skip
+
+    g = command("loads", help="a C3D's force plates (types 1-4) as the feet's loads, written "
+                "as OpenSim's external loads (.mot and its ExternalLoads .xml)")  # fmt: skip
+    g.add_argument("c3d", help="the trial (.c3d): its plates, and its markers to tell the feet")
+    g.add_argument("-o", "--output", help="the loads to write (.mot; default: <trial>_grf.mot "
+                   "here); the .xml goes next to it")  # fmt: skip
+    g.add_argument("--threshold", type=float, default=20.0, help="the normal force [N] above "
+                   "which a plate is in contact (it ends below half of it)")  # fmt: skip
+    g.add_argument("--plate-side", action="append", default=[], metavar="PLATE=SIDE",
+                   help="the foot (left, right) of every contact on a plate (its number, 1 "
+                   "for the first), whatever the markers say (repeatable)")  # fmt: skip
 
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
             "that scenes and options accept")  # fmt: skip
@@ -334,6 +347,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "id": ("output", "figure", "html"),
     "ik": ("output", "figure", "html", "save_markers"),
     "track": ("output", "figure", "html", "mot"),
+    "loads": ("output",),
     "bench": ("output",),
     "sweep": ("output",),
 }
@@ -414,6 +428,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_track
 
         return run_track(args)
+    if args.command == "loads":
+        from .motion.commands import run_loads
+
+        return run_loads(args)
     if args.command == "sweep":
         from .study.commands import run_sweep
 

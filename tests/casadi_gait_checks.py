@@ -20,7 +20,6 @@ from humanoid.optimal.coordinates import build_ocp_model
 from humanoid.optimal.cycle import DATA, SHIPPED_SPEEDS, default_speed, gait_file, load_gait
 from humanoid.optimal.gait import optimise_gait
 from humanoid.optimal.problem import Collocation, Phase
-from humanoid.optimal.turn import SLOWEST
 from humanoid.walking.reference import leg_length
 
 BODIES = {"male": (1.75, 75.0), "female": (1.62, 62.0)}
@@ -340,9 +339,9 @@ def test_a_shipped_transition_satisfies_its_dynamics_and_joins_its_cycle(gaits, 
     assert math.isclose(tr.join, s.x[meet, 0])
 
 
-def _assert_persons_walk(s, speed):
+def _assert_persons_walk(s, speed, slip: float = 1e-3):
     """A walk's :meth:`GaitAnalysis.summary` ``s`` inside the adults' bands the issue names, at
-    the cycle's ``speed``."""
+    the cycle's ``speed``, no stance sliding ``slip`` [m] or more."""
     assert abs(s["speed"] - speed) < 0.03, s
     assert 100 <= s["cadence"] <= 120, s
     assert 0.65 <= s["step_length"] <= 0.80, s
@@ -353,7 +352,7 @@ def _assert_persons_walk(s, speed):
     assert 0.15 <= s["braking"] <= 0.25 and 0.15 <= s["propulsion"] <= 0.25, s
     assert 1.2 <= s["ankle_moment_peak"] <= 1.6, s
     assert 2.5 <= s["ankle_power_peak"] <= 4.5, s
-    assert s["slip"] < 1e-3, s
+    assert s["slip"] < slip, s
     assert s["heel_to_toe"] == 1.0, s  # every stance heel strike, flat, heel off, toe off
     # the angles inside the norm's mean +- 2 SD (on the body's level pelvis) for 80 % of the
     # cycle, the hip's, knee's and ankle's moments for 70 % (measured: hip 100 and 96 %, knee
@@ -408,9 +407,10 @@ RADIUS = 2.0
 def test_a_shipped_turn_satisfies_its_dynamics_and_laps_turned(gaits, sex):
     """The default bodies' free-speed cycles optimised along a 2 m circle (shipped): their
     dynamics by Pinocchio; the stride's end its start turned about the circle's centre; the
-    pelvis starts where the straight cycle's does; the speed the optimum's, at most the
-    straight cycle's."""
+    pelvis starts where the straight cycle's does; the speed and the period the straight
+    cycle's; the forces inside the turn's friction pyramid (``TURN_MU``), below the floor's."""
     from humanoid.optimal.cycle import stored_turn
+    from humanoid.optimal.turn import TURN_MU
 
     g = gaits(sex, "tracking")
     tu = stored_turn(g, RADIUS)
@@ -421,18 +421,19 @@ def test_a_shipped_turn_satisfies_its_dynamics_and_laps_turned(gaits, sex):
     np.testing.assert_allclose(s.x[-1], x, atol=1e-7)
     np.testing.assert_allclose(s.v[-1], v, atol=1e-7)
     np.testing.assert_allclose(s.x[0, :2], g.solution.x[0, :2], atol=1e-9)
-    assert SLOWEST * g.speed - 1e-6 <= tu.speed <= g.speed + 1e-6  # (IPOPT relaxes bounds 1e-8)
+    assert math.isclose(tu.speed, g.speed, rel_tol=1e-6)
+    for f in s.forces.values():
+        tangential = np.abs(f[:, :2]).max(axis=1)
+        assert np.all(tangential <= TURN_MU / math.sqrt(2.0) * f[:, 2] + 1e-3), sex  # [N]
     assert math.isclose(tu.period, g.period, rel_tol=1e-9)
 
 
 @pytest.mark.parametrize("sex", list(BODIES))
 def test_the_walk_follows_a_2_m_circle(gaits, sex):
     """The turn tracked like the straight cycle, 12 steps along the circle (a little over half
-    of it): the pelvis never actuated and on the circle, every stance heel to toe, the stance,
-    the double support, the forces, the ankle and the curves a person's. Not asserted (see the
-    README): the female's speed and step length (1.18 m/s, 0.60 m: the turn is at least 92 %
-    of the straight cycle's speed) and the male's ankle moment peak above 1.6 N m/kg, the
-    band's top (1.65 over 20 steps)."""
+    of it): the pelvis never actuated and on the circle, every band of the straight walk's
+    (:func:`_assert_persons_walk`) but the slides: a stance foot pivots a little as the hips
+    turn the body over it (the largest slide over 20 steps 1 mm male, 5 mm female)."""
     from humanoid.walking.gait import analyse
     from humanoid.walking.person import walk_cycle
 
@@ -442,24 +443,12 @@ def test_the_walk_follows_a_2_m_circle(gaits, sex):
     assert w.completed, w.trajectory.metadata.get("message")
     tr = w.trajectory
     assert np.abs(tr.tau[:, :6]).max() == 0.0
-    # the pelvis on the circle: 1.90-2.02 m from its centre (it sways, and leans in)
+    # the pelvis on the circle: 1.88-2.01 m from its centre (it sways, and leans in)
     r = np.linalg.norm(tr.q[:, :2] - (0.0, RADIUS), axis=1)
-    assert abs(r.mean() - RADIUS) < 0.05 and np.abs(r - RADIUS).max() < 0.12, (r.min(), r.max())
+    assert abs(r.mean() - RADIUS) < 0.07 and np.abs(r - RADIUS).max() < 0.14, (r.min(), r.max())
     turned = np.unwrap(np.arctan2(tr.q[:, 1] - RADIUS, tr.q[:, 0]))
     assert turned[-1] - turned[0] > 0.45 * 2 * math.pi  # about its centre, turning left
-    s = analyse(h, w).summary
-    assert abs(s["speed"] - w.cycle.gait.speed) < 0.03, s
-    assert 100 <= s["cadence"] <= 120, s
-    assert 0.58 <= s["stance"] <= 0.62 and 0.18 <= s["double_support"] <= 0.26, s
-    assert 1.05 <= s["grf_first_peak"] <= 1.30 and 1.05 <= s["grf_second_peak"] <= 1.30, s
-    assert 0.60 <= s["grf_trough"] <= 0.85 and 0.15 <= s["propulsion"] <= 0.25, s
-    top = 1.7 if sex == "male" else 1.6
-    assert 1.2 <= s["ankle_moment_peak"] <= top and 2.5 <= s["ankle_power_peak"] <= 4.5, s
-    assert 0.15 <= s["braking"] <= 0.25, s
-    # the stance foot pivots a little as the hips turn the body over it (largest slide
-    # measured 1.0 mm over 20 steps; 3.2 mm before revision 3)
-    assert s["heel_to_toe"] == 1.0 and s["slip"] < 4e-3, s
-    _assert_in_band(s)
+    _assert_persons_walk(analyse(h, w).summary, w.cycle.gait.speed, slip=6e-3)
 
 
 @pytest.mark.parametrize("sex", list(BODIES))

@@ -1,5 +1,5 @@
-"""The motion commands of the command line: ``humanoid ik``, ``id`` and ``track`` (and the
-helpers they share).
+"""The motion commands of the command line: ``humanoid ik``, ``id``, ``track`` and ``loads``
+(and the helpers they share).
 
 Kept out of :mod:`humanoid.cli` so that the parser stays light: this module loads scipy and
 matplotlib only when a command runs.
@@ -16,10 +16,12 @@ from ..errors import HumanoidError
 
 __all__ = [
     "moments_figure",
+    "read_loads_file",
     "read_motion",
     "residual_figure",
     "run_id",
     "run_ik",
+    "run_loads",
     "run_track",
     "subject_body",
     "tracking_figure",
@@ -73,15 +75,37 @@ def _sides(pairs) -> dict | None:
     return out
 
 
+def read_loads_file(path, sides=None, xml=None) -> list:
+    """The loads of a file: an OpenSim external loads ``.mot``/``.sto`` (``sides``: its
+    prefixes' feet, ``xml``: its ExternalLoads file; :func:`~humanoid.motion.loads.read_loads`)
+    or a C3D (its force plates, given to the feet by its own markers:
+    :func:`~humanoid.motion.c3d.c3d_loads`)."""
+    from .loads import read_loads
+
+    if Path(path).suffix.lower() == ".c3d":
+        if sides or xml:
+            raise HumanoidError(
+                f"{path}: --loads-side and --loads-xml name the feet of a .mot's loads; a "
+                "C3D's plates are given to the feet by its markers"
+            )
+        from .c3d import c3d_loads
+
+        loads = c3d_loads(path)[1]
+        if not loads:
+            raise HumanoidError(f"{path}: no plate contact could be given to a foot")
+        return loads
+    return read_loads(path, sides, xml)
+
+
 def read_motion(args):
     """(body, its description, time, q, loads, map, what was left out) of the command's
     motion: a run (.npz: its configurations and its ground forces per foot) or an OpenSim
-    coordinate file (.mot/.sto) with optional ``--loads``."""
+    coordinate file (.mot/.sto) with optional ``--loads`` (.mot, or a C3D's plates)."""
     import warnings
 
     from ..trajectory import Trajectory
     from .coordinates import UnmappedWarning, configurations
-    from .loads import Load, read_loads
+    from .loads import Load
     from .storage import read_storage
 
     path = Path(args.motion)
@@ -105,7 +129,7 @@ def read_motion(args):
         loads = [Load.from_wrench(s, run.t, run.forces[f"ground_{s}"])
                  for s in ("left", "right") if f"ground_{s}" in run.forces]  # fmt: skip
         if args.loads:
-            loads += read_loads(args.loads, _sides(args.loads_side), args.loads_xml)
+            loads += read_loads_file(args.loads, _sides(args.loads_side), args.loads_xml)
         return h, what, run.t, run.q, loads, _map(args), []
     h, what = subject_body(args)
     table = read_storage(path)
@@ -114,7 +138,8 @@ def read_motion(args):
         warnings.simplefilter("always", UnmappedWarning)
         t, q, left_out = configurations(h, table, cmap, floor=not args.no_floor)
     del caught  # listed in the summary instead
-    loads = read_loads(args.loads, _sides(args.loads_side), args.loads_xml) if args.loads else []
+    sides = _sides(args.loads_side)
+    loads = read_loads_file(args.loads, sides, args.loads_xml) if args.loads else []
     return h, what, t, q, loads, cmap, left_out
 
 
@@ -463,3 +488,72 @@ def tracking_figure(path, res, labels, mass: float, title: str = "") -> Path:
     b.set_xlabel("time [s]")
     b.legend(fontsize=8)
     return _save(fig, path, title)
+
+
+def _plate_sides(pairs) -> dict[int, str] | None:
+    if not pairs:
+        return None
+    out = {}
+    for text in pairs:
+        plate, sep, side = text.partition("=")
+        if not sep or side not in ("left", "right") or not plate.strip().isdigit():
+            raise HumanoidError(f"--plate-side expects PLATE=left or PLATE=right (PLATE: its "
+                                f"number, 1 for the first), got {text!r}")  # fmt: skip
+        out[int(plate)] = side
+    return out
+
+
+def run_loads(args) -> int:
+    """``humanoid loads``: a C3D's force plates as the feet's loads, written as OpenSim's
+    external loads (``.mot`` and its ExternalLoads ``.xml``)."""
+    import warnings
+
+    from .c3d import PlateWarning, assign_contacts, plate_loads, read_events, read_plates
+    from .loads import write_loads
+    from .markers import read_c3d
+    from .storage import MotionFileError
+
+    path = Path(args.c3d)
+    out = Path(args.output) if args.output else Path(f"{path.stem}_grf.mot")
+    sides = _plate_sides(args.plate_side)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", PlateWarning)
+        plates = read_plates(path, threshold=args.threshold)
+        try:
+            markers = read_c3d(path)
+        except MotionFileError:
+            markers = None  # no points: no foot markers, said below
+        contacts = assign_contacts(plates, markers, sides)
+    time = plates[0].time
+    rate = f", {1.0 / (time[1] - time[0]):.0f} Hz" if len(time) > 1 else ""
+    print(f"plates       {len(plates)} (" + ", ".join(f"{p.name} type {p.type}" for p in plates)
+          + f"), {len(time)} samples{rate}, {time[0]:.3f}-{time[-1]:.3f} s")  # fmt: skip
+    for p, a, b, side in contacts:
+        print(f"{p.name:12s} contact {p.time[a]:.3f}-{p.time[b - 1]:.3f} s above "
+              f"{args.threshold:g} N: {side or 'no'} foot")  # fmt: skip
+    if not contacts:
+        print(f"contacts     none above {args.threshold:g} N")
+    for w in caught:
+        if issubclass(w.category, PlateWarning):
+            print(f"warning      {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PlateWarning)  # (said above)
+        loads = plate_loads(plates, markers, sides)
+    events = read_events(path)
+    if events:
+        print(f"events       {len(events)}: " + ", ".join(
+            " ".join(x for x in (context, label, f"{t:.3f} s") if x)
+            for t, context, label in events[:8]
+        ) + (" ..." if len(events) > 8 else ""))  # fmt: skip
+    if not contacts:
+        raise HumanoidError(f"{path}: no plate has a contact above {args.threshold:g} N "
+                            "(--threshold)")  # fmt: skip
+    if not loads:
+        raise HumanoidError(f"{path}: no plate contact could be given to a foot; name them "
+                            "(--plate-side 1=left)")  # fmt: skip
+    written = write_loads(out, loads, name=f"{path.stem} ground reaction")
+    print(f"loads        {', '.join(f'{x.body} ({x.name})' for x in loads)}")
+    print(f"wrote        {written} and {written.with_suffix('.xml')}")
+    return 0

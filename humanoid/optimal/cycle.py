@@ -294,7 +294,7 @@ class TurnSolution:
 
     @property
     def speed(self) -> float:
-        """[m/s] along the circle (the optimum's: at most the straight cycle's)."""
+        """[m/s] along the circle (the straight cycle's)."""
         return abs(self.turn * self.radius) / self.period
 
     @property
@@ -383,8 +383,8 @@ FORMAT = 1
 # whenever an objective or the problem changes (3: the knee's moment tracked).
 REVISION = 3
 # The turns' own revision, in their names besides the cycle's (2: the second double support's
-# event is tracked too)
-TURN_REVISION = 2
+# event is tracked too; 3: at the straight cycle's speed, in a narrower friction pyramid)
+TURN_REVISION = 3
 DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
 
 

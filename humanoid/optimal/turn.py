@@ -14,19 +14,20 @@ the tracking objective) with these changes:
   coordinate and rate equal; the pelvis starts where the straight cycle's does (x = 0);
 - the pelvis's rotation is tracked about the heading (which turns at a steady rate along the
   stride) and each foot's anterior force along it;
-- the stride's turn, and with it the speed along the circle, is free between :data:`SLOWEST`
-  of the straight cycle's and the straight cycle's; the cycle time is the straight cycle's;
+- the stride's turn is the straight cycle's distance over the radius: the speed along the
+  circle and the cycle time are the straight cycle's;
 - both double supports' events are tracked (the half stride tracks its one);
+- the forces lie in a narrower friction pyramid (:data:`TURN_MU`) than the straight cycle's;
 - the warm start is the straight cycle's stride bent onto the circle.
 
 The stance feet then stay put while the hips turn the body over them, and the body leans into
 the turn as its dynamics need. Designs measured on the male body and a 2 m circle: with the
 pelvis's start free the optimum moved the pelvis in to a 1.63 m circle (1.14 m/s); with the
-speed held at the straight cycle's, IPOPT stopped at an acceptable point whose feet landed on
-one circle 2 cm apart (the straight cycle's 11 cm) and the walk fell in its third step (held
-apart by a step-width term, IPOPT had not converged after 500 iterations); with the speed free
-down to half the straight cycle's the optimum slows to 80 % (1.11 m/s, the female's 1.03) and
-its push-off power falls below a person's; at 92 % (1.27 and 1.20 m/s) both walk 20 steps.
+speed free down to half the straight cycle's the optimum slows to 80 % (1.11 m/s, the female's
+1.03) and its push-off power falls below a person's; free down to 92 % it took 92 % (1.27 and
+1.20 m/s: the female's speed and step below an adult's). Above 92 % the turns fell when tracked
+until the tracker's footsteps corrected the centre of mass's position (``CycleGains.position``
+in :mod:`humanoid.walking.person`); at the straight cycle's speed both walk 20 steps.
 """
 
 from __future__ import annotations
@@ -36,7 +37,6 @@ import math
 import numpy as np
 
 from ..errors import HumanoidError
-from ._casadi import ca
 from .cycle import (
     GaitSolution,
     Solution,
@@ -49,17 +49,17 @@ from .cycle import (
     turn_file,
     turn_phases,
 )  # fmt: skip
-from .gait import ACCEPTABLE, MU, RANGE_MARGIN, objective_terms
+from .gait import ACCEPTABLE, RANGE_MARGIN, objective_terms
 from .problem import Collocation
 
-__all__ = ["optimise_turn", "turn"]
+__all__ = ["TURN_MU", "optimise_turn", "turn"]
 
-# the turn's speed is free between this share of the straight cycle's and the straight cycle's:
-# with the floor at 0.5 the optimum slowed to 80 % (the male 1.11 m/s, the female 1.03), its
-# push-off power below the adults' (2.0 and 2.1 W/kg); at 0.92 (1.27 and 1.20 m/s) both walk
-# 20 steps with the adults' stance, double support and ankle; at 0.965 (1.33 and 1.25) both
-# fell (at 2.7 and 4.6 s: the stance foot pivots on its forefoot)
-SLOWEST = 0.92
+# the friction the turn's optimum may use, below the floor's 0.8: the optimum spreads a turn's
+# sideways load over the points as it likes, the plant's contact solver as physics does.
+# Tracked 20 steps (``CycleGains.position`` 1): planned at 0.8, the male's turn braked at
+# 0.138 BW and its stances slid up to 3 mm, the female's 6 mm; planned at 0.6, 0.149 BW, 1 mm
+# and 5 mm
+TURN_MU = 0.6
 
 
 def turn(gait: GaitSolution, radius: float, *, cache: bool = True,
@@ -100,18 +100,13 @@ def optimise_turn(gait: GaitSolution, radius: float, verbose: bool = False,
     durations = np.tile(gait.solution.durations, 2)
     nodes = tuple(gait.nodes)
     phases = turn_phases(om, durations, nodes, [(0.3 * d, 2.5 * d) for d in durations])
-    c = Collocation(om, phases, mu=MU, periodic=True, range_margin=RANGE_MARGIN)
+    c = Collocation(om, phases, mu=TURN_MU, periodic=True, range_margin=RANGE_MARGIN)
     opti, N = c.opti, c.N
     T = c.total_duration()
     opti.subject_to(T == gait.period)
-    # the stride's turn: free (the speed along the circle with it), from the straight speed's
-    theta = opti.variable()
-    nominal = gait.speed * gait.period / radius
-    lo, hi = sorted((SLOWEST * nominal, nominal))
-    opti.subject_to(opti.bounded(lo, theta, hi))
-    opti.set_initial(theta, nominal)
-    R = ca.vertcat(ca.horzcat(ca.cos(theta), -ca.sin(theta)),
-                   ca.horzcat(ca.sin(theta), ca.cos(theta)))  # fmt: skip
+    # the stride's turn: the straight cycle's stride along the circle
+    theta = gait.speed * gait.period / radius
+    R = rotation(theta)
     centre = np.array([0.0, radius])
     X, V = c.X, c.V
     # the pelvis at the heel strike where the straight cycle has it: its path's radius is then
