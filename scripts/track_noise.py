@@ -36,9 +36,10 @@ def main(argv=None) -> int:
     p.add_argument("--noise", type=float, default=0.01, help="[m] per coordinate")
     p.add_argument("--layout", choices=sorted(KEYPOINT_LAYOUTS), help="keypoints, not markers")
     args = p.parse_args(argv)
-    h = hm.load(BODIES / "adult_male.urdf")
+    walk = walk_on_ground(hm.load(BODIES / "adult_male.urdf"), speed=0.8, steps=3,
+                          record_rate=1000.0)  # fmt: skip
+    h, tr = walk.body, walk.trajectory  # the body that walked (the fitted cycle's: toes locked)
     model = h.model
-    tr = walk_on_ground(h, speed=0.8, steps=3, record_rate=1000.0).trajectory
     t, q = tr.t[::10], tr.q[::10]
     markers = default_markers(h)
     names = list(markers) if args.layout is None else [

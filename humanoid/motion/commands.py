@@ -324,11 +324,12 @@ def _markers_file(path, args):
 def run_ik(args) -> int:
     """``humanoid ik``: inverse kinematics of markers or keypoints, written as coordinates."""
     import sys
+    import warnings
 
     from tqdm import tqdm
 
     from .coordinates import MAPS, coordinates_table
-    from .ik import inverse_kinematics
+    from .ik import RangeLimitWarning, UnconstrainedWarning, inverse_kinematics
     from .markers import default_markers, read_markers, write_markers
     from .storage import write_csv, write_storage
 
@@ -343,9 +344,13 @@ def run_ik(args) -> int:
     start = clock.perf_counter()
     try:
         static = _markers_file(args.static, args) if args.static else None
-        r = inverse_kinematics(h, markers, marker_set, register=args.register or static is not None,
-                               static=static, smoothing=args.smoothing,
-                               progress=lambda i: bar.update(1))  # fmt: skip
+        with warnings.catch_warnings():  # (said below, one line each)
+            warnings.simplefilter("ignore", RangeLimitWarning)
+            warnings.simplefilter("ignore", UnconstrainedWarning)
+            r = inverse_kinematics(h, markers, marker_set,
+                                   register=args.register or static is not None, static=static,
+                                   smoothing=args.smoothing,
+                                   progress=lambda i: bar.update(1))  # fmt: skip
     finally:
         bar.close()
     elapsed = clock.perf_counter() - start
@@ -353,7 +358,6 @@ def run_ik(args) -> int:
     out = Path(args.output)
     written = write_csv(out, table) if out.suffix.lower() == ".csv" else write_storage(out, table)
     unused = [n for n in markers.names if n not in marker_set]
-    rms = r.marker_rms()
     frame = r.frame_rms()
     print(f"body         {what}")
     print(f"markers      {len(r.names)} of {len(markers.names)} in the set, {len(r.time)} frames"
@@ -363,8 +367,7 @@ def run_ik(args) -> int:
         print(f"not in set   {', '.join(unused)}")
     print(f"residual     RMS per frame: mean {np.nanmean(frame) * 1e3:.1f} mm, "
           f"max {np.nanmax(frame) * 1e3:.1f} mm")  # fmt: skip
-    worst = sorted(rms.items(), key=lambda kv: -kv[1])[:5]
-    print("worst        " + ", ".join(f"{n} {v * 1e3:.1f} mm" for n, v in worst))
+    _print_ik_hidden(r)
     if not r.converged.all():
         print(f"not converged in {int((~r.converged).sum())} frames (their best fit is kept)")
     print(f"time         {elapsed:.2f} s ({elapsed / len(r.time) * 1e3:.1f} ms per frame)")
@@ -384,6 +387,21 @@ def run_ik(args) -> int:
                           {"model": h.source, "status": "completed"})  # fmt: skip
         print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse kinematics')}")
     return 0
+
+
+def _print_ik_hidden(r, worst: int = 5) -> None:
+    """The worst markers (RMS and largest residual), the joints held at their range's bounds
+    and the coordinates no marker saw, one line each."""
+    rms, top = r.marker_rms(), r.marker_max()
+    for i, (n, v) in enumerate(sorted(rms.items(), key=lambda kv: -kv[1])[:worst]):
+        head = "worst        " if i == 0 else " " * 13
+        print(f"{head}{n:<16} RMS {v * 1e3:5.1f} mm, max {top[n] * 1e3:5.1f} mm")
+    for lim in r.at_limit:
+        print(f"at limit     {lim.describe(len(r.time))}")
+    counts = r.held.sum(axis=0) if r.held is not None else []
+    for c, k in zip(r.coordinates, counts, strict=False):
+        if k:
+            print(f"unseen       {c} in {k} of {len(r.time)} frames, held")
 
 
 def residual_figure(path, r, title: str = "") -> Path:
