@@ -302,76 +302,86 @@ def read_plates(path: str | Path, y_up: bool | None = None, threshold: float = 2
 
     plates = []
     for k in range(used):
-        index = k + 1
-        kind = int(types[k])
-        if kind not in _CHANNELS:
-            raise MotionFileError(
-                f"{path}: FORCE_PLATFORM:TYPE of plate {index} is {kind}: types 1, 2, 3 and 4 "
-                "are read"
-            )
-        need = _CHANNELS[kind]
-        if channel_all.shape[0] < need:
-            raise MotionFileError(
-                f"{path}: FORCE_PLATFORM:CHANNEL has {channel_all.shape[0]} channels per plate; "
-                f"plate {index} (type {kind}) needs {need}"
-            )
-        numbers = channel_all[:need, k].astype(int)
-        bad = [int(x) for x in numbers if not 1 <= x <= n_channels]
-        if bad:
-            raise MotionFileError(
-                f"{path}: FORCE_PLATFORM:CHANNEL of plate {index} names analog channel(s) "
-                f"{bad}: the file has channels 1 to {n_channels}"
-            )
-        ch = signals[numbers - 1].T  # (n, need)
-        ch_units = [units[x - 1] for x in numbers]
-        corners = corners_all[:, :, k].T * length  # (4, 3) lab [m]
-        R = _axes(corners)
-        if R is None:
-            warnings.warn(
-                f"{path}: FORCE_PLATFORM:CORNERS of plate {index} do not span a rectangle: "
-                f"plate {index} left out",
-                PlateWarning,
-                stacklevel=2,
-            )
-            continue
-        centre = corners.mean(axis=0)
-        o = origin_all[:, k] * length
-        if kind == 1:  # the centre of pressure and the free moment as channels
-            F = ch[:, :3].copy()
-            lscale = [_LENGTH.get(u.lower(), length) for u in ch_units[3:5]]
-            r = np.column_stack([ch[:, 3] * lscale[0], ch[:, 4] * lscale[1], np.zeros(len(ch))])
-            T = ch[:, 5] * _moment_scale(ch_units[5], length)
-            o = np.zeros(3)
-            contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
-        else:  # the force and the moment about the transducer's origin
-            F, M, o = _wrench(path, fp, kind, k, used, ch, ch_units, o, length)
-            MP = M + np.cross(F, o)  # about the top surface's centre
-            contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
-            fz = np.where(contact, F[:, 2], 1.0)
-            r = np.column_stack([-MP[:, 1] / fz, MP[:, 0] / fz, np.zeros(len(F))])
-            T = MP[:, 2] - (r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0])
-        cop = centre + r @ R.T
-        cop[~contact] = np.nan
-        free = np.where(contact, T, 0.0)[:, None] * R[:, 2]
-        force = (F @ R.T) @ A.T
-        up = (A @ R[:, 2])[2]  # the plate's z, our vertical
-        if contact.any() and abs(up) > 0.9 and np.mean(force[contact, 2]) < 0.0:
-            warnings.warn(
-                f"{path}: plate {index}'s vertical force points down during its contacts "
-                f"(mean {np.mean(force[contact, 2]):.0f} N): the file may hold the force on the "
-                "plate rather than on the subject; read as recorded",
-                PlateWarning,
-                stacklevel=2,
-            )
-        plates.append(Plate(
-            index=index, type=kind, corners=corners @ A.T, origin=A @ (centre - R @ o),
-            time=time, force=force, cop=cop @ A.T, free_moment=free @ A.T,
-            contact=contact, source=str(path),
-        ))  # fmt: skip
+        plate = _plate(path, fp, k, used, int(types[k]), channel_all, signals, units, length,
+                       corners_all[:, :, k].T * length, origin_all[:, k] * length, A, time,
+                       threshold, release)  # fmt: skip
+        if plate is not None:
+            plates.append(plate)
     if not plates:
         raise MotionFileError(f"{path}: none of its {used} force plates can be placed "
                               "(FORCE_PLATFORM:CORNERS)")  # fmt: skip
     return plates
+
+
+def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners, origin, A,
+           time, threshold, release) -> Plate | None:  # fmt: skip
+    """Plate ``k`` of :func:`read_plates` (its ``corners`` (4, 3) and ``origin`` in the lab
+    [m]; ``A`` the lab to our axes), or None (with a warning) if its corners span no
+    rectangle."""
+    n_channels = signals.shape[0]
+    index = k + 1
+    if kind not in _CHANNELS:
+        raise MotionFileError(
+            f"{path}: FORCE_PLATFORM:TYPE of plate {index} is {kind}: types 1, 2, 3 and 4 are read"
+        )
+    need = _CHANNELS[kind]
+    if channel_all.shape[0] < need:
+        raise MotionFileError(
+            f"{path}: FORCE_PLATFORM:CHANNEL has {channel_all.shape[0]} channels per plate; "
+            f"plate {index} (type {kind}) needs {need}"
+        )
+    numbers = channel_all[:need, k].astype(int)
+    bad = [int(x) for x in numbers if not 1 <= x <= n_channels]
+    if bad:
+        raise MotionFileError(
+            f"{path}: FORCE_PLATFORM:CHANNEL of plate {index} names analog channel(s) "
+            f"{bad}: the file has channels 1 to {n_channels}"
+        )
+    ch = signals[numbers - 1].T  # (n, need)
+    ch_units = [units[x - 1] for x in numbers]
+    R = _axes(corners)
+    if R is None:
+        warnings.warn(
+            f"{path}: FORCE_PLATFORM:CORNERS of plate {index} do not span a rectangle: "
+            f"plate {index} left out",
+            PlateWarning,
+            stacklevel=3,
+        )
+        return None
+    centre = corners.mean(axis=0)
+    o = origin
+    if kind == 1:  # the centre of pressure and the free moment as channels
+        F = ch[:, :3].copy()
+        lscale = [_LENGTH.get(u.lower(), length) for u in ch_units[3:5]]
+        r = np.column_stack([ch[:, 3] * lscale[0], ch[:, 4] * lscale[1], np.zeros(len(ch))])
+        T = ch[:, 5] * _moment_scale(ch_units[5], length)
+        o = np.zeros(3)
+        contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
+    else:  # the force and the moment about the transducer's origin
+        F, M, o = _wrench(path, fp, kind, k, used, ch, ch_units, o, length)
+        MP = M + np.cross(F, o)  # about the top surface's centre
+        contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
+        fz = np.where(contact, F[:, 2], 1.0)
+        r = np.column_stack([-MP[:, 1] / fz, MP[:, 0] / fz, np.zeros(len(F))])
+        T = MP[:, 2] - (r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0])
+    cop = centre + r @ R.T
+    cop[~contact] = np.nan
+    free = np.where(contact, T, 0.0)[:, None] * R[:, 2]
+    force = (F @ R.T) @ A.T
+    up = (A @ R[:, 2])[2]  # the plate's z, our vertical
+    if contact.any() and abs(up) > 0.9 and np.mean(force[contact, 2]) < 0.0:
+        warnings.warn(
+            f"{path}: plate {index}'s vertical force points down during its contacts "
+            f"(mean {np.mean(force[contact, 2]):.0f} N): the file may hold the force on the "
+            "plate rather than on the subject; read as recorded",
+            PlateWarning,
+            stacklevel=3,
+        )
+    return Plate(
+        index=index, type=kind, corners=corners @ A.T, origin=A @ (centre - R @ o),
+        time=time, force=force, cop=cop @ A.T, free_moment=free @ A.T,
+        contact=contact, source=str(path),
+    )  # fmt: skip
 
 
 def _wrench(path, fp, kind, k, used, ch, ch_units, o, length):
