@@ -82,7 +82,9 @@ __all__ = [
     "Plate",
     "PlateWarning",
     "assign_contacts",
+    "c3d_contacts",
     "c3d_loads",
+    "contact_loads",
     "foot_markers",
     "plate_loads",
     "read_events",
@@ -254,8 +256,11 @@ def read_plates(path: str | Path, y_up: bool | None = None, threshold: float = 2
     release = 0.5 * threshold if release is None else float(release)
     if not 0.0 < release <= threshold:
         raise MotionFileError(f"{path}: release must be in (0, threshold], got {release}")
-    c = _open(path)
-    path = Path(path)
+    return _plates_of(_open(path), Path(path), y_up, threshold, release)
+
+
+def _plates_of(c, path: Path, y_up, threshold: float, release: float) -> list[Plate]:
+    """:func:`read_plates` of the opened file ``c``."""
     params = c["parameters"]
     fp = params.get("FORCE_PLATFORM")
     if fp is None:
@@ -554,6 +559,16 @@ def plate_loads(plates: list[Plate], markers=None, sides: dict[int, str] | None 
     Raises:
         MotionFileError: plates on different time bases, a side neither left nor right.
     """
+    return contact_loads(plates, assign_contacts(plates, markers, sides, margin, reach))
+
+
+def contact_loads(plates: list[Plate], contacts: list[tuple]) -> list[Load]:
+    """The feet's loads of the plates' ``contacts`` as :func:`assign_contacts` gives them
+    (see :func:`plate_loads`).
+
+    Raises:
+        MotionFileError: plates on different time bases.
+    """
     if not plates:
         return []
     time = plates[0].time
@@ -561,7 +576,7 @@ def plate_loads(plates: list[Plate], markers=None, sides: dict[int, str] | None 
         if len(p.time) != len(time) or not np.allclose(p.time, time):
             raise MotionFileError(f"{p.source}: the plates' time bases differ ({p.name})")
     parts: dict[str, list[tuple[Plate, int, int]]] = {"left": [], "right": []}
-    for p, i0, i1, side in assign_contacts(plates, markers, sides, margin, reach):
+    for p, i0, i1, side in contacts:
         if side is not None:
             parts[side].append((p, i0, i1))
     loads = []
@@ -637,11 +652,12 @@ def _normal(p: Plate) -> np.ndarray:
     return _axes(p.corners)[:, 2]
 
 
-def c3d_loads(path: str | Path, threshold: float = 20.0, sides: dict[int, str] | None = None,
-              y_up: bool | None = None) -> tuple[list[Plate], list[Load]]:  # fmt: skip
-    """A C3D file's plates and the feet's loads, given by its own markers
-    (:func:`read_plates`, :func:`plate_loads`; a file without markers warns and gives no
-    loads unless ``sides`` names every plate's foot).
+def c3d_contacts(path: str | Path, threshold: float = 20.0,
+                 sides: dict[int, str] | None = None,
+                 y_up: bool | None = None) -> tuple[list[Plate], list[tuple]]:  # fmt: skip
+    """A C3D file's plates and their contacts given to the feet by its own markers
+    (:func:`read_plates`, :func:`assign_contacts`); a file without markers warns and gives
+    its contacts to no foot unless ``sides`` names every plate's.
 
     Raises:
         MotionFileError: as :func:`read_plates`.
@@ -652,8 +668,19 @@ def c3d_loads(path: str | Path, threshold: float = 20.0, sides: dict[int, str] |
     try:
         markers = read_c3d(path, y_up=y_up)
     except MotionFileError:
-        markers = None  # no points: plate_loads says so
-    return plates, plate_loads(plates, markers, sides=sides)
+        markers = None  # no points: assign_contacts says so
+    return plates, assign_contacts(plates, markers, sides)
+
+
+def c3d_loads(path: str | Path, threshold: float = 20.0, sides: dict[int, str] | None = None,
+              y_up: bool | None = None) -> tuple[list[Plate], list[Load]]:  # fmt: skip
+    """A C3D file's plates and the feet's loads (:func:`c3d_contacts`, :func:`contact_loads`).
+
+    Raises:
+        MotionFileError: as :func:`read_plates`.
+    """
+    plates, contacts = c3d_contacts(path, threshold, sides, y_up)
+    return plates, contact_loads(plates, contacts)
 
 
 # -- events --------------------------------------------------------------------------------

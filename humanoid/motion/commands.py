@@ -526,22 +526,16 @@ def run_loads(args) -> int:
     external loads (``.mot`` and its ExternalLoads ``.xml``)."""
     import warnings
 
-    from .c3d import PlateWarning, assign_contacts, plate_loads, read_events, read_plates
+    from .c3d import PlateWarning, c3d_contacts, contact_loads, read_events
     from .loads import write_loads
-    from .markers import read_c3d
-    from .storage import MotionFileError
 
     path = Path(args.c3d)
     out = Path(args.output) if args.output else Path(f"{path.stem}_grf.mot")
     sides = _plate_sides(args.plate_side)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PlateWarning)
-        plates = read_plates(path, threshold=args.threshold)
-        try:
-            markers = read_c3d(path)
-        except MotionFileError:
-            markers = None  # no points: no foot markers, said below
-        contacts = assign_contacts(plates, markers, sides)
+        plates, contacts = c3d_contacts(path, threshold=args.threshold, sides=sides)
+        loads = contact_loads(plates, contacts)
     time = plates[0].time
     rate = f", {1.0 / (time[1] - time[0]):.0f} Hz" if len(time) > 1 else ""
     print(f"plates       {len(plates)} (" + ", ".join(f"{p.name} type {p.type}" for p in plates)
@@ -556,9 +550,6 @@ def run_loads(args) -> int:
             print(f"warning      {w.message}")
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PlateWarning)  # (said above)
-        loads = plate_loads(plates, markers, sides)
     events = read_events(path)
     if events:
         print(f"events       {len(events)}: " + ", ".join(

@@ -42,6 +42,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import HumanoidError
+from .inverse_dynamics import joint_labels
 from .markers import Marker, MarkerTrajectories
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
 
 SPARSE_SMOOTHING = 1e-7  # [s^2]: 1e-3 per marker weight at 100 Hz
 AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
+ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
 REFIT_STEPS = 2  # Gauss-Newton steps of a frame at a bound, solved again with the ranges off
 PAST_LIMIT = math.radians(0.1)  # a joint at its bound is held there if the markers want this more
 
@@ -140,21 +142,6 @@ class IKResult:
     def frame_rms(self) -> np.ndarray:
         """Each frame's RMS residual over its seen markers, weighted equally [m]."""
         return np.sqrt(np.nanmean(self.residuals**2, axis=1))
-
-
-def _coordinate_names(model) -> list[str]:
-    """A name per velocity coordinate (see :class:`IKResult`)."""
-    out = []
-    for j in range(1, model.njoints):
-        joint, name = model.joints[j], model.names[j]
-        if "FreeFlyer" in joint.shortname():
-            out += [f"{name}_{c}" for c in ("tx", "ty", "tz", "rx", "ry", "rz")]
-        elif joint.nv == 1:
-            out.append(name)
-        else:
-            out += [f"{name}_{c}" for c in "xyz"[: joint.nv]] if joint.nv <= 3 else [
-                f"{name}_{i}" for i in range(joint.nv)]  # fmt: skip
-    return out
 
 
 def _limit_reports(model, time, q, wanted) -> list[LimitReport]:
@@ -356,6 +343,19 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             r[3 * k : 3 * k + 3] = meas[i, k] - p
         return J, r
 
+    def system(q, frame, Jr=None):
+        """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``Jr``: the markers'
+        Jacobian and residuals at ``q``, if known)."""
+        i, seen, w3, reg, keep, target, smooth, previous = frame
+        J, r = markers_jacobian(q, i, seen) if Jr is None else Jr
+        e = pin.difference(model, q, standing)
+        A = J.T @ (w3[:, None] * J) + (damping + reg) * eye + keep
+        b = J.T @ (w3 * r) + reg * e + keep @ pin.difference(model, q, target)
+        if smooth:  # the joints (not the root) held near the frame before
+            A += smooth * joints
+            b += smooth * (joints @ pin.difference(model, q, previous))
+        return A, b
+
     for i in range(n):
         seen = np.all(np.isfinite(meas[i]), axis=1) & (weights > 0)
         if q is None:
@@ -381,19 +381,6 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         keep = np.diag(np.where(held[i], hold * max(float(w.sum()), 1.0), 0.0))
         target = previous if previous is not None else standing
         frame = (i, seen, w3, reg, keep, target, smooth, previous)
-
-        def system(q, frame, Jr=None):
-            """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``Jr``: the markers'
-            Jacobian and residuals at ``q``, if known)."""
-            i, seen, w3, reg, keep, target, smooth, previous = frame
-            J, r = markers_jacobian(q, i, seen) if Jr is None else Jr
-            e = pin.difference(model, q, standing)
-            A = J.T @ (w3[:, None] * J) + (damping + reg) * eye + keep
-            b = J.T @ (w3 * r) + reg * e + keep @ pin.difference(model, q, target)
-            if smooth:  # the joints (not the root) held near the frame before
-                A += smooth * joints
-                b += smooth * (joints @ pin.difference(model, q, previous))
-            return A, b
 
         for it in range(iterations):
             A, b = system(q, frame, first if it == 0 else None)
@@ -429,4 +416,4 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             progress(i)
     return IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
                     at_limit=_limit_reports(model, markers.time, out_q, wanted),
-                    coordinates=_coordinate_names(model), held=held)  # fmt: skip
+                    coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held)  # fmt: skip

@@ -88,15 +88,16 @@ class InverseDynamics:
             raise HumanoidError(f"no coordinate {label!r}; the labels: {self.labels}") from None
 
 
-def joint_labels(model: pin.Model) -> list[str]:
+def joint_labels(model: pin.Model, root=("fx", "fy", "fz", "mx", "my", "mz")) -> list[str]:
     """A name per generalised velocity: a one-DoF joint's own name; ``<joint>_x/_y/_z`` for a
-    spherical joint's axes (its local frame); the root's ``root_fx, fy, fz, mx, my, mz``."""
+    spherical joint's axes (its local frame); the root's ``root_fx, fy, fz, mx, my, mz`` (its
+    generalised forces; ``root``: other suffixes, e.g. its velocity's)."""
     out = []
     for j in range(1, model.njoints):
         joint, name = model.joints[j], model.names[j]
         short = joint.shortname()
         if "FreeFlyer" in short:
-            out += [f"{name}_{c}" for c in ("fx", "fy", "fz", "mx", "my", "mz")]
+            out += [f"{name}_{c}" for c in root]
         elif joint.nv == 1:
             out.append(name)
         else:
