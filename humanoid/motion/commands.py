@@ -193,7 +193,10 @@ def moments_figure(path, table, mass: float, title: str = "", residual=None) -> 
 
 def run_id(args) -> int:
     """``humanoid id``: inverse dynamics of a motion, written as OpenSim names it."""
+    import warnings
+
     from .coordinates import generalized_forces_table
+    from .floor import ResidualWarning, fit_floor, residual_check
     from .inverse_dynamics import (
         derivatives,
         estimate_loads,
@@ -208,10 +211,16 @@ def run_id(args) -> int:
 
     h, what, t, q, loads, cmap, left_out = read_motion(args)
     compared = []
+    floor = floor_line = None
     if args.estimate_loads or not loads:
         start = clock.perf_counter()
         d = derivatives(h.model, t, q, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
-        estimated = estimate_loads(h, *d)
+        try:  # the floor as it is: the loads are estimated on it
+            floor = fit_floor(h, d[0], d[1])
+            floor_line = floor.summary()
+        except HumanoidError as exc:
+            floor_line = f"not fitted ({exc}): the plane of the lowest sole point"
+        estimated = estimate_loads(h, *d, floor=floor)
         for x in estimated:
             measured = [m for m in loads if m.body == x.body]
             if measured:
@@ -248,6 +257,8 @@ def run_id(args) -> int:
           f"filter {'none' if cutoff is None else f'{cutoff:g} Hz'}")  # fmt: skip
     names = ", ".join(f"{x.body} ({x.name or 'run'})" for x in loads) or "none"
     print(f"loads        {names}")
+    if floor_line:
+        print(f"floor        {floor_line}")
     if left_out:
         print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
     weight = h.mass * 9.81
@@ -272,6 +283,9 @@ def run_id(args) -> int:
     print(f"root residual force   RMS {np.sqrt(np.mean(rf**2)):.1f} N "
           f"({np.sqrt(np.mean(rf**2)) / weight * 100:.1f} % BW), max {rf.max():.1f} N")  # fmt: skip
     print(f"root residual moment  RMS {np.sqrt(np.mean(rm**2)):.1f} N m, max {rm.max():.1f} N m")
+    warning = residual_check(r.time, r.residual_force, weight, loads, floor)
+    if warning:
+        warnings.warn(warning, ResidualWarning, stacklevel=2)
     print(f"time         {elapsed * 1e3:.1f} ms ({elapsed / n * 1e6:.0f} us per frame)")
     print(f"wrote        {written}")
     print(f"figure       {figure}")

@@ -264,14 +264,17 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
 
 
 def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float = 0.3,
-                     force: float = 20.0) -> dict:  # fmt: skip
+                     force: float = 20.0, floor=None) -> dict:  # fmt: skip
     """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
     (vertical force over ``force`` [N]) if it has one, else from the motion: one of its sole
     points within ``height`` [m] of the motion's floor (its lowest sole point) and moving with
     the floor, slower than ``speed`` [m/s] relative to it (a trailing foot rolls on its toes
     while its frame moves fast). The floor's own velocity is the median horizontal velocity of
     the sole points that are low: zero over ground, the belt's on a treadmill (where the body
-    stays put and the standing foot moves back at the walking speed)."""
+    stays put and the standing foot moves back at the walking speed). ``floor``: a
+    :class:`~humanoid.motion.floor.Floor` (:func:`~humanoid.motion.floor.fit_floor`): heights
+    are measured above it, along its normal, and within ``height`` of it is low (default
+    None: the horizontal plane of the motion's lowest sole point)."""
     model = h.model
     data = model.createData()
     out = {}
@@ -288,10 +291,11 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
             M = pin.updateFramePlacement(model, data, fid)
             frame = pin.getFrameVelocity(model, data, fid, LWA)
             arms = pts[s] @ M.rotation.T
-            low[s][i] = (arms + M.translation)[:, 2]
+            world = arms + M.translation
+            low[s][i] = world[:, 2] if floor is None else floor.above(world)
             vel[s][i] = frame.linear + np.cross(frame.angular, arms)
-    floor = min(float(x.min()) for x in low.values())
-    near = np.concatenate([vel[s][low[s] < floor + height] for s in SIDES])
+    base = min(float(x.min()) for x in low.values()) if floor is None else 0.0
+    near = np.concatenate([vel[s][low[s] < base + height] for s in SIDES])
     belt = np.median(near[:, :2], axis=0) if len(near) else np.zeros(2)
     fast = {s: np.linalg.norm(vel[s] - np.array([*belt, 0.0]), axis=2) for s in SIDES}
     for s in SIDES:
@@ -299,13 +303,14 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
             fz = np.interp(time, measured[s].time, measured[s].force[:, 2], left=0.0, right=0.0)
             out[s] = (np.asarray(time), fz > force)
         else:
-            down = (low[s] < floor + height) & (fast[s] < speed)
+            down = (low[s] < base + height) & (fast[s] < speed)
             out[s] = (np.asarray(time), down.any(axis=1))
     return out
 
 
 def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0.8,
-                   regularization: float = 1e-6, lift: float = 0.005) -> list[Load]:  # fmt: skip
+                   regularization: float = 1e-6, lift: float = 0.005,
+                   floor=None) -> list[Load]:  # fmt: skip
     """The ground forces on the feet that make the motion's root residual smallest, without
     force plates: in each sample, each foot in contact (``contacts``, default
     :func:`contact_schedule` from the motion) gets a force at each of its sole points, inside
@@ -314,19 +319,26 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
     (per body weight, each point's times ``1 + (height / lift)^2``, its height above the
     motion's floor: it shares the load of a double support, which the residual alone does not
     fix, towards the points on the floor). Returns a :class:`Load` per foot, on the motion's
-    samples."""
+    samples, its centre of pressure on the floor.
+
+    ``floor``: a :class:`~humanoid.motion.floor.Floor` (:func:`~humanoid.motion.floor.fit_floor`)
+    the feet stand on: contact is judged on it (:func:`contact_schedule`), heights measured
+    above it along its normal, the friction pyramids aligned with it and the centres of
+    pressure placed on it; default None: the horizontal plane of the motion's lowest sole
+    point for contact and heights, world-vertical pyramids, centres of pressure on z = 0."""
     import proxsuite
 
     from ..control.qp import pyramid_rows
 
     model = h.model
     data = model.createData()
-    contacts = contacts or contact_schedule(h, time, q, v)
+    contacts = contacts or contact_schedule(h, time, q, v, floor=floor)
     sides = ("left", "right")
     pts = {s: h.sole_points(s) for s in sides}
     weight = h.mass * float(np.linalg.norm(model.gravity.linear))
     wrench = {s: np.zeros((len(time), 6)) for s in sides}
-    floor = lowest_sole_point(h, q)
+    base = lowest_sole_point(h, q) if floor is None else 0.0
+    turn = np.eye(3) if floor is None else floor.rotation  # floor axes to world axes
     for i in range(len(time)):
         down = [s for s in sides if contacts[s][1][min(i, len(contacts[s][1]) - 1)]]
         if not down:
@@ -339,11 +351,12 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
             M = pin.updateFramePlacement(model, data, h.sole_id(s))
             for p in pts[s] @ M.rotation.T + M.translation:
                 # a world force f at p, as the root's generalised force: R'f, R'((p - o) x f)
-                cols.append(np.vstack([R.T, R.T @ pin.skew(p - o)]))
+                cols.append(np.vstack([R.T, R.T @ pin.skew(p - o)]) @ turn)
                 where.append((s, p))
                 # a point higher above the motion's floor is dearer (a heel rising, a foot
                 # about to lift or just landing takes less of the load)
-                cost += [1.0 + ((p[2] - floor) / lift) ** 2] * 3
+                up = p[2] - base if floor is None else float(floor.above(p))
+                cost += [1.0 + (up / lift) ** 2] * 3
         A = np.hstack(cols) * weight  # forces in body weights
         n = A.shape[1]
         H = A.T @ A + regularization * weight**2 * np.diag(cost)
@@ -351,10 +364,16 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
         C = pyramid_rows(mu, n // 3, n, 0)
         res = proxsuite.proxqp.dense.solve(H, g, None, None, C, np.full(len(C), -1e20),
                                            np.zeros(len(C)), eps_abs=1e-10)  # fmt: skip
-        f = np.asarray(res.x).reshape(-1, 3) * weight
+        f = np.asarray(res.x).reshape(-1, 3) @ turn.T * weight  # in world axes
         for (s, p), fk in zip(where, f, strict=True):
             wrench[s][i] += np.concatenate([fk, np.cross(p, fk)])
-    return [Load.from_wrench(s, time, wrench[s], name="estimated") for s in sides]
+    if floor is None:
+        return [Load.from_wrench(s, time, wrench[s], name="estimated") for s in sides]
+    out = []
+    for s in sides:
+        point, torque = floor.centre_of_pressure(wrench[s])
+        out.append(Load(s, np.asarray(time), wrench[s][:, :3], point, torque, "estimated"))
+    return out
 
 
 def recorded_feet(h, time, q, markers, marker_set: dict) -> dict:
