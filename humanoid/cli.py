@@ -185,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "markers on (implies --register)")  # fmt: skip
     k.add_argument(
         "--layout",
-        choices=("coco17", "h36m17", "body25", "smpl24"),
+        choices=("coco17", "h36m17", "body25", "halpe26", "smpl24"),
         help="the keypoints' order (for .npy/.npz)",
     )
     k.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when the file has "
@@ -218,7 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--no-floor", action="store_true", help="keep the motion's height")
     tr.add_argument(
         "--layout",
-        choices=("coco17", "h36m17", "body25", "smpl24"),
+        choices=("coco17", "h36m17", "body25", "halpe26", "smpl24"),
         help="keypoints' order (for .npy/.npz keypoints)",
     )
     tr.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")

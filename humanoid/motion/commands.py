@@ -317,7 +317,9 @@ def _markers_file(path, args):
         return read_bvh(path)
     if suffix in (".npy", ".npz"):
         if args.layout is None:
-            raise HumanoidError(f"{path}: keypoints need --layout (coco17, h36m17, body25, smpl24)")
+            raise HumanoidError(
+                f"{path}: keypoints need --layout (coco17, h36m17, body25, halpe26, smpl24)"
+            )
         try:
             loaded = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:

@@ -11,6 +11,14 @@ for the rest of the frame's iterations). A small pull towards the standing postu
 its ends, a hand without markers). Frames are solved in order, each from the one before; the
 first from the standing posture moved onto the markers' centroid.
 
+2D keypoints seen by calibrated cameras (:mod:`humanoid.motion.cameras`) are fitted the same
+way, by their reprojection error: each view that sees a marker gives the two rows ``uv -
+project(p_i(q))`` [px] with the projection's Jacobian, weighted by the marker's weight times
+the keypoint's confidence times ``(depth / focal)^2`` (a pixel's size at the marker, so that a
+view's rows weigh in metres as a 3D marker's do), shared between the views that see it; the
+first frame starts on the triangulated points. The residuals are then each marker's distance
+from its views' rays [m], and :attr:`IKResult.pixels` the reprojection errors [px].
+
 What the fit hides is said (:class:`IKResult`, and a warning each):
 
 - A joint held at its range's end (:class:`RangeLimitWarning`): the frame is solved again
@@ -107,6 +115,8 @@ class IKResult:
     coordinates: A name per velocity coordinate (a one-DoF joint's own; ``<joint>_x/_y/_z``
         for a spherical joint's local axes; the root's ``<root>_tx..tz, rx..rz``).
     held: (n, nv) the coordinates no marker saw in each frame, held (module docstring).
+    pixels: (n, m) a fit to 2D keypoints: each marker's RMS reprojection error over the views
+        that saw it [px] (``residuals`` is then its distance from their rays [m]).
     """
 
     time: np.ndarray
@@ -119,6 +129,7 @@ class IKResult:
     at_limit: list[LimitReport] = field(default_factory=list)
     coordinates: list[str] = field(default_factory=list)
     held: np.ndarray | None = None
+    pixels: np.ndarray | None = None
 
     @property
     def unconstrained(self) -> list[str]:
@@ -200,9 +211,10 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                        damping: float = 1e-6,
                        regularization: float = 1e-6, smoothing: float | None = None,
                        unseen: float = 1e-3, hold: float = 1e-2,
-                       q0: np.ndarray | None = None,
+                       q0: np.ndarray | None = None, cameras=None,
                        progress=None) -> IKResult:  # fmt: skip
-    """Fit the body to measured markers (see the module docstring).
+    """Fit the body to measured markers, or to 2D keypoints seen by calibrated cameras (see
+    the module docstring).
 
     Args:
         h: The body. markers: Measured trajectories (our axes, metres). marker_set: Where the
@@ -226,6 +238,11 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             largest column's is unseen in that frame (0: none is). hold: The pull on an unseen
             coordinate towards the frame before, per unit of marker weight [m^2 per rad^2].
         q0: The first frame's starting configuration (default: see the module docstring).
+        cameras: ``markers`` are 2D keypoints (:class:`~humanoid.motion.cameras.
+            CameraKeypoints`) and these their cameras (:func:`~humanoid.motion.cameras.
+            read_calibration`, in the keypoints' order): the fit minimises the reprojection
+            error, each view's pixels weighed by their size at the marker (module docstring);
+            the first frame starts from the triangulated points.
         progress: Called with the frame index after each frame (a progress bar).
 
     Warns:
@@ -236,6 +253,13 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         HumanoidError: no marker in common, a marker on a frame the body does not have, a frame
             with fewer than 3 markers seen in total for the first frame.
     """
+    from .cameras import CameraKeypoints
+
+    if isinstance(markers, CameraKeypoints) != (cameras is not None):
+        raise HumanoidError("2D keypoints (CameraKeypoints) need their cameras, and cameras "
+                            "need 2D keypoints")  # fmt: skip
+    if cameras is not None and (register or static is not None):
+        raise HumanoidError("registering technical markers needs 3D markers, not 2D keypoints")
     names = [n for n in markers.names if n in marker_set]
     if smoothing is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
@@ -252,7 +276,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         if static is None:
             q0 = fit.q[0]
     result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
-                    smoothing, unseen, hold, q0, progress)  # fmt: skip
+                    smoothing, unseen, hold, q0, progress, cameras)  # fmt: skip
     result.marker_set = marker_set
     if result.at_limit:
         warnings.warn("inverse kinematics: " + "; ".join(
@@ -293,8 +317,91 @@ def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: 
     return out
 
 
+class _Points:
+    """Measured 3D markers as the fit's observations: each seen marker gives three rows,
+    ``measured - model`` [m], weighted by its set's weight."""
+
+    def __init__(self, markers: MarkerTrajectories, names, weights) -> None:
+        cols = [markers.names.index(n) for n in names]
+        self.meas = markers.positions[:, cols]
+        self.weights = weights
+
+    def seen(self, i: int) -> np.ndarray:
+        """The markers seen in frame ``i``."""
+        return np.all(np.isfinite(self.meas[i]), axis=1) & (self.weights > 0)
+
+    def anchor(self, i: int) -> np.ndarray:
+        """Frame ``i``'s markers in the world (NaN: unseen), to start the first frame on."""
+        return self.meas[i]
+
+    def rows(self, i, seen, P, Jp):
+        """The fit's rows at the model's markers ``P`` (m, 3) with their Jacobians ``Jp``
+        (m, 3, nv): (J, r, w), the rows' Jacobians, residuals and weights."""
+        w = np.repeat(np.where(seen, self.weights, 0.0), 3)
+        r = np.where(seen[:, None], self.meas[i] - P, 0.0).reshape(-1)
+        return Jp.reshape(-1, Jp.shape[-1]), r, w
+
+    def error(self, i, seen, P) -> np.ndarray:
+        """Each seen marker's distance from the model's [m] (NaN: unseen)."""
+        return np.where(seen, np.linalg.norm(P - self.meas[i], axis=1), np.nan)
+
+
+class _Views:
+    """2D keypoints in calibrated cameras as the fit's observations (the reprojection error):
+    each camera that sees a marker gives two rows, ``measured - projected`` [px], weighted by
+    the set's weight times the keypoint's confidence times ``(depth / focal)^2`` (a pixel's
+    size at the marker [m], so that a view's rows weigh as a 3D marker's would), shared
+    between the views that see it (3 rows' worth in all)."""
+
+    def __init__(self, keypoints, cameras, names, weights) -> None:
+        from .cameras import match_cameras, triangulate
+
+        self.cameras = match_cameras(keypoints, cameras)
+        cols = [keypoints.names.index(n) for n in names]
+        self.uv = keypoints.uv[:, :, cols]
+        self.conf = keypoints.confidence[:, :, cols]
+        self.weights = weights
+        self.points = triangulate(keypoints, cameras).positions[:, cols]
+        self.pixels = None  # (n, m) the last fit's reprojection errors [px]
+
+    def seen(self, i: int) -> np.ndarray:
+        return (self.conf[:, i] > 0).any(axis=0) & (self.weights > 0)
+
+    def anchor(self, i: int) -> np.ndarray:
+        return self.points[i]
+
+    def rows(self, i, seen, P, Jp):
+        share = 1.5 / np.maximum((self.conf[:, i] > 0).sum(axis=0), 1)
+        Js, rs, ws = [], [], []
+        for c, cam in enumerate(self.cameras):
+            ok = seen & (self.conf[c, i] > 0) & (cam.depth(P) > 1e-3)
+            uv, D = cam.project(P, jacobian=True)
+            w = np.where(ok, self.weights * self.conf[c, i] * share, 0.0)
+            w = w * (np.where(ok, cam.depth(P), 0.0) / cam.focal) ** 2
+            Js.append(np.einsum("mij,mjk->mik", np.nan_to_num(D), Jp).reshape(-1, Jp.shape[-1]))
+            rs.append(np.where(ok[:, None], self.uv[c, i] - uv, 0.0).reshape(-1))
+            ws.append(np.repeat(w, 2))
+        return np.vstack(Js), np.concatenate(rs), np.concatenate(ws)
+
+    def error(self, i, seen, P) -> np.ndarray:
+        """Each seen marker's RMS distance from the rays of the views that see it [m] (the
+        reprojection error at its depth); the pixels' kept in :attr:`pixels`."""
+        ray2, px2, count = np.zeros(len(P)), np.zeros(len(P)), np.zeros(len(P))
+        for c, cam in enumerate(self.cameras):
+            ok = seen & (self.conf[c, i] > 0)
+            d = np.linalg.norm(np.nan_to_num(cam.project(P) - self.uv[c, i]), axis=1)
+            px2 += np.where(ok, d**2, 0.0)
+            ray2 += np.where(ok, (d * cam.depth(P) / cam.focal) ** 2, 0.0)
+            count += ok
+        if self.pixels is None:
+            self.pixels = np.full((len(self.uv[0]), len(P)), np.nan)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self.pixels[i] = np.where(count > 0, np.sqrt(px2 / count), np.nan)
+            return np.where(count > 0, np.sqrt(ray2 / count), np.nan)
+
+
 def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, smoothing,
-           unseen, hold, q0, progress) -> IKResult:  # fmt: skip
+           unseen, hold, q0, progress, cameras=None) -> IKResult:  # fmt: skip
     model = h.model
     data = model.createData()
     names = [n for n in markers.names if n in marker_set]
@@ -308,11 +415,13 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         if not model.existFrame(marker_set[n].frame):
             raise HumanoidError(f"marker {n!r} is on frame {marker_set[n].frame!r}, which "
                                 f"{h.source} does not have")  # fmt: skip
-    cols = [markers.names.index(n) for n in names]
-    meas = markers.positions[:, cols]
     frames = [model.getFrameId(marker_set[n].frame) for n in names]
     offsets = np.array([marker_set[n].offset for n in names])
     weights = np.array([marker_set[n].weight for n in names])
+    if cameras is None:
+        obs = _Points(markers, names, weights)
+    else:
+        obs = _Views(markers, cameras, names, weights)
     ranges = _ranges(model)
     standing = h.standing_configuration()
     n, m = len(markers.time), len(names)
@@ -327,60 +436,58 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
     previous = None
 
-    def markers_jacobian(q, i, seen):
-        """The stacked marker Jacobian and the residuals (measured - model) at ``q``."""
+    def model_markers(q):
+        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv)."""
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        J = np.zeros((3 * m, model.nv))
-        r = np.zeros(3 * m)
+        P = np.zeros((m, 3))
+        Jp = np.zeros((m, 3, model.nv))
         for k in range(m):
-            if not seen[k]:
-                continue
             M = data.oMf[frames[k]]
-            p = M.act(offsets[k])
+            P[k] = M.act(offsets[k])
             Jf = pin.getFrameJacobian(model, data, frames[k], pin.LOCAL_WORLD_ALIGNED)
-            J[3 * k : 3 * k + 3] = Jf[:3] - pin.skew(p - M.translation) @ Jf[3:]
-            r[3 * k : 3 * k + 3] = meas[i, k] - p
-        return J, r
+            Jp[k] = Jf[:3] - pin.skew(P[k] - M.translation) @ Jf[3:]
+        return P, Jp
 
-    def system(q, frame, Jr=None):
-        """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``Jr``: the markers'
-        Jacobian and residuals at ``q``, if known)."""
-        i, seen, w3, reg, keep, target, smooth, previous = frame
-        J, r = markers_jacobian(q, i, seen) if Jr is None else Jr
+    def system(q, frame, rows=None):
+        """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``rows``: the
+        observations' Jacobian, residuals and weights at ``q``, if known)."""
+        i, seen, reg, keep, target, smooth, previous = frame
+        J, r, w = obs.rows(i, seen, *model_markers(q)) if rows is None else rows
         e = pin.difference(model, q, standing)
-        A = J.T @ (w3[:, None] * J) + (damping + reg) * eye + keep
-        b = J.T @ (w3 * r) + reg * e + keep @ pin.difference(model, q, target)
+        A = J.T @ (w[:, None] * J) + (damping + reg) * eye + keep
+        b = J.T @ (w * r) + reg * e + keep @ pin.difference(model, q, target)
         if smooth:  # the joints (not the root) held near the frame before
             A += smooth * joints
             b += smooth * (joints @ pin.difference(model, q, previous))
         return A, b
 
     for i in range(n):
-        seen = np.all(np.isfinite(meas[i]), axis=1) & (weights > 0)
+        seen = obs.seen(i)
         if q is None:
-            if seen.sum() < 3:
+            anchor = obs.anchor(i)
+            placed = np.all(np.isfinite(anchor), axis=1) & seen
+            if placed.sum() < 3:
                 raise HumanoidError(
                     f"frame {i} ({markers.time[i]:.3f} s): fewer than 3 markers seen"
                 )
             q = standing.copy()
             pin.framesForwardKinematics(model, data, q)
             model_pts = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
-            q[:3] += (meas[i, seen] - model_pts[seen]).mean(axis=0)
-        w = np.where(seen, weights, 0.0)
-        w3 = np.repeat(w, 3)
-        reg = regularization * max(float(w.sum()), 1.0)
+            q[:3] += (anchor[placed] - model_pts[placed]).mean(axis=0)
+        total = max(float(np.where(seen, weights, 0.0).sum()), 1.0)
+        reg = regularization * total
         smooth = 0.0
         if previous is not None and smoothing:  # a pull on the joints' velocity: per 1/dt^2
             dt = float(markers.time[i] - markers.time[i - 1])
-            smooth = smoothing * max(float(w.sum()), 1.0) / dt**2
+            smooth = smoothing * total / dt**2
         # the coordinates no marker sees (at the frame's start): held where they were
-        first = markers_jacobian(q, i, seen)  # (the first iteration's too)
-        column = np.sqrt(w3 @ first[0] ** 2)
+        first = obs.rows(i, seen, *model_markers(q))  # (the first iteration's too)
+        column = np.sqrt(first[2] @ first[0] ** 2)
         held[i] = column < unseen * column.max()
-        keep = np.diag(np.where(held[i], hold * max(float(w.sum()), 1.0), 0.0))
+        keep = np.diag(np.where(held[i], hold * total, 0.0))
         target = previous if previous is not None else standing
-        frame = (i, seen, w3, reg, keep, target, smooth, previous)
+        frame = (i, seen, reg, keep, target, smooth, previous)
 
         for it in range(iterations):
             A, b = system(q, frame, first if it == 0 else None)
@@ -405,15 +512,13 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                     break
             wanted[i] = free
         pin.framesForwardKinematics(model, data, q)
-        for k in range(m):
-            if seen[k]:
-                residuals[i, k] = float(
-                    np.linalg.norm(data.oMf[frames[k]].act(offsets[k]) - meas[i, k])
-                )
+        P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
+        residuals[i] = obs.error(i, seen, P)
         out_q[i] = q
         previous = q.copy()
         if progress is not None:
             progress(i)
     return IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
                     at_limit=_limit_reports(model, markers.time, out_q, wanted),
-                    coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held)  # fmt: skip
+                    coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held,
+                    pixels=getattr(obs, "pixels", None))  # fmt: skip

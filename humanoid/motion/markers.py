@@ -23,9 +23,10 @@ written for a 1.75 m male body and scaled by a body's hip width.
 
 **Keypoints** of pose estimators are joint centres in a fixed order (:data:`KEYPOINT_LAYOUTS`:
 COCO's 17, Human3.6M's 17 as VideoPose3D orders them, OpenPose's BODY_25 (with the feet's toes
-and heels), SMPL's 24), each named as the marker of the default set it is (or None: no point
-of the body). Joint centres alone do not fix a foot's orientation nor a limb's twist: give the
-feet's points (BODY_25) where there are any.
+and heels), HALPE's 26 (the same feet's points), SMPL's 24), each named as the marker of the
+default set it is (or None: no point of the body). Joint centres alone do not fix a foot's
+orientation nor a limb's twist: give the feet's points (BODY_25, HALPE 26) where there are
+any. 2D keypoints from calibrated cameras: :mod:`humanoid.motion.cameras`.
 
 **TRC** files (OpenSim's and Motion Analysis's marker trajectories, :func:`read_trc`): a
 header of 5 lines (``PathFileType``, the keys ``DataRate CameraRate NumFrames NumMarkers Units
@@ -260,7 +261,9 @@ def write_markers(path: str | Path, markers: dict[str, Marker]) -> Path:
 # body); sources: COCO (mmpose's coco.py), Human3.6M 17 as VideoPose3D keeps them
 # (h36m_dataset.py), OpenPose's BODY_25 (its output format documentation: the feet's big
 # toe, small toe and heel, which fix the feet's orientation, as markerless pipelines such as
-# Pose2Sim use them), SMPL (smplx's joint_names.py)
+# Pose2Sim use them), HALPE 26 (AlphaPose's, RTMPose's body with feet: COCO's 17, then head
+# top, neck, hip centre, big toes, small toes, heels; Pose2Sim's default), SMPL (smplx's
+# joint_names.py)
 KEYPOINT_LAYOUTS = {
     "coco17": (
         "head", None, None, None, None, "left_shoulder", "right_shoulder", "left_elbow",
@@ -277,6 +280,12 @@ KEYPOINT_LAYOUTS = {
         "left_elbow", "left_wrist", "pelvis", "right_hip", "right_knee", "right_ankle",
         "left_hip", "left_knee", "left_ankle", None, None, None, None, "L.Toe.Med", "L.Toe.Lat",
         "L.Heel", "R.Toe.Med", "R.Toe.Lat", "R.Heel",
+    ),
+    "halpe26": (
+        "head", None, None, None, None, "left_shoulder", "right_shoulder", "left_elbow",
+        "right_elbow", "left_wrist", "right_wrist", "left_hip", "right_hip", "left_knee",
+        "right_knee", "left_ankle", "right_ankle", None, "neck", "pelvis", "L.Toe.Med",
+        "R.Toe.Med", "L.Toe.Lat", "R.Toe.Lat", "L.Heel", "R.Heel",
     ),
     "smpl24": (
         "pelvis", "left_hip", "right_hip", None, "left_knee", "right_knee", None, "left_ankle",
