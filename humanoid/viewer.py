@@ -410,7 +410,7 @@ class SceneView:
         path = np.array([self.followed_point(q) for q in [*qs[::step], qs[-1]]])
         q0 = qs[0]
         pin.framesForwardKinematics(self.model, self.data, q0)
-        z = np.array([f.translation[2] for f in self.data.oMf])
+        z = np.array([f.translation[2] for f in self.data.oMf[1:]])  # (not the universe)
         lo, hi = float(z.min()), float(z.max())
         height = max(1.1 * (hi - lo), 0.5)
         p0 = path[0]
