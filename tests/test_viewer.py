@@ -11,7 +11,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import SCENES, get_model, landing_run
+from conftest import BODIES, SCENES, get_model, landing_run
 
 import humanoid as hm
 from humanoid.scene import Scene
@@ -491,3 +491,56 @@ def test_the_page_carries_the_presets_and_opens_with_the_chosen_one(tmp_path):
     assert 'view = "side"' in text
     for key in ("oblique", "side", "front", "top"):
         assert f'data-view="{key}"' in text
+
+
+def _page_commands(path) -> list[dict]:
+    import base64
+    import re
+
+    import umsgpack
+
+    text = path.read_text()
+    packed = re.search(r"var humanoidCommands = \[(.*?)\];", text, re.S).group(1)
+    return [umsgpack.unpackb(base64.b64decode(x.strip('"'))) for x in packed.split(",") if x]
+
+
+def test_cli_ik_and_view_draw_the_trial(tmp_path, capsys):
+    """``humanoid ik trial.trc --html``, then ``humanoid view ik.mot --markers trial.trc
+    --camera top --html``: both pages draw the measured and the fitted markers, the residuals
+    between them (a few centimetres: the trial's own offsets), and list them in the legend."""
+    from humanoid.cli import main
+    from humanoid.motion.markers import write_trc
+
+    h = get_model("male", "quaternion")
+    traj = _carried(h, 1.0, 0.5, 6)
+    measured, _, _ = _recording(h, traj)
+    trc = write_trc(tmp_path / "trial.trc", measured)
+    mot, page = tmp_path / "ik.mot", tmp_path / "ik.html"
+    assert main(["ik", str(trc), "--model", "adult_male", "-o", str(mot), "--html", str(page),
+                 "--quiet"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "trial.trc: hidden where missing: R.Heel (1 of 6 frames)" in out
+    assert "viewer hides" in out
+    shown = tmp_path / "view.html"
+    with pytest.warns(viewer.HiddenMarkerWarning, match="R.Heel"):
+        assert main(["view", str(mot), "--markers", str(trc), "--camera", "top", "--html",
+                     str(shown)]) == 0  # fmt: skip
+    for path in (page, shown):
+        commands = _page_commands(path)
+        objects = {c["path"] for c in commands if c["type"] == "set_object"}
+        for n in ("R.ASIS", "L.Heel", "head"):
+            for kind in ("measured", "model"):
+                assert f"/meshcat/humanoid/markers/{kind}/{n}" in objects, (path.name, n)
+        anim = next(c for c in commands if c["type"] == "set_animation")
+        clips = {a["path"]: a["clip"] for a in anim["animations"]}
+        scale = clips["/meshcat/humanoid/markers/residual/R.ASIS/length"]["tracks"][0]["keys"]
+        lengths = [k["value"][2] for k in scale]
+        assert 0.0 < max(lengths) < 0.06, lengths
+        text = path.read_text()
+        assert "measured markers" in text and "contact forces" not in text
+    assert 'view = "top"' in shown.read_text()
+    with pytest.raises(SystemExit):
+        main(["view", str(mot), "--camera", "back"])
+    assert main(["view", str(BODIES / "adult_male.urdf"), "--markers", str(trc), "--html",
+                 str(tmp_path / "x.html")]) == 2  # fmt: skip
+    assert "--markers are drawn with a motion" in capsys.readouterr().err
