@@ -24,7 +24,9 @@ down, the walk left to right). The first three frame the body (it spans :data:`B
 of the view's height, ``fov`` :data:`FOV`) and follow its centre of mass (the pelvis without the
 com overlay) over the ground, so a long walk stays as large as a short one; ``top`` stands still
 and frames the whole path. The walking direction is the followed point's displacement from the
-first record to the last (the pelvis' heading when it moves less than 0.5 m). Nothing here is
+first record to the last (the pelvis' heading when it moves less than 0.5 m). meshcat's own
+page (:attr:`LiveViewer.url`) gets the preset's eye but looks at the world's origin: meshcat
+has no command for the camera's target, which this package's page sets. Nothing here is
 imported by ``import humanoid``.
 """
 
@@ -737,6 +739,11 @@ var humanoidPlayer = (function () {{
     }});
     viewer.set_dirty();
   }}
+  var own = viewer.set_property.bind(viewer);
+  viewer.set_property = function (path, property, value) {{  // once placed, the camera is ours
+    if (placed && path[0] === "Cameras" && property === "position") return;
+    own(path, property, value);
+  }};
   document.querySelectorAll("#views button").forEach(function (b) {{
     b.onclick = function () {{ setView(b.dataset.view); }};
   }});
