@@ -544,3 +544,30 @@ def test_cli_ik_and_view_draw_the_trial(tmp_path, capsys):
     assert main(["view", str(BODIES / "adult_male.urdf"), "--markers", str(trc), "--html",
                  str(tmp_path / "x.html")]) == 2  # fmt: skip
     assert "--markers are drawn with a motion" in capsys.readouterr().err
+
+
+def test_cli_track_draws_the_trial_on_its_clock(tmp_path, capsys):
+    """``humanoid track trial.trc --html``: the trial starts at 0.5 s, the run at 0: the page
+    draws the trial's markers on the run's clock (the hidden frame where the file has none),
+    the residuals from the simulated body's markers a few millimetres to centimetres."""
+    from humanoid.cli import main
+    from humanoid.motion.markers import MarkerTrajectories, write_trc
+
+    h = get_model("male", "quaternion")
+    still = _carried(h, 0.0, 0.15, 16)
+    still = type(still)(still.t, np.tile(h.standing_configuration(), (16, 1)), still.v,
+                        still.tau, {}, still.energy, still.residual, {})  # fmt: skip
+    measured, _, _ = _recording(h, still, missing=("R.Heel", 10))
+    measured = MarkerTrajectories(measured.time + 0.5, measured.names, measured.positions)
+    trc = write_trc(tmp_path / "trial.trc", measured)
+    page = tmp_path / "t.html"
+    main(["track", str(trc), "-o", str(tmp_path / "t.npz"), "--html", str(page), "--quiet"])
+    assert "hidden where missing: R.Heel (1 of 16 frames)" in capsys.readouterr().out
+    anim = next(c for c in _page_commands(page) if c["type"] == "set_animation")
+    clips = {a["path"]: a["clip"] for a in anim["animations"]}
+    base = "/meshcat/humanoid/markers"
+    shown = next(t for t in clips[f"{base}/measured/R.Heel"]["tracks"] if t["name"] == ".visible")
+    hidden = [k["time"] / 30.0 for k in shown["keys"] if not k["value"]]
+    assert hidden == pytest.approx([0.1])  # frame 10 of the trial, at 0.6 s
+    scale = clips[f"{base}/residual/L.ASIS/length"]["tracks"][0]["keys"]
+    assert 0.0 < max(k["value"][2] for k in scale) < 0.06
