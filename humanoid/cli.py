@@ -155,13 +155,34 @@ def build_parser() -> argparse.ArgumentParser:
     _model_options(w, ball_joints=False)
 
     v = command("view", help="show a model or a run in the browser (live, or as HTML)")
-    v.add_argument("target", help="a URDF, an example-robot-data name, or a run (.npz)")
+    v.add_argument("target", help="a URDF, an example-robot-data name, a run (.npz), or joint "
+                   "coordinates (.mot/.sto, shown on --model)")  # fmt: skip
     v.add_argument("--html", help="write one self-contained HTML file instead of serving")
     v.add_argument("--speed", type=float, default=1.0, help="playback speed (1 = real time)")
     v.add_argument("--fps", type=float, default=30.0, help="animation frames per second")
     v.add_argument("--force-scale", type=float, default=0.5, help="arrow length per body weight")
-    for name in ("forces", "com", "footprints", "ground"):
+    for name in ("forces", "com", "footprints", "ground", "markers"):
         v.add_argument(f"--no-{name}", action="store_true", help=f"hide the {name} overlay")
+    v.add_argument("--camera", choices=("oblique", "side", "front", "top"), default="oblique",
+                   help="the view it opens with: oblique, side (along the left-right axis), "
+                   "front (along the walking direction), top (the whole path); the camera "
+                   "follows the body but in top (the page: a button and a key each)")  # fmt: skip
+    v.add_argument("--markers", help="the trial's markers (.trc, .c3d; keypoints .npy/.npz "
+                   "with --layout) drawn with the motion: measured, on the body, and the "
+                   "residuals between")  # fmt: skip
+    v.add_argument("--marker-set", help="where the markers are on the body (TOML; default: "
+                   "the toolkit's set)")  # fmt: skip
+    v.add_argument(
+        "--layout",
+        choices=("coco17", "h36m17", "body25", "smpl24"),
+        help="the keypoints' order (for --markers .npy/.npz)",
+    )
+    v.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
+    v.add_argument("--y-up", action="store_true", help="keypoints with Y up")
+    v.add_argument("--model", help=BODY_HELP + " (for .mot/.sto coordinates; default "
+                   "adult_male)")  # fmt: skip
+    v.add_argument("--map", help="the coordinates' model (gait2392, gait2354, rajagopal, TOML; "
+                   "default: told from the file)")  # fmt: skip
     _model_options(v)
 
     x = command("export", help="export a model to another simulator's format")
@@ -740,19 +761,34 @@ def _view(args) -> int:
         footprints=not args.no_footprints,
         ground=not args.no_ground,
         force_scale=args.force_scale,
+        markers=not args.no_markers,
     )
     traj = None
-    if args.target.endswith(".npz"):
+    suffix = Path(args.target).suffix.lower()
+    if suffix == ".npz":
         from .simulation import Trajectory
 
         traj = Trajectory.load(args.target)
         h = humanoid_for(traj)
+    elif suffix in (".mot", ".sto"):
+        h, traj = _coordinates_run(args)
     else:
         h = load_any(args)
+    markers = marker_set = None
+    if args.markers:
+        if traj is None:
+            raise HumanoidError("--markers are drawn with a motion: a run (.npz) or joint "
+                                "coordinates (.mot/.sto)")  # fmt: skip
+        from .motion.commands import _markers_file
+        from .motion.markers import default_markers, read_markers
+
+        markers = _markers_file(args.markers, args)
+        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
     title = Path(args.target).stem
     if args.html:
         path = export_html(h, args.html, traj=traj, overlays=overlays, speed=args.speed,
-                           fps=args.fps, title=title)  # fmt: skip
+                           fps=args.fps, title=title, markers=markers, marker_set=marker_set,
+                           camera=args.camera)  # fmt: skip
         print(f"wrote {path} (open it in a browser; no server needed)")
         return 0
     import signal
@@ -764,7 +800,9 @@ def _view(args) -> int:
     signal.signal(signal.SIGTERM, stop)
     try:
         with LiveViewer() as live:
-            view = SceneView(live.vis, h, overlays)
+            view = SceneView(live.vis, h, overlays, camera=args.camera)
+            if markers is not None:
+                view.set_markers(markers, marker_set)
             if traj is not None:
                 view.animate(traj, speed=args.speed, fps=args.fps)
             else:
@@ -777,6 +815,35 @@ def _view(args) -> int:
     except KeyboardInterrupt:  # the server is stopped by LiveViewer's exit
         print("stopped")
     return 0
+
+
+def _coordinates_run(args):
+    """The body (``--model``, default adult_male) and a still run of joint coordinates
+    (.mot/.sto, ``--map``), as recorded: not moved onto the floor, so that a trial's markers
+    stay where the coordinates were fitted to them."""
+    import numpy as np
+
+    from .model import load
+    from .motion.coordinates import MAPS, configurations, guess_map, read_map
+    from .motion.storage import read_storage
+    from .trajectory import Trajectory
+
+    h = load(args.model or "adult_male", ball_joints=args.ball_joints, massless=args.massless,
+             feet=tuple(args.feet) if args.feet else None)  # fmt: skip
+    table = read_storage(args.target)
+    if args.map is None:
+        cmap = guess_map(table)
+    elif args.map in MAPS:
+        cmap = MAPS[args.map]
+    elif Path(args.map).suffix.lower() == ".toml":
+        cmap = read_map(args.map)
+    else:
+        raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)} or a TOML file")
+    t, q, _ = configurations(h, table, cmap, floor=False)
+    n = len(t)
+    zeros = np.zeros((n, h.nv))
+    return h, Trajectory(t, q, zeros, zeros.copy(), {}, np.zeros(n), np.zeros(n),
+                         {"model": h.source, "status": "completed"})  # fmt: skip
 
 
 def run_summary(traj) -> str:

@@ -12,7 +12,22 @@ Both are fed by the same commands: a meshcat ``Visualizer`` writes into a window
 the live server's or a :class:`CommandRecorder` (which also makes the scene testable without a
 browser). Overlays: contact forces as arrows (length ``force_scale`` metres per body weight),
 the centre of mass and its ground projection, the footprints of the attached feet, the ground
-grid; each can be switched off. Nothing here is imported by ``import humanoid``.
+grid, and the recording (:meth:`SceneView.set_markers`): the measured markers or keypoints, the
+same marker set placed on the animated body, and a residual line from each model marker to its
+measured one; each can be switched off. The legend lists the overlays the scene draws.
+
+The camera (:class:`CameraPose`, :data:`PRESETS`; this package's page has a button and a key
+for each): ``oblique`` (the default: from the front right and above), ``side`` (from the
+body's right, looking along the left-right axis, the walk going left to right on screen),
+``front`` (facing the body, looking back along the walking direction) and ``top`` (looking
+down, the walk left to right). The first three frame the body (it spans :data:`BODY_FRACTION`
+of the view's height, ``fov`` :data:`FOV`) and follow its centre of mass (the pelvis without the
+com overlay) over the ground, so a long walk stays as large as a short one; ``top`` stands still
+and frames the whole path. The walking direction is the followed point's displacement from the
+first record to the last (the pelvis' heading when it moves less than 0.5 m). meshcat's own
+page (:attr:`LiveViewer.url`) gets the preset's eye but looks at the world's origin: meshcat
+has no command for the camera's target, which this package's page sets. Nothing here is
+imported by ``import humanoid``.
 """
 
 from __future__ import annotations
@@ -20,6 +35,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import warnings
 from dataclasses import dataclass
 from html import escape as html_escape
 from pathlib import Path
@@ -31,9 +47,14 @@ from .contacts import cop_on_plane
 from .errors import HumanoidError
 
 __all__ = [
-    "CommandRecorder", "LiveViewer", "Overlays", "SceneView", "export_html", "humanoid_for",
-    "page_html",
+    "BODY_FRACTION", "CameraPose", "CommandRecorder", "FOV", "HiddenMarkerWarning", "LiveViewer",
+    "Overlays", "PRESETS", "SceneView", "export_html", "humanoid_for", "page_html",
 ]  # fmt: skip
+
+
+class HiddenMarkerWarning(UserWarning):
+    """The viewer leaves out markers: missing in frames (hidden there), never seen, or without a
+    model marker (not in the marker set, or on a frame the body lacks)."""
 
 
 def _meshcat():
@@ -55,6 +76,7 @@ class Overlays:
     footprints: bool = True
     ground: bool = True
     force_scale: float = 0.5
+    markers: bool = True
 
 
 class CommandRecorder:
@@ -76,7 +98,54 @@ ROOT = "humanoid"
 PUSH_GAIN = 10.0  # push arrows are this much longer than contact-force arrows (pushes are small)
 LOOPS = 10**6  # "loop": a million repetitions (three.js reads 0 as none, not as forever)
 COLORS = {"com": 0xD62728, "force": 0xFF7F0E, "footprint": 0x2CA02C, "ground": 0xB0B0B0,
-          "push": 0x1F77B4}  # fmt: skip
+          "push": 0x1F77B4, "measured": 0xE377C2, "model_marker": 0x17BECF,
+          "residual": 0x303030}  # fmt: skip
+FOV = 75.0  # [deg] the camera's vertical field of view (meshcat's, sent anyway)
+BODY_FRACTION = 0.6  # the body's share of the view's height in the framing presets
+PRESETS = ("oblique", "side", "front", "top")
+MARKER_RADIUS = {"measured": 0.014, "model": 0.010}  # [m]
+RESIDUAL_RADIUS = 0.003  # [m]
+
+
+def _three(p) -> list[float]:
+    """A point of the world (z up) in three.js's scene axes (meshcat turns its scene -90 deg
+    about x: y up)."""
+    return [float(p[0]), float(p[2]), float(-p[1])]
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    """Where the camera stands and what it looks at, world axes [m]; ``follow``: it moves with
+    the body over the ground (by the followed point's horizontal displacement since the first
+    record). Its up is the world's z, its vertical field of view :data:`FOV`."""
+
+    eye: np.ndarray
+    target: np.ndarray
+    follow: bool = True
+
+    def shifted(self, d) -> CameraPose:
+        """The pose moved by ``d`` (3,) [m] (the follow camera: ``d`` horizontal)."""
+        d = np.asarray(d, dtype=float)
+        return CameraPose(self.eye + d, self.target + d, self.follow)
+
+    def project(self, points, aspect: float = 1.0, fov: float = FOV) -> np.ndarray:
+        """Points (k, 3) world [m] on the view: (k, 2) normalised device coordinates (x right,
+        y up; the view is [-1, 1]^2; a point behind the camera is NaN), as three.js's
+        perspective camera projects them (width/height ``aspect``)."""
+        back = self.eye - self.target
+        back = back / np.linalg.norm(back)
+        right = np.cross([0.0, 0.0, 1.0], back)
+        right = right / np.linalg.norm(right)
+        up = np.cross(back, right)
+        rel = np.atleast_2d(points) - self.eye
+        depth = -rel @ back
+        t = math.tan(math.radians(fov) / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = (rel @ right) / depth / (t * aspect)
+            y = (rel @ up) / depth / t
+        out = np.stack([x, y], axis=1)
+        out[depth <= 0] = np.nan
+        return out
 
 
 def _rgb(rgba) -> int:
@@ -123,17 +192,33 @@ class SceneView:
         h: The :class:`~humanoid.model.Humanoid` to show.
         overlays: What to draw besides the body.
         feet: Contact names that can carry forces (``left``, ``right``), default both.
+        camera: The camera preset the view opens with (:data:`PRESETS`).
+
+    Attributes:
+        cameras: {preset: :class:`CameraPose`} for the motion shown (the first record's).
+        present: The overlays drawn so far (the legend's lines): ``force``, ``push``,
+            ``com``, ``footprint``, ``measured``, ``model_marker``, ``residual``.
     """
 
-    def __init__(self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right")) -> None:
+    def __init__(
+        self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right"), camera="oblique"
+    ) -> None:
+        if camera not in PRESETS:
+            raise HumanoidError(f"unknown camera {camera!r}; one of {', '.join(PRESETS)}")
         self.vis, self.h, self.overlays, self.feet = vis, h, overlays, tuple(feet)
+        self.camera = camera
         self.model = h.model
         self.data = h.model.createData()
         self.gdata = pin.GeometryData(h.visual_model)
         self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
         self.pushes = []
+        self.markers = None  # (names, times (n,), positions (n, m, 3), model markers)
+        self.present: set[str] = set()
         self.timeline = (0.0, 0.0, 1.0)  # (first record [s], animation length [s], speed)
+        self.cameras: dict[str, CameraPose] = {}
+        self.follow_origin = np.zeros(3)  # the followed point at the first record
         self._build()
+        self.frame_camera(np.atleast_2d(h.standing_configuration()))
 
     # -- scene ---------------------------------------------------------------------------
     def node(self, *path: str):
@@ -149,11 +234,6 @@ class SceneView:
             material = G.MeshLambertMaterial(color=_rgb(color), opacity=0.6, transparent=True)
             self.node("body", g.name, "shape").set_object(geometry, material)
             self.node("body", g.name, "shape").set_transform(fix)
-        # camera: orbit about the pelvis height, from the front left
-        self.vis["/Cameras/default"].set_transform(
-            pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.9])).homogeneous
-        )
-        self.vis["/Cameras/default/rotated/<object>"].set_property("position", [2.3, 0.9, 1.3])
         ov = self.overlays
         self.vis["/Grid"].set_property("visible", ov.ground)
         if ov.ground:
@@ -208,27 +288,171 @@ class SceneView:
             for i in range(len(self.pushes)):
                 self._arrow(("pushes", str(i)), COLORS["push"])
 
+    def set_markers(self, measured, marker_set: dict | None = None) -> list[str]:
+        """Draw a recording: measured markers or keypoints (a
+        :class:`~humanoid.motion.markers.MarkerTrajectories`, world axes [m], on the
+        trajectory's clock), the markers of ``marker_set`` (name -> ``Marker``: a frame of the
+        body and an offset in it [m]) that it has placed on the animated body, and a residual
+        line from each model marker to its measured one.
+
+        A measured marker is hidden in the frames it is missing from (NaN, or outside its
+        recording's time); one never seen is not drawn; one the set does not place (or places
+        on a frame the body lacks) is drawn without a model marker. A
+        :class:`HiddenMarkerWarning` names them.
+
+        Returns:
+            The names of the measured markers drawn.
+        """
+        if not self.overlays.markers:
+            return []
+        G = _meshcat().geometry
+        names, times = list(measured.names), np.asarray(measured.time, dtype=float)
+        positions = np.asarray(measured.positions, dtype=float)
+        marker_set = marker_set or {}
+        seen = np.isfinite(positions).all(axis=2)  # (n, m)
+        never = [n for k, n in enumerate(names) if not seen[:, k].any()]
+        gaps = [(n, int((~seen[:, k]).sum())) for k, n in enumerate(names)
+                if seen[:, k].any() and not seen[:, k].all()]  # fmt: skip
+        unplaced = [n for n in names if n not in never and (
+            n not in marker_set or not self.model.existFrame(marker_set[n].frame))]  # fmt: skip
+        keep = [k for k, n in enumerate(names) if n not in never]
+        said = []
+        if gaps:
+            said.append("hidden where missing: " + _listed(
+                [f"{n} ({c} of {len(times)} frames)" for n, c in gaps]))  # fmt: skip
+        if never:
+            said.append("never seen, not drawn: " + _listed(never))
+        if unplaced:
+            said.append("no model marker (not in the marker set, or its frame is not the "
+                        "body's): " + _listed(unplaced))  # fmt: skip
+        if said:
+            warnings.warn(f"{measured.source or 'markers'}: " + "; ".join(said),
+                          HiddenMarkerWarning, stacklevel=2)  # fmt: skip
+        names = [names[k] for k in keep]
+        model = {}
+        for n in names:
+            if n not in unplaced:
+                m = marker_set[n]
+                model[n] = (self.model.getFrameId(m.frame), np.asarray(m.offset, dtype=float))
+        self.markers = (names, times, positions[:, keep], model)
+        measured_material = G.MeshLambertMaterial(color=COLORS["measured"])
+        model_material = G.MeshLambertMaterial(color=COLORS["model_marker"])
+        line = G.MeshLambertMaterial(color=COLORS["residual"])
+        for n in names:
+            key = _key(n)
+            self.node("markers", "measured", key).set_object(
+                G.Sphere(MARKER_RADIUS["measured"]), measured_material
+            )
+            self.node("markers", "measured", key).set_property("visible", False)
+            if n in model:
+                self.node("markers", "model", key).set_object(
+                    G.Sphere(MARKER_RADIUS["model"]), model_material
+                )
+                shaft = self.node("markers", "residual", key, "length", "line")
+                shaft.set_object(G.Cylinder(1.0, RESIDUAL_RADIUS), line)
+                shaft.set_transform(self._along_z(0.5))
+                self.node("markers", "residual", key).set_property("visible", False)
+        return names
+
+    def measured_at(self, t: float | None) -> np.ndarray:
+        """The measured markers at time ``t`` [s]: (m, 3) world [m], linear between the
+        recording's frames; NaN where missing (at either frame around ``t``) or outside the
+        recording."""
+        names, times, positions, _ = self.markers
+        out = np.full((len(names), 3), np.nan)
+        if t is None or len(times) == 0 or not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
+            return out
+        i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
+        if i == len(times) - 1 or abs(t - times[i]) < 1e-9:
+            return positions[i].copy()
+        if abs(times[i + 1] - t) < 1e-9:
+            return positions[i + 1].copy()
+        s = (t - times[i]) / (times[i + 1] - times[i])
+        return (1 - s) * positions[i] + s * positions[i + 1]  # NaN if either is
+
     def _frame_path(self, xy: np.ndarray) -> None:
-        """Ground and camera that cover a path (x, y of the pelvis) longer than the default."""
+        """A ground that covers a path (x, y of the pelvis) longer than the default."""
         lo, hi = xy.min(axis=0), xy.max(axis=0)
         centre, span = (lo + hi) / 2, hi - lo
-        if max(span) < 1.0:
+        if max(span) < 1.0 or not self.overlays.ground:
             return
-        if self.overlays.ground:
-            G = _meshcat().geometry
-            box = G.Box([span[0] + 3.0, span[1] + 3.0, 0.01])
-            material = G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True)
-            self.node("ground").set_object(box, material)
-            self.node("ground").set_transform(
-                pin.SE3(np.eye(3), np.array([centre[0], centre[1], -0.006])).homogeneous
-            )
-        self.vis["/Cameras/default"].set_transform(
-            pin.SE3(np.eye(3), np.array([centre[0], centre[1], 0.9])).homogeneous
+        G = _meshcat().geometry
+        box = G.Box([span[0] + 3.0, span[1] + 3.0, 0.01])
+        material = G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True)
+        self.node("ground").set_object(box, material)
+        self.node("ground").set_transform(
+            pin.SE3(np.eye(3), np.array([centre[0], centre[1], -0.006])).homogeneous
         )
-        distance = 1.0 + 0.6 * max(span)
-        self.vis["/Cameras/default/rotated/<object>"].set_property(
-            "position", [distance, 0.5 * distance, 1.5 * distance]
-        )
+
+    # -- camera --------------------------------------------------------------------------
+    def followed_point(self, q) -> np.ndarray:
+        """The point the camera follows for a configuration: the centre of mass with the com
+        overlay, else the root body's first geometry (as the page follows it) [m]."""
+        if self.overlays.com:
+            return np.array(pin.centerOfMass(self.model, self.data, q))
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
+        for i, g in enumerate(self.h.visual_model.geometryObjects):
+            if g.parentJoint == 1:
+                return np.array(self.gdata.oMg[i].translation)
+        return np.array(self.data.oMi[min(1, self.model.njoints - 1)].translation)
+
+    def frame_camera(self, qs: np.ndarray) -> dict[str, CameraPose]:
+        """The camera presets for a motion (configurations (n, nq)), posed at its first one,
+        and the camera commands of the chosen one.
+
+        The framing presets look at the middle of the body's height above the followed point,
+        from ``BODY_FRACTION``'s distance: the body's height (its frames' vertical extent and
+        10 %, at least 0.5 m) over ``BODY_FRACTION`` fills the view's height. ``top`` looks
+        down on the middle of the followed point's path from high enough that the path and
+        1 m around it fit in the view (square or wider).
+        """
+        qs = np.atleast_2d(qs)
+        step = max(1, len(qs) // 200)  # the path: 200 records or so, and the last
+        path = np.array([self.followed_point(q) for q in [*qs[::step], qs[-1]]])
+        q0 = qs[0]
+        pin.framesForwardKinematics(self.model, self.data, q0)
+        z = np.array([f.translation[2] for f in self.data.oMf[1:]])  # (not the universe)
+        lo, hi = float(z.min()), float(z.max())
+        height = max(1.1 * (hi - lo), 0.5)
+        p0 = path[0]
+        self.follow_origin = p0
+        walk = path[-1, :2] - p0[:2]
+        if np.linalg.norm(walk) >= 0.5:
+            forward = np.array([walk[0], walk[1], 0.0])
+        else:
+            R = self.data.oMi[1].rotation if self.model.njoints > 1 else np.eye(3)
+            forward = np.array([R[0, 0], R[1, 0], 0.0])
+            if np.linalg.norm(forward) < 1e-6:
+                forward = np.array([1.0, 0.0, 0.0])
+        forward /= np.linalg.norm(forward)
+        up = np.array([0.0, 0.0, 1.0])
+        left = np.cross(up, forward)
+        tan = math.tan(math.radians(FOV) / 2)
+        distance = height / BODY_FRACTION / (2 * tan)
+        target = np.array([p0[0], p0[1], (lo + hi) / 2])
+        oblique = 2.3 * forward - 1.3 * left + 0.9 * up
+        oblique /= np.linalg.norm(oblique)
+        # top: the path in the (forward, left) axes, 1 m around it
+        mean = path[:, :2].mean(axis=0)
+        along, across = (path[:, :2] - mean) @ forward[:2], (path[:, :2] - mean) @ left[:2]
+        centre = mean + (along.max() + along.min()) / 2 * forward[:2]
+        centre = centre + (across.max() + across.min()) / 2 * left[:2]
+        half = max(np.ptp(along), np.ptp(across)) / 2 + 1.0
+        high = half / tan + (hi - lo)
+        ground = np.array([centre[0], centre[1], 0.0])
+        self.cameras = {
+            "oblique": CameraPose(target + distance * oblique, target),
+            "side": CameraPose(target - distance * left, target),
+            "front": CameraPose(target + distance * forward, target),
+            "top": CameraPose(ground + high * up - 0.01 * high * left, ground, follow=False),
+        }
+        pose = self.cameras[self.camera]
+        self.vis["/Cameras/default"].set_transform(np.eye(4))  # the camera's axes: the scene's
+        camera = self.vis["/Cameras/default/rotated/<object>"]
+        camera.set_property("position", _three(pose.eye))
+        camera.set_property("fov", FOV)
+        return self.cameras
 
     def followed_path(self) -> list[str] | None:
         """The scene-tree path the camera follows: the centre of mass, else the pelvis."""
@@ -248,8 +472,8 @@ class SceneView:
         which decides the pushes shown).
 
         Returns:
-            {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z])}, as a
-            list of (path, kind, value) tuples.
+            {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z]) or
+            ("position", [x, y, z] world [m])}, as a list of (path, kind, value) tuples.
         """
         out = []
         pin.forwardKinematics(self.model, self.data, q)
@@ -259,6 +483,7 @@ class SceneView:
             out.append((("body", g.name), "transform", self.gdata.oMg[i].homogeneous))
         ov = self.overlays
         if ov.com:
+            self.present.add("com")
             c = pin.centerOfMass(self.model, self.data, q)
             out.append((("com",), "transform", pin.SE3(np.eye(3), c).homogeneous))
             ground = np.array([c[0], c[1], 0.002])
@@ -268,14 +493,16 @@ class SceneView:
             w = forces.get(side)
             attached = w is not None and np.all(np.isfinite(w))
             sole = self.data.oMf[self.h.sole_id(side)]
-            if ov.footprints:
+            if ov.footprints and self.h.contact_points[side]:
                 out.append((("footprints", side), "visible", bool(attached)))
                 if attached:
+                    self.present.add("footprint")
                     out.append((("footprints", side), "transform", sole.homogeneous))
             if ov.forces:
                 show = bool(attached and w[2] > 1e-6)
                 out.append((("forces", side), "visible", show))
                 if show:
+                    self.present.add("force")
                     cop = cop_on_plane(np.asarray(w), sole.translation)
                     out += self._arrow_pose(("forces", side), np.asarray(w[:3]), tail=cop)
         if ov.forces:
@@ -283,15 +510,49 @@ class SceneView:
             show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
             out.append((("forces", "ground"), "visible", bool(show)))
             if show:
+                self.present.add("force")
                 cop = cop_on_plane(np.asarray(w), np.zeros(3))
                 out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
             for i, (fid, f, start, duration) in enumerate(self.pushes):
                 on = t is not None and start <= t < start + duration
                 out.append((("pushes", str(i)), "visible", bool(on)))
                 if on:  # the arrow's tip on the pushed point
+                    self.present.add("push")
                     out += self._arrow_pose(
                         ("pushes", str(i)), f, tip=self.data.oMf[fid].translation, gain=PUSH_GAIN
                     )
+        if self.markers is not None:
+            out += self._marker_poses(t)
+        return out
+
+    def _marker_poses(self, t: float | None) -> list:
+        """The recording's nodes at time t: measured and model markers' positions, the
+        residual lines (from the model marker to the measured one: a unit line along +z turned
+        and scaled to the residual), hidden where the measured marker is missing."""
+        names, _, _, model = self.markers
+        measured = self.measured_at(t)
+        out = []
+        for n, m in zip(names, measured, strict=True):
+            key = _key(n)
+            seen = bool(np.all(np.isfinite(m)))
+            out.append((("markers", "measured", key), "visible", seen))
+            if seen:
+                self.present.add("measured")
+                out.append((("markers", "measured", key), "position", [float(x) for x in m]))
+            if n not in model:
+                continue
+            fid, offset = model[n]
+            p = self.data.oMf[fid].act(offset)
+            self.present.add("model_marker")
+            out.append((("markers", "model", key), "position", [float(x) for x in p]))
+            out.append((("markers", "residual", key), "visible", seen))
+            if seen:
+                self.present.add("residual")
+                d = m - p
+                out += [(("markers", "residual", key), "transform",
+                         pin.SE3(_arrow_rotation(d), p).homogeneous),
+                        (("markers", "residual", key, "length"), "scale",
+                         [1.0, 1.0, max(float(np.linalg.norm(d)), 1e-6)])]  # fmt: skip
         return out
 
     def _arrow_pose(self, path: tuple, f: np.ndarray, tail=None, tip=None, gain=1.0) -> list:
@@ -338,12 +599,24 @@ class SceneView:
                 elif kind == "visible":
                     target.set_property("visible", "boolean", value)
                 else:
-                    target.set_property("scale", "vector3", value)
+                    target.set_property(kind, "vector3", value)
         self.show(*_sample(self.model, traj, t[0], self.feet), t[0])
         self._frame_path(np.asarray(traj.q)[:, :2])
+        self.frame_camera(np.asarray(traj.q))
         self.vis.set_animation(anim, play=True, repetitions=LOOPS if loop else 1)
         self.timeline = (float(t[0]), (n - 1) / fps, float(speed))
         return n
+
+
+def _key(name: str) -> str:
+    """A marker's name as one scene-tree path element."""
+    return name.replace("/", "_")
+
+
+def _listed(items, most: int = 8) -> str:
+    items = list(items)
+    more = f" and {len(items) - most} more" if len(items) > most else ""
+    return ", ".join(items[:most]) + more
 
 
 def _sample(model, traj, time_sim: float, feet):
@@ -407,11 +680,19 @@ padding: 6px 10px; border-radius: 4px; }}
 vertical-align: middle; border-radius: 2px; }}
 #player {{ bottom: 8px; right: 8px; display: flex; align-items: center; gap: 8px; }}
 #player input[type=range] {{ flex: 1; }}
+#views {{ top: 8px; left: auto; right: 8px; }}
+#views button.on {{ font-weight: bold; }}
 #time {{ font-variant-numeric: tabular-nums; min-width: 7em; }}</style>
 </head>
 <body>
 <div id="meshcat-pane"></div>
 <div id="legend" class="panel"><b>{title}</b>{legend}</div>
+<div id="views" class="panel">view:
+<button data-view="oblique" title="key o">oblique</button>
+<button data-view="side" title="key s">side</button>
+<button data-view="front" title="key f">front</button>
+<button data-view="top" title="key t">top</button>
+</div>
 <div id="player" class="panel" style="display: {player}">
 <button id="play">pause</button>
 <input id="slider" type="range" min="0" max="{duration}" step="0.001" value="0">
@@ -422,26 +703,54 @@ vertical-align: middle; border-radius: 2px; }}
 <script>
 var viewer = new MeshCat.Viewer(document.getElementById("meshcat-pane"));
 {feed}
-// the player: play/pause, a time slider and the simulated time; the camera follows the body
+// the player: play/pause, a time slider and the simulated time; the camera: presets (buttons,
+// keys o s f t) and a follow camera that moves with the body over the ground. Positions in
+// three.js's scene axes (y up); the camera's parent is at the origin, unturned, in them.
 var humanoidPlayer = (function () {{
   var t0 = {t0}, speed = {speed}, duration = {duration};
   var animator = viewer.animator, slider = document.getElementById("slider");
   var button = document.getElementById("play"), label = document.getElementById("time");
   var follow = document.getElementById("follow"), dragging = false;
   var followed = {follow_path};
+  var cameras = {cameras}, origin = {origin}, view = {camera};
   function lookup(path) {{  // the node's object, or null before the scene has it (live)
     var node = viewer.scene_tree;
     for (var i = 0; node && i < path.length; i++) node = node.children[path[i]];
     return node ? node.object : null;
   }}
-  var THREE = MeshCat.THREE, p = new THREE.Vector3(), last = null;
-  function shift(dx, dy) {{  // move the camera and its orbit target by (dx, dy, 0), world axes
-    var parent = viewer.camera.parent;
-    var a = parent.worldToLocal(new THREE.Vector3(0, 0, 0));
-    var b = parent.worldToLocal(new THREE.Vector3(dx, dy, 0));
-    var d = b.sub(a);
+  var THREE = MeshCat.THREE, p = new THREE.Vector3(), last = null, placed = false;
+  function shift(d) {{  // move the camera and its orbit target by d (scene axes)
     viewer.camera.position.add(d); viewer.controls.target.add(d); viewer.set_dirty();
   }}
+  function setView(name) {{  // a preset, moved with the body since the first record
+    var c = cameras[name];
+    if (!c) return;
+    var d = new THREE.Vector3(0, 0, 0), tracked = followed ? lookup(followed) : null;
+    if (tracked) {{
+      tracked.getWorldPosition(p);
+      if (c.follow) d.set(p.x - origin[0], 0, p.z - origin[2]);
+      last = p.clone();
+    }}
+    viewer.camera.position.fromArray(c.eye).add(d);
+    viewer.controls.target.fromArray(c.target).add(d);
+    follow.checked = c.follow; view = name; placed = true;
+    document.querySelectorAll("#views button").forEach(function (b) {{
+      b.className = b.dataset.view === name ? "on" : "";
+    }});
+    viewer.set_dirty();
+  }}
+  var own = viewer.set_property.bind(viewer);
+  viewer.set_property = function (path, property, value) {{  // once placed, the camera is ours
+    if (placed && path[0] === "Cameras" && property === "position") return;
+    own(path, property, value);
+  }};
+  document.querySelectorAll("#views button").forEach(function (b) {{
+    b.onclick = function () {{ setView(b.dataset.view); }};
+  }});
+  var keys = {{ o: "oblique", s: "side", f: "front", t: "top" }};
+  document.addEventListener("keydown", function (e) {{
+    if (!e.ctrlKey && !e.metaKey && !e.altKey && keys[e.key]) setView(keys[e.key]);
+  }});
   function now() {{ return animator.actions.length ? animator.actions[0].time : 0; }}
   button.onclick = function () {{
     if (animator.playing) {{ animator.pause(); }} else {{ animator.play(); }}
@@ -454,20 +763,19 @@ var humanoidPlayer = (function () {{
     label.textContent = "t = " + (t0 + t * speed).toFixed(2) + " s";
     button.textContent = animator.playing ? "pause" : "play";
     var tracked = followed ? lookup(followed) : null;
+    if (!placed && (tracked || !followed)) setView(view);  // once the scene is there
     if (tracked) {{
       tracked.getWorldPosition(p);
-      if (!last) {{  // look at the followed point from where the camera stands
-        viewer.controls.target.copy(viewer.camera.parent.worldToLocal(p.clone()));
-        viewer.set_dirty();
-      }} else if (follow.checked && Math.abs(p.x - last.x) + Math.abs(p.y - last.y) > 1e-6) {{
-        shift(p.x - last.x, p.y - last.y);
+      if (last && follow.checked && Math.abs(p.x - last.x) + Math.abs(p.z - last.z) > 1e-6) {{
+        shift(new THREE.Vector3(p.x - last.x, 0, p.z - last.z));
       }}
       last = p.clone();
     }}
     requestAnimationFrame(tick);
   }}
   tick();
-  return {{ now: now, simulated: function () {{ return t0 + now() * speed; }} }};
+  return {{ now: now, simulated: function () {{ return t0 + now() * speed; }},
+           setView: setView, view: function () {{ return view; }} }};
 }})();
 window.humanoidReady = true;
 </script>
@@ -480,20 +788,21 @@ LEGEND = {  # overlay: (colour, what it shows)
     "push": (COLORS["push"], f"pushes (tip on the pushed point; {PUSH_GAIN:g}x longer)"),
     "com": (COLORS["com"], "centre of mass and its ground projection"),
     "footprint": (COLORS["footprint"], "attached feet"),
+    "measured": (COLORS["measured"], "measured markers"),
+    "model_marker": (COLORS["model_marker"], "model markers (the set, on the body)"),
+    "residual": (COLORS["residual"], "residuals (model to measured marker)"),
 }
 
 
-def _legend(overlays: Overlays, pushes: bool) -> str:
-    """The legend's HTML: one line per overlay shown."""
-    shown = {"force": overlays.forces, "push": overlays.forces and pushes,
-             "com": overlays.com, "footprint": overlays.footprints}  # fmt: skip
+def _legend(view: SceneView) -> str:
+    """The legend's HTML: one line per overlay the scene draws (``view.present``)."""
     rows = [
         f'<div><span class="swatch" style="background: #{color:06x}"></span>{text}</div>'
         for key, (color, text) in LEGEND.items()
-        if shown[key]
+        if key in view.present
     ]
-    if overlays.forces:
-        rows.append(f"<div>arrows: {overlays.force_scale:g} m per body weight</div>")
+    if view.present & {"force", "push"}:
+        rows.append(f"<div>arrows: {view.overlays.force_scale:g} m per body weight</div>")
     return "".join(rows)
 
 
@@ -528,12 +837,20 @@ def page_html(view: SceneView, title: str = "humanoid", commands: list[bytes] | 
         feed = EMBEDDED.format(commands=packed)
     return HTML.format(
         title=html_escape(title),
-        legend=_legend(view.overlays, bool(view.pushes)),
+        legend=_legend(view),
         player="flex" if duration > 0 else "none",
         t0=repr(t0),
         speed=repr(speed),
         duration=repr(duration),
         follow_path=json.dumps(view.followed_path()),
+        cameras=json.dumps(
+            {
+                name: {"eye": _three(c.eye), "target": _three(c.target), "follow": c.follow}
+                for name, c in view.cameras.items()
+            }
+        ),
+        origin=json.dumps(_three(view.follow_origin)),
+        camera=json.dumps(view.camera),
         viewer_script=viewer_script,
         feed=feed,
     )
@@ -548,19 +865,28 @@ def export_html(
     speed: float = 1.0,
     fps: float = 30.0,
     title: str = "humanoid",
+    markers=None,
+    marker_set: dict | None = None,
+    camera: str = "oblique",
 ) -> Path:
     """Write one self-contained HTML file: the body, posed at ``q`` or animating ``traj``.
 
-    The file inlines meshcat's viewer (about 0.9 MB) and the scene; it needs no server and
-    loads nothing from the network.
+    ``markers`` (:class:`~humanoid.motion.markers.MarkerTrajectories` on the trajectory's
+    clock) and ``marker_set`` draw the recording (:meth:`SceneView.set_markers`); ``camera``:
+    the preset the page opens with (:data:`PRESETS`). The file inlines meshcat's viewer (about
+    0.9 MB) and the scene; it needs no server and loads nothing from the network.
     """
     mc = _meshcat()
     recorder = CommandRecorder()
-    view = SceneView(mc.Visualizer(window=recorder), h, overlays)
+    view = SceneView(mc.Visualizer(window=recorder), h, overlays, camera=camera)
+    if markers is not None:
+        view.set_markers(markers, marker_set)
     if traj is not None:
         view.animate(traj, speed=speed, fps=fps)
     else:
-        view.show(h.standing_configuration() if q is None else q)
+        q = h.standing_configuration() if q is None else q
+        view.frame_camera(np.atleast_2d(q))
+        view.show(q)
     html = page_html(view, title, commands=recorder.packed())
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -242,7 +242,8 @@ def _check_player(page: Page, scheme: str) -> None:
         return page.page.inner_text("#time")
 
     try:
-        assert "contact forces" in page.page.inner_text("#legend")  # the legend names overlays
+        legend = page.page.inner_text("#legend")  # the overlays drawn, and only those
+        assert "centre of mass" in legend and "contact forces" not in legend  # (none carried)
         assert page.page.evaluate("viewer.animator.playing")  # it plays on load, in a loop
         page.page.click("#play")  # the button pauses
         time.sleep(0.3)
@@ -263,3 +264,86 @@ def _check_player(page: Page, scheme: str) -> None:
         assert not _local_only(page.requests, scheme), page.requests
     finally:
         page.close()
+
+
+@pytest.mark.parametrize("where", ["html", "live"])
+def test_camera_presets_and_the_recording(browser, tmp_path, where):
+    """A 6 m walk with its markers, opened in the side view: the camera stands where the side
+    preset says (in three.js's axes) and follows the body: the body's height (feet to head on
+    screen) stays over half the view at the start and the end; the buttons and keys switch to
+    front and top (top: both ends of the walk in view); a marker missing in a frame is hidden
+    there, and shown where the file has it."""
+    import contextlib
+    import warnings
+
+    from test_viewer import _carried, _recording
+
+    from humanoid.viewer import HiddenMarkerWarning, LiveViewer, SceneView, export_html
+
+    h = get_model("male", "quaternion")
+    traj = _carried(h, 6.0, 4.0, 41)
+    measured, marker_set, _ = _recording(h, traj)
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(warnings.catch_warnings())
+        warnings.simplefilter("ignore", HiddenMarkerWarning)
+        if where == "html":
+            path = export_html(h, tmp_path / "walk.html", traj=traj, camera="side",
+                               markers=measured, marker_set=marker_set)  # fmt: skip
+            url = path.as_uri()
+        else:
+            live = stack.enter_context(LiveViewer())
+            view = SceneView(live.vis, h, camera="side")
+            view.set_markers(measured, marker_set)
+            view.animate(traj)
+            url = live.publish(view, "walk")
+        page = Page(browser, url)
+        try:
+            _check_presets(page, traj, measured)
+            assert not page.errors, page.errors
+        finally:
+            page.close()
+
+
+def _check_presets(page: Page, traj, measured) -> None:
+    import json
+    import re
+
+    html = page.page.content()
+    cameras = json.loads(re.search(r"var cameras = (\{.*?\}\}), origin", html).group(1))
+    head, foot = ["meshcat", "humanoid", "body", "head_1"], ["meshcat", "humanoid", "body",
+                                                             "left_foot_0"]  # fmt: skip
+    camera = "() => { const v = new MeshCat.THREE.Vector3(); viewer.camera.getWorldPosition(v);"
+    camera += " return [v.x, v.y, v.z]; }"
+    page.seek(0.0)
+    time.sleep(0.5)
+    assert page.page.evaluate("humanoidPlayer.view()") == "side"
+    assert np.allclose(page.page.evaluate(camera), cameras["side"]["eye"], atol=0.02)
+    for t in (0.0, 3.9):
+        page.seek(t)
+        span = abs(page.screen_position(head)[1] - page.screen_position(foot)[1]) / 2
+        assert span > 0.5, (t, span)  # of the view's height: followed, not left behind
+        assert np.abs(page.screen_position(["meshcat", "humanoid", "com"])).max() < 0.3
+    page.page.click('#views button[data-view="front"]')
+    time.sleep(0.3)
+    assert page.page.evaluate("humanoidPlayer.view()") == "front"
+    page.page.keyboard.press("t")
+    time.sleep(0.3)
+    assert page.page.evaluate("humanoidPlayer.view()") == "top"
+    assert not page.page.is_checked("#follow")  # top stands still
+    for t in (0.0, 3.95):
+        page.seek(t)
+        assert np.abs(page.screen_position(["meshcat", "humanoid", "com"])).max() < 0.95, t
+    heel = ["meshcat", "humanoid", "markers", "measured", "R.Heel"]
+    page.seek(0.3)  # frame 3: R.Heel missing
+    assert not page.visible(heel)
+    assert not page.visible(["meshcat", "humanoid", "markers", "residual", "R.Heel"])
+    page.seek(0.5)
+    assert page.visible(heel)
+    k = measured.names.index("R.Heel")
+    where = page.page.evaluate(
+        "(p) => { const v = new MeshCat.THREE.Vector3(); viewer.scene_tree.find(p).object"
+        ".getWorldPosition(v); return [v.x, v.y, v.z]; }",
+        heel,
+    )
+    x, y, z = measured.positions[5, k]
+    assert np.allclose(where, [x, z, -y], atol=1e-3)

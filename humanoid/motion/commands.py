@@ -395,14 +395,33 @@ def run_ik(args) -> int:
     print(f"figure       {figure}")
     if args.html:
         from ..trajectory import Trajectory
-        from ..viewer import export_html
+        from ..viewer import HiddenMarkerWarning, export_html
 
         n = len(r.time)
         zeros = np.zeros((n, h.nv))
         traj = Trajectory(r.time, r.q, zeros, zeros, {}, np.zeros(n), np.zeros(n),
                           {"model": h.source, "status": "completed"})  # fmt: skip
-        print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse kinematics')}")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", HiddenMarkerWarning)
+            page = export_html(h, args.html, traj=traj, title="inverse kinematics",
+                               markers=markers, marker_set=r.marker_set or marker_set)  # fmt: skip
+        print(f"viewer       {page} (the markers: measured, fitted, residuals)")
+        _print_hidden(caught)
     return 0
+
+
+def _print_hidden(caught) -> None:
+    """The viewer's :class:`~humanoid.viewer.HiddenMarkerWarning` as a line of the summary
+    (other warnings raised again)."""
+    import warnings
+
+    from ..viewer import HiddenMarkerWarning
+
+    for w in caught:
+        if issubclass(w.category, HiddenMarkerWarning):
+            print(f"viewer hides {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
 def _print_ik_hidden(r, worst: int = 5) -> None:
@@ -450,12 +469,15 @@ def run_track(args) -> int:
 
         markers = _markers_file(args.motion, args)
         h, what = subject_body(args)
-        fit = inverse_kinematics(h, markers, default_markers(h))
+        marker_set = default_markers(h)
+        fit = inverse_kinematics(h, markers, marker_set)
         t, q, loads = fit.time, fit.q, []
+        recording = (markers, fit.marker_set or marker_set)
         print(f"ik           {len(fit.names)} markers, residual RMS per frame "
               f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
     else:
         h, what, t, q, loads, _, _ = read_motion(args)
+        recording = None
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
     res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)
     h = res.body  # (its toes locked)
@@ -492,9 +514,23 @@ def run_track(args) -> int:
     tracking_figure(figure, res, labels, h.mass, f"{Path(args.motion).name}: {what}")
     print(f"figure       {figure}")
     if args.html:
-        from ..viewer import export_html
+        import warnings
 
-        print(f"viewer       {export_html(h, args.html, traj=traj, title='tracked motion')}")
+        from ..viewer import HiddenMarkerWarning, export_html
+
+        markers = marker_set = None
+        if recording is not None:  # on the run's clock, which starts at 0
+            from .markers import MarkerTrajectories
+
+            measured, marker_set = recording
+            markers = MarkerTrajectories(measured.time - t[0], measured.names,
+                                         measured.positions, measured.source)  # fmt: skip
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", HiddenMarkerWarning)
+            page = export_html(h, args.html, traj=traj, title="tracked motion",
+                               markers=markers, marker_set=marker_set)  # fmt: skip
+        print(f"viewer       {page}")
+        _print_hidden(caught)
     return 0 if res.completed else 3
 
 
