@@ -268,8 +268,9 @@ def _seen(static: MarkerTrajectories, names, where: str) -> list[str]:
         warnings.warn(f"{where}: missing in some frames (averaged over the others): "
                       + ", ".join(partly), ScaleWarning, stacklevel=3)  # fmt: skip
     if moving:
+        more = f" and {len(moving) - 8} more" if len(moving) > 8 else ""
         warnings.warn(f"{where}: markers that moved in a trial meant to be still (standard "
-                      f"deviation over {STILL * 1e3:.0f} mm): {', '.join(moving)}",
+                      f"deviation over {STILL * 1e3:.0f} mm): {', '.join(moving[:8])}{more}",
                       ScaleWarning, stacklevel=3)  # fmt: skip
     return [x for x in cols if x not in never]
 
