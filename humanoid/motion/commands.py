@@ -574,6 +574,7 @@ def run_scale(args) -> int:
     with its placed marker set next to it (``<name>_markers.toml``)."""
     import warnings
 
+    from ..anthropometry import CHAIN
     from ..model import load
     from .markers import read_markers, write_markers
     from .scale import ScaleWarning, scale_body
@@ -605,7 +606,9 @@ def run_scale(args) -> int:
         print(f"{m.name:13s}{m.factor:8.4f}  {pairs}")
     print(f"{'segment':13s}{'unscaled':>9s}{'scaled':>9s}  [m]")
     for k, (a, b) in r.lengths.items():
-        why = "  not measured: stature scaling" if k in r.unmeasured else ""
+        closes = args.height is not None and k in CHAIN
+        why = f"  not measured: {'closes the chain' if closes else 'stature scaling'}"
+        why = why if k in r.unmeasured else ""
         print(f"{k:13s}{a:9.4f}{b:9.4f}{why}")
     print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the static trial")
     for fit, what in (("unscaled", "unscaled"), ("scaled", "scaled"), ("placed", "placed")):
