@@ -220,6 +220,22 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--save-markers", help="write the marker set as used (TOML)")
     k.add_argument("--quiet", action="store_true", help="no progress bar")
 
+    sc = command("scale", help="scale a body to a subject from a static trial, as OpenSim's "
+                 "ScaleTool: the URDF and its placed marker set")  # fmt: skip
+    sc.add_argument("static", help="the static trial (.trc, .c3d): the subject standing still")
+    sc.add_argument("--mass", type=float, required=True, help="the subject's mass [kg]")
+    sc.add_argument("--height", type=float, help="the subject's stature [m] (default: the "
+                    "measured segments', sole to vertex)")  # fmt: skip
+    sc.add_argument("--sex", choices=("male", "female"), help="default: the unscaled body's")
+    sc.add_argument("--model", help="the unscaled body, one of the toolkit's (default: "
+                    "adult_male; adult_female with --sex female)")  # fmt: skip
+    sc.add_argument("--marker-set", help="where the markers are on the unscaled body (TOML; "
+                    "default: the toolkit's set); 'fixed = true' keeps one in place")  # fmt: skip
+    sc.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
+                    help="the frames to use [s] (default: all)")  # fmt: skip
+    sc.add_argument("-o", "--output", required=True, help="the scaled body (URDF); its marker "
+                    "set is written next to it, <name>_markers.toml")  # fmt: skip
+
     tr = command("track", help="follow a motion in forward simulation by joint torques "
                  "(physics-based tracking)")  # fmt: skip
     tr.add_argument("motion", help="coordinates (.mot/.sto), a run (.npz), or markers (.trc, "
@@ -368,6 +384,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "id": ("output", "figure", "html"),
     "ik": ("output", "figure", "html", "save_markers"),
     "track": ("output", "figure", "html", "mot"),
+    "scale": ("output",),
     "loads": ("output",),
     "bench": ("output",),
     "sweep": ("output",),
@@ -445,6 +462,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_ik
 
         return run_ik(args)
+    if args.command == "scale":
+        from .motion.commands import run_scale
+
+        return run_scale(args)
     if args.command == "track":
         from .motion.commands import run_track
 

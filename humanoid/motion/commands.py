@@ -1,5 +1,5 @@
-"""The motion commands of the command line: ``humanoid ik``, ``id``, ``track`` and ``loads``
-(and the helpers they share).
+"""The motion commands of the command line: ``humanoid ik``, ``id``, ``track``, ``loads`` and
+``scale`` (and the helpers they share).
 
 Kept out of :mod:`humanoid.cli` so that the parser stays light: this module loads scipy and
 matplotlib only when a command runs.
@@ -22,6 +22,7 @@ __all__ = [
     "run_id",
     "run_ik",
     "run_loads",
+    "run_scale",
     "run_track",
     "subject_body",
     "tracking_figure",
@@ -617,4 +618,65 @@ def run_loads(args) -> int:
     written = write_loads(out, loads, name=f"{path.stem} ground reaction")
     print(f"loads        {', '.join(f'{x.body} ({x.name})' for x in loads)}")
     print(f"wrote        {written} and {written.with_suffix('.xml')}")
+    return 0
+
+
+def run_scale(args) -> int:
+    """``humanoid scale``: a body scaled to the subject of a static trial, written as a URDF
+    with its placed marker set next to it (``<name>_markers.toml``)."""
+    import warnings
+
+    from ..anthropometry import CHAIN
+    from ..model import load
+    from .markers import read_markers, write_markers
+    from .scale import ScaleWarning, scale_body
+
+    static = _markers_file(args.static, args)
+    name = args.model or ("adult_female" if args.sex == "female" else "adult_male")
+    h = load(name)
+    marker_set = read_markers(args.marker_set) if args.marker_set else None
+    start = clock.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ScaleWarning)
+        r = scale_body(h, static, marker_set, args.mass, height=args.height, sex=args.sex,
+                       time_range=tuple(args.time_range) if args.time_range else None)  # fmt: skip
+    elapsed = clock.perf_counter() - start
+    out = Path(args.output)
+    out.write_text(r.urdf, encoding="utf-8")
+    markers = write_markers(out.with_name(f"{out.stem}_markers.toml"), r.marker_set)
+    p = r.params
+    n = len(static.time)
+    print(f"static       {Path(args.static).name}: {n} frames, {static.time[0]:.3f}-"
+          f"{static.time[-1]:.3f} s, {len(r.fits['placed'].names)} of {len(static.names)} "
+          "markers in the set")  # fmt: skip
+    told = "" if args.height else " (stature from the markers)"
+    print(f"body         {name} ({r.height[0]:.3f} m, {h.mass:.1f} kg) -> {p.height:.3f} m, "
+          f"{p.mass:g} kg, {p.sex}{told}")  # fmt: skip
+    print(f"{'measurement':13s}{'factor':>8s}  pairs: experimental / unscaled body [mm]")
+    for m in r.measured:
+        pairs = ", ".join(f"{a}-{b} {e * 1e3:.1f}/{d * 1e3:.1f}" for a, b, e, d, _ in m.pairs)
+        print(f"{m.name:13s}{m.factor:8.4f}  {pairs}")
+    print(f"{'segment':13s}{'unscaled':>9s}{'scaled':>9s}  [m]")
+    for k, (a, b) in r.lengths.items():
+        closes = args.height is not None and k in CHAIN
+        why = f"  not measured: {'closes the chain' if closes else 'stature scaling'}"
+        why = why if k in r.unmeasured else ""
+        print(f"{k:13s}{a:9.4f}{b:9.4f}{why}")
+    print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the static trial")
+    for fit, what in (("unscaled", "unscaled"), ("scaled", "scaled"), ("placed", "placed")):
+        worst = max(r.fits[fit].marker_rms().items(), key=lambda kv: kv[1])
+        print(f"{what:13s}{r.rms(fit) * 1e3:9.1f}{r.max(fit) * 1e3:9.1f}  worst {worst[0]} "
+              f"{worst[1] * 1e3:.1f} mm RMS")  # fmt: skip
+    if r.moved:
+        far = sorted(r.moved.items(), key=lambda kv: -kv[1])[:3]
+        print(f"moved        {len(r.moved)} markers placed; furthest "
+              + ", ".join(f"{k} {v * 1e3:.1f} mm" for k, v in far))  # fmt: skip
+    for w in caught:
+        if issubclass(w.category, ScaleWarning):
+            print(f"warning      {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    print(f"time         {elapsed:.2f} s")
+    print(f"wrote        {out}")
+    print(f"marker set   {markers}")
     return 0

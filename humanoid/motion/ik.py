@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -265,7 +265,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
     technical = [n for n in names if not marker_set[n].anatomical]
     if register and technical and len(technical) < len(names):
-        first = {n: (Marker(m.frame, m.offset, 0.0, False) if n in technical else m)
+        first = {n: (replace(m, weight=0.0, anatomical=False) if n in technical else m)
                  for n, m in marker_set.items()}  # fmt: skip
         source = static if static is not None else markers
         technical = [n for n in technical if n in source.names]
@@ -313,7 +313,7 @@ def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: 
     for n in names:
         m = marker_set[n]
         offset = sums[n] / counts[n] if counts[n] else np.array(m.offset)
-        out[n] = Marker(m.frame, tuple(float(x) for x in offset), m.weight, m.anatomical)
+        out[n] = replace(m, offset=tuple(float(x) for x in offset))
     return out
 
 

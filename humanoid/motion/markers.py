@@ -17,6 +17,7 @@ read and written as TOML (:func:`read_markers`, :func:`write_markers`)::
     offset = [0.071, -0.125, 0.066]
     weight = 1.0
     anatomical = true    # false: a cluster's marker, registered by inverse kinematics
+    fixed = true         # optional: scaling to a static trial does not move it
 
 The landmarks' places are data (``humanoid/data/markers/default.toml``, :data:`LANDMARKS`),
 written for a 1.75 m male body and scaled by a body's hip width.
@@ -70,12 +71,15 @@ class Marker:
     """A point fixed to a frame of the body: ``offset`` [m] in the frame, its IK ``weight``;
     ``anatomical``: on a landmark the set places by anatomy (else a technical marker, a
     cluster's, whose place on the person is the lab's choice: inverse kinematics can register
-    it, :func:`~humanoid.motion.ik.inverse_kinematics`)."""
+    it, :func:`~humanoid.motion.ik.inverse_kinematics`); ``fixed``: scaling to a static trial
+    leaves it where the set says (OpenSim's marker ``fixed``; else it is moved onto the
+    trial's, :func:`~humanoid.motion.scale.scale_body`)."""
 
     frame: str
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     weight: float = 1.0
     anatomical: bool = True
+    fixed: bool = False
 
 
 @dataclass
@@ -213,7 +217,8 @@ def marker_positions(h, q: np.ndarray, markers: dict[str, Marker], names=None) -
 
 
 def read_markers(path: str | Path) -> dict[str, Marker]:
-    """A marker set from TOML (``[markers.NAME]`` tables: ``frame``, ``offset``, ``weight``).
+    """A marker set from TOML (``[markers.NAME]`` tables: ``frame``, ``offset``, ``weight``,
+    optional ``anatomical`` and ``fixed``).
 
     Raises:
         HumanoidError: missing file, bad TOML, a marker without a frame, an offset that is not
@@ -231,6 +236,7 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
             weight = float(m.get("weight", 1.0))
             frame = str(m["frame"])
             anatomical = bool(m.get("anatomical", True))
+            fixed = bool(m.get("fixed", False))
         except (KeyError, TypeError, ValueError, AttributeError):
             raise HumanoidError(
                 f"{path}: markers.{name} needs a frame, an offset of 3 numbers and a weight"
@@ -238,7 +244,7 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
         if len(offset) != 3 or not all(math.isfinite(x) for x in offset) or not weight >= 0.0:
             raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers, "
                                 "weight at least 0")  # fmt: skip
-        out[name] = Marker(frame, offset, weight, anatomical)
+        out[name] = Marker(frame, offset, weight, anatomical, fixed)
     return out
 
 
@@ -250,7 +256,8 @@ def write_markers(path: str | Path, markers: dict[str, Marker]) -> Path:
         lines += [f'[markers."{name}"]', f'frame = "{m.frame}"',
                   "offset = [" + ", ".join(repr(float(x)) for x in m.offset) + "]",
                   f"weight = {float(m.weight)!r}",
-                  f"anatomical = {'true' if m.anatomical else 'false'}", ""]  # fmt: skip
+                  f"anatomical = {'true' if m.anatomical else 'false'}"]  # fmt: skip
+        lines += ["fixed = true", ""] if m.fixed else [""]
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
 

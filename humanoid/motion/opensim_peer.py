@@ -1,5 +1,6 @@
 """OpenSim as a peer: the toolkit's body as an OpenSim model, the same motion and loads through
-OpenSim 4's inverse dynamics, timed in the same run.
+OpenSim 4's inverse dynamics, timed in the same run (and its inverse kinematics, and its
+ScaleTool on a static trial: :func:`run_opensim_scale`).
 
 Needs the ``opensim`` package (PyPI, 4.5 or later: a test dependency of the project, not a
 runtime one). The body becomes an OpenSim model joint for joint: the free flyer a
@@ -31,6 +32,7 @@ __all__ = [
     "osim_generalized_forces",
     "run_opensim_id",
     "run_opensim_ik",
+    "run_opensim_scale",
     "to_osim",
 ]
 
@@ -261,3 +263,106 @@ def run_opensim_ik(h, markers, marker_set: dict, folder: str | Path,
         raise HumanoidError("OpenSim's InverseKinematicsTool failed")
     elapsed = clock.perf_counter() - start
     return read_storage(folder / "ik.mot"), elapsed
+
+
+# the OpenSim bodies (the toolkit's joints', ``<joint>_body``) each measurement scales in
+# :func:`run_opensim_scale`: one measurement a body
+_SCALED_JOINTS = {
+    "thigh": ("left_hip", "right_hip"),
+    "shank": ("left_knee", "right_knee"),
+    "foot": ("left_ankle_flexion", "right_ankle_flexion", "left_ankle_inversion",
+             "right_ankle_inversion", "left_mtp", "right_mtp"),
+    "trunk": ("lumbar", "thoracic"),
+    "pelvis_width": ("root_joint",),
+    "upper_arm": ("left_shoulder", "right_shoulder"),
+    "forearm": ("left_elbow", "right_elbow"),
+}  # fmt: skip
+
+
+def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
+                      folder: str | Path) -> tuple[dict[str, float], dict[str, float]]:  # fmt: skip
+    """OpenSim 4's ScaleTool on a static trial: its ModelScaler with a MeasurementSet of the
+    marker pairs ``measured`` used (:class:`~humanoid.motion.scale.Measured`, each scaling its
+    segments' bodies along X Y Z, one measurement a body), then its MarkerPlacer (every marker
+    of the set at weight 1). Returns (each measurement's scale factor as OpenSim applied it to
+    its bodies, each marker's distance [m] at the MarkerPlacer's static pose on the scaled
+    model before its markers moved: what OpenSim reports as its marker error)."""
+    import xml.etree.ElementTree as ET
+
+    import opensim as osim
+
+    from .markers import MarkerTrajectories, write_trc
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    names = [n for n in static.names if n in marker_set]
+    to_osim(h, folder / "unscaled.osim", {n: marker_set[n] for n in names})
+    cols = [static.names.index(n) for n in names]
+    write_trc(folder / "static.trc",
+              MarkerTrajectories(static.time, names, static.positions[:, cols]),
+              y_up=False)  # fmt: skip
+    model = h.model
+    measurements = []
+    for m in measured:
+        joints = [j for j in _SCALED_JOINTS.get(m.name, ()) if model.existJointName(j)]
+        pairs = "".join(f"<MarkerPair><markers>{a} {b}</markers></MarkerPair>"
+                        for a, b, *_ in m.pairs)  # fmt: skip
+        bodies = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
+                         for j in joints)  # fmt: skip
+        measurements.append(f'<Measurement name="{m.name}"><apply>true</apply><MarkerPairSet>'
+                            f"<objects>{pairs}</objects></MarkerPairSet><BodyScaleSet><objects>"
+                            f"{bodies}</objects></BodyScaleSet></Measurement>")  # fmt: skip
+    tasks = "".join(f'<IKMarkerTask name="{n}"><apply>true</apply><weight>1</weight>'
+                    "</IKMarkerTask>" for n in names)  # fmt: skip
+    span = f"{float(static.time[0])!r} {float(static.time[-1])!r}"
+    setup = folder / "setup_scale.xml"
+    text = f"""<?xml version="1.0" encoding="UTF-8" ?>
+<OpenSimDocument Version="40000"><ScaleTool name="subject">
+<mass>{float(mass)!r}</mass>
+<GenericModelMaker><model_file>unscaled.osim</model_file></GenericModelMaker>
+<ModelScaler><apply>true</apply><scaling_order>measurements</scaling_order>
+<MeasurementSet><objects>{"".join(measurements)}</objects></MeasurementSet>
+<marker_file>static.trc</marker_file><time_range>{span}</time_range>
+<preserve_mass_distribution>true</preserve_mass_distribution>
+<output_model_file>scaled.osim</output_model_file>
+<output_scale_file>scale_factors.xml</output_scale_file></ModelScaler>
+<MarkerPlacer><apply>true</apply><IKTaskSet><objects>{tasks}</objects></IKTaskSet>
+<marker_file>static.trc</marker_file><time_range>{span}</time_range>
+<output_motion_file>static_pose.mot</output_motion_file>
+<output_model_file>placed.osim</output_model_file>
+<output_marker_file>placed_markers.xml</output_marker_file>
+<max_marker_movement>-1</max_marker_movement></MarkerPlacer>
+</ScaleTool></OpenSimDocument>
+"""
+    setup.write_text(text, encoding="utf-8")
+    tool = osim.ScaleTool(str(setup))
+    if not tool.run():
+        raise HumanoidError("OpenSim's ScaleTool failed")
+    factors = {}
+    scales = {x.findtext("segment").strip(): [float(v) for v in x.findtext("scales").split()]
+              for x in ET.parse(folder / "scale_factors.xml").iter("Scale")}  # fmt: skip
+    for m in measured:
+        bodies = [f"{j}_body" for j in _SCALED_JOINTS.get(m.name, ()) if j + "_body" in scales]
+        if bodies:
+            factors[m.name] = float(np.mean([scales[b][0] for b in bodies]))
+    # the MarkerPlacer's pose, on the scaled model with its markers not yet moved
+    scaled = osim.Model(str(folder / "scaled.osim"))
+    state = scaled.initSystem()
+    pose = osim.Storage(str(folder / "static_pose.mot"))
+    if pose.isInDegrees():
+        scaled.getSimbodyEngine().convertDegreesToRadians(pose)
+    labels = pose.getColumnLabels()
+    row = pose.getStateVector(0).getData()
+    coords = scaled.getCoordinateSet()
+    for k in range(1, labels.getSize()):  # (a coordinate's path/value, and its speed)
+        label = labels.get(k)
+        name = label.split("/")[-2] if label.endswith("/value") else label
+        if coords.contains(name):
+            coords.get(name).setValue(state, row.get(k - 1), False)
+    scaled.realizePosition(state)
+    mean = np.nanmean(static.positions[:, cols], axis=0)
+    errors = {}
+    for i, n in enumerate(names):
+        p = scaled.getMarkerSet().get(n).getLocationInGround(state)
+        errors[n] = float(np.linalg.norm(np.array([p.get(0), p.get(1), p.get(2)]) - mean[i]))
+    return factors, errors
