@@ -63,6 +63,7 @@ __all__ = [
 
 NOT_CAMERAS = ("metadata", "capture_volume", "charuco", "checkerboard")
 OUTSIDE = 0.2  # a camera whose seen points fall outside its image this often does not match
+INCONSISTENT = 20.0  # [px] triangulated points reprojected this far off: not the recording's
 
 
 class CameraWarning(UserWarning):
@@ -188,7 +189,7 @@ def read_calibration(path: str | Path) -> list[Camera]:
             camera), a fisheye camera.
     """
     path = Path(path)
-    doc = read_toml(path)
+    doc = read_toml(path, "a camera calibration (TOML)")
     cams = []
     for key, table in doc.items():
         if key in NOT_CAMERAS or not isinstance(table, dict):
@@ -442,7 +443,12 @@ def match_cameras(keypoints: CameraKeypoints, cameras: list[Camera],
 def triangulate(keypoints: CameraKeypoints, cameras: list[Camera],
                 least: int = 2) -> MarkerTrajectories:  # fmt: skip
     """The 3D points [m] of the keypoints seen by at least ``least`` cameras (confidence-
-    weighted DLT on the undistorted image points, Pose2Sim's), NaN elsewhere."""
+    weighted DLT on the undistorted image points, Pose2Sim's), NaN elsewhere.
+
+    Warns:
+        CameraWarning: the points reprojected more than :data:`INCONSISTENT` px (median) from
+            the keypoints: the calibration is not the recording's, or not in its order.
+    """
     cams = match_cameras(keypoints, cameras)
     c, n, k = keypoints.confidence.shape
     rows = np.zeros((n, k, 2 * c, 4))
@@ -460,5 +466,12 @@ def triangulate(keypoints: CameraKeypoints, cameras: list[Camera],
     with np.errstate(invalid="ignore", divide="ignore"):
         pts = X[..., :3] / X[..., 3:4]
     pts[seen < least] = np.nan
+    errors = [np.linalg.norm(cam.project(pts) - keypoints.uv[j], axis=-1)
+              for j, cam in enumerate(cams)]  # fmt: skip
+    typical = float(np.nanmedian(errors)) if np.isfinite(errors).any() else 0.0
+    if typical > INCONSISTENT:
+        warnings.warn(f"{keypoints.source or 'keypoints'}: the triangulated points' median "
+                      f"reprojection error is {typical:.0f} px: are the cameras this "
+                      f"recording's, in its order?", CameraWarning, stacklevel=2)  # fmt: skip
     return MarkerTrajectories(keypoints.time, list(keypoints.names), pts,
                               keypoints.source)  # fmt: skip
