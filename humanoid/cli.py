@@ -212,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when the file has "
                    "no time (default 30)")  # fmt: skip
     k.add_argument("--y-up", action="store_true", help="keypoints with Y up (z up otherwise)")
+    k.add_argument("--calibration", help="the cameras' calibration (Pose2Sim's TOML): MARKERS "
+                   "is then a folder of OpenPose .json folders, one per camera (2D keypoints "
+                   "in --layout at --rate), fitted by reprojection error")  # fmt: skip
     k.add_argument("--map", help="the coordinates' names: rajagopal (default), gait2392, "
                    "gait2354")  # fmt: skip
     k.add_argument("-o", "--output", default="ik.mot", help="coordinates to write (.mot, .csv)")

@@ -272,3 +272,30 @@ def test_keypoints_check_their_shapes():
                         np.ones((2, 3, 2)))  # fmt: skip
     with pytest.raises(HumanoidError, match="increasing"):
         CameraKeypoints(np.zeros(3), ["a"], ["c1"], np.zeros((1, 3, 1, 2)), np.ones((1, 3, 1)))
+
+
+def test_cli_ik_fits_camera_folders_to_their_calibration(tmp_path, seen_walk, capsys):
+    """``humanoid ik pose/ --calibration Calib.toml --layout body25 --rate 50``: Pose2Sim's
+    layout in, the coordinates out, the reprojection error printed; a calibration with one
+    camera fewer is refused naming both."""
+    from humanoid.cli import main
+    from humanoid.data import BODIES
+
+    h, t, q, ms, cams, uv = seen_walk
+    rng = np.random.default_rng(2)
+    noisy = uv[:, :20] + rng.normal(scale=2.0, size=uv[:, :20].shape)
+    conf = np.where(np.isfinite(noisy[..., 0]), 0.9, 0.0)
+    write_openpose(tmp_path / "pose", noisy, conf, [c.name for c in cams])
+    calib = write_calibration(tmp_path / "Calib.toml", cams)
+    out = tmp_path / "ik.mot"
+    args = ["ik", str(tmp_path / "pose"), "--calibration", str(calib), "--layout", "body25",
+            "--rate", "50", "--model", str(BODIES / "adult_male.urdf"), "-o", str(out)]  # fmt: skip
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "reprojected  4 cameras" in text and out.exists()
+    px = float(text.split("reprojected  4 cameras, RMS per frame: mean ")[1].split(" px")[0])
+    assert 1.0 < px < 4.0, text
+    write_calibration(calib, cams[:3])
+    assert main(args) != 0
+    err = capsys.readouterr().err
+    assert "has 3 cameras" in err and "cam04_json" in err, err

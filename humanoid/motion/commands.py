@@ -301,6 +301,22 @@ def run_id(args) -> int:
     return 0
 
 
+def _camera_keypoints(args):
+    """2D keypoints (a folder of OpenPose JSON folders, one per camera, in ``--layout`` at
+    ``--rate``) and the ``--calibration``'s cameras, matched."""
+    from .cameras import match_cameras, read_calibration, read_openpose
+
+    if args.layout is None:
+        raise HumanoidError(f"{args.markers}: 2D keypoints need --layout (coco17, h36m17, "
+                            f"body25, halpe26, smpl24)")  # fmt: skip
+    if not Path(args.markers).is_dir():
+        raise HumanoidError(f"{args.markers}: with --calibration, MARKERS is a folder of "
+                            f"OpenPose .json folders, one per camera")  # fmt: skip
+    keypoints = read_openpose(args.markers, args.layout, args.rate or 30.0)
+    cameras = read_calibration(args.calibration)
+    return keypoints, match_cameras(keypoints, cameras, args.calibration)
+
+
 def _markers_file(path, args):
     """Marker trajectories: a TRC or C3D file, or keypoints (.npy (frames, k, 3) or .npz with
     ``points`` and optional ``time``) in ``--layout`` at ``--rate``."""
@@ -350,7 +366,11 @@ def run_ik(args) -> int:
     from .markers import default_markers, read_markers, write_markers
     from .storage import write_csv, write_storage
 
-    markers = _markers_file(args.markers, args)
+    cameras = None
+    if getattr(args, "calibration", None):
+        markers, cameras = _camera_keypoints(args)
+    else:
+        markers = _markers_file(args.markers, args)
     h, what = subject_body(args)
     marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
     if args.map not in (None, *MAPS):
@@ -366,7 +386,7 @@ def run_ik(args) -> int:
             warnings.simplefilter("ignore", UnconstrainedWarning)
             r = inverse_kinematics(h, markers, marker_set,
                                    register=args.register or static is not None, static=static,
-                                   smoothing=args.smoothing,
+                                   smoothing=args.smoothing, cameras=cameras,
                                    progress=lambda i: bar.update(1))  # fmt: skip
     finally:
         bar.close()
@@ -383,7 +403,12 @@ def run_ik(args) -> int:
     if unused:
         print(f"not in set   {', '.join(unused)}")
     print(f"residual     RMS per frame: mean {np.nanmean(frame) * 1e3:.1f} mm, "
-          f"max {np.nanmax(frame) * 1e3:.1f} mm")  # fmt: skip
+          f"max {np.nanmax(frame) * 1e3:.1f} mm"
+          + (" (from the cameras' rays)" if cameras else ""))  # fmt: skip
+    if cameras:
+        px = np.sqrt(np.nanmean(r.pixels**2, axis=1))
+        print(f"reprojected  {len(cameras)} cameras, RMS per frame: mean {np.nanmean(px):.1f} "
+              f"px, max {np.nanmax(px):.1f} px")  # fmt: skip
     _print_ik_hidden(r)
     if not r.converged.all():
         print(f"not converged in {int((~r.converged).sum())} frames (their best fit is kept)")
@@ -402,6 +427,10 @@ def run_ik(args) -> int:
         zeros = np.zeros((n, h.nv))
         traj = Trajectory(r.time, r.q, zeros, zeros, {}, np.zeros(n), np.zeros(n),
                           {"model": h.source, "status": "completed"})  # fmt: skip
+        if cameras:  # the keypoints as the cameras see them together
+            from .cameras import triangulate
+
+            markers = triangulate(markers, cameras)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", HiddenMarkerWarning)
             page = export_html(h, args.html, traj=traj, title="inverse kinematics",
