@@ -257,7 +257,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .gait import CUTOFF, PERCENT
+    from .gait import CUTOFF
 
     n = norms()
     fig = plt.figure(figsize=(13, 18), constrained_layout=True)
@@ -273,7 +273,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
         for side, colour in SIDE_COLOURS.items():
             c = analysis.curves[side].get(name, [])
             if len(c):
-                ax.plot(PERCENT, c.mean(axis=0), color=colour, lw=1.6, label=side)
+                ax.plot(analysis.percent, c.mean(axis=0), color=colour, lw=1.6, label=side)
         if np.isfinite(stance):
             ax.axvline(stance, color="0.3", lw=0.8, ls=":")
         ax.axhline(0.0, color="0.5", lw=0.5)
