@@ -679,7 +679,7 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
                    mass: float, force: tuple | None = None, kinetics: tuple | None = None,
                    window: tuple[float, float] = (-math.inf, math.inf), arms: bool = True,
                    percent: np.ndarray = PERCENT, speed: float | None = None,
-                   source: str = "") -> GaitAnalysis:  # fmt: skip
+                   require_load: bool = False, source: str = "") -> GaitAnalysis:  # fmt: skip
     """The gait cycles of a walk and what a gait lab reports of each (:func:`analyse`'s
     second half, shared with a lab trial's: :mod:`humanoid.walking.trial`).
 
@@ -692,7 +692,9 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
         mass: [kg]. force: (times, per side (n, 3) [N]), the ground's force on each foot,
             world axes, already low-passed, or None. kinetics: (times, per side (n, 7)) the
             moments [N m] and powers [W] of :data:`_MOMENTS`, already low-passed, or None.
-            A cycle outside their times gets no curve of them.
+            A cycle outside their times gets no curve of them; with ``require_load``, neither
+            does a cycle whose foot bears no load at mid-stance (a lab's plates catch some
+            steps only).
         window: only the cycles within (start, end) [s]. arms: the arms' angles are curves.
         percent: the cycle's samples [%]. speed: [m/s] for the normative bands (default
             the cycles' mean). source: the walk's name.
@@ -724,6 +726,13 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
     def covers(series, t0, t1):
         return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
 
+    def bears(s, t0, off):
+        if not require_load:
+            return True
+        if not covers(force, t0, off) or s not in force[1]:
+            return False
+        return bool(np.interp(0.5 * (t0 + off), force[0], force[1][s][:, 2]) > 0.0)
+
     for s in SIDES:
         other = OTHER[s]
         strikes = [on for on, _ in contacts[s] if np.isfinite(on)]
@@ -744,13 +753,14 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
             stride = (p1 - p0)[:2]
             L = float(np.linalg.norm(stride))
             u = stride / L if L > 0 else np.array([1.0, 0.0])
-            if covers(force, t0, t1):
+            loaded = bears(s, t0, offs[0])
+            if covers(force, t0, t1) and s in force[1] and loaded:
                 f = at(force[1][s], force[0], tt) / weight
                 curves[s]["grf_vertical"].append(f[:, 2])
                 along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
                 curves[s]["grf_anterior"].append(f[:, 0] * np.cos(along)
                                                  + f[:, 1] * np.sin(along))  # fmt: skip
-            if covers(kinetics, t0, t1):
+            if covers(kinetics, t0, t1) and loaded:
                 kin = at(kinetics[1][s], kinetics[0], tt) / mass
                 for j, name in enumerate(_MOMENTS):
                     curves[s][name].append(kin[:, j])
