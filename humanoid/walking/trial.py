@@ -379,6 +379,9 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
         for s, c in kinematic_contacts(h, tu, qk, vk).items():
             if s not in contacts:
                 contacts[s], where[s] = c, SOURCES[2]
+                warnings.warn(f"{source}: no {s} foot events or loads: its events from its "
+                              "motion (a sole point low and still)", TrialWarning,
+                              stacklevel=2)  # fmt: skip
     te = force[0] if force is not None and set(where.values()) == {SOURCES[1]} else tu
     # the kinematics, on the motion's samples
     strikes = [on for on, _ in contacts["right"] if np.isfinite(on)]
@@ -425,7 +428,7 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
 
 def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
                mass: float | None = None, speed: float | None = None, sides=None,
-               xml=None, floor: bool = True) -> Trial:  # fmt: skip
+               xml=None, floor: bool = True, threshold: float = THRESHOLD) -> Trial:  # fmt: skip
     """:func:`analyse_trial` of a trial's files.
 
     Args:
@@ -435,7 +438,9 @@ def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
             ExternalLoads file) or a C3D (its force plates, given to the feet by its markers).
         events: a C3D whose ``EVENT`` group has the foot strikes and offs.
         cmap: The coordinates' map (default told from the file). floor: put the motion's
-            lowest sole point on the floor (as ``humanoid id``).
+            lowest sole point on the floor (as ``humanoid id``). threshold: [N] a foot's
+            contact in the loads (it ends below half of it). mass, speed: see
+            :func:`analyse_trial`.
 
     Raises:
         MotionFileError: a file missing or unreadable, a ``.mot`` without a ``time`` column
@@ -472,6 +477,7 @@ def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
             raise TrialError(f"{events}: events are read from a C3D file's EVENT group")
         marks = read_events(events)
     return analyse_trial(h, time, q, forces, found, marks, mass=mass, cmap=cmap, speed=speed,
+                         threshold=threshold, release=0.5 * threshold,
                          source=Path(motion).name)  # fmt: skip
 
 
