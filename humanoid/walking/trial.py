@@ -273,6 +273,17 @@ def _foot_loads(loads, span) -> tuple[np.ndarray, dict] | None:
     return time, force
 
 
+def _within(contacts: list[tuple], span: tuple[float, float]) -> list[tuple]:
+    """The contacts seen in the motion's ``span`` [s]: those outside it left out, an edge
+    beyond it unknown (``-inf``, ``inf``)."""
+    out = []
+    for on, off in contacts:
+        if off < span[0] or on > span[1]:
+            continue
+        out.append((on if on >= span[0] else -math.inf, off if off <= span[1] else math.inf))
+    return out
+
+
 def _moments_on(moments: Table, time: np.ndarray) -> Table:
     """The moments table at ``time`` (those of the motion's times its own times cover)."""
     if moments.time[-1] < time[0] or moments.time[0] > time[-1]:
@@ -371,8 +382,8 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
     if force is not None:
         for s in SIDES:
             if s not in contacts and s in force[1]:
-                contacts[s] = force_contacts(force[0], force[1][s][:, 2], threshold, release)
-                where[s] = SOURCES[1]
+                found = force_contacts(force[0], force[1][s][:, 2], threshold, release)
+                contacts[s], where[s] = _within(found, span), SOURCES[1]
     if len(contacts) < 2:
         cutoff = min(KINEMATIC_CUTOFF, 0.4 * rate)
         _, qk, vk, _ = derivatives(model, tu, qu, cutoff=cutoff)
