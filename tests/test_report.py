@@ -180,7 +180,7 @@ def test_kinematic_events_without_loads_are_within_two_frames(walk, files):
         warnings.simplefilter("always", TrialWarning)
         t = read_trial(w.body, files.motion)
     said = " | ".join(str(x.message) for x in caught)
-    assert "no moments file: kinematics only" in said
+    assert "walk_ik.mot: no moments: kinematics only" in said
     assert "no left foot events or loads" in said and "no right foot events" in said
     assert t.events == {"left": "kinematics", "right": "kinematics"}
     assert not t.kinetics and not t.forces
@@ -343,3 +343,55 @@ def test_force_contacts_ignore_noise_and_bounces_and_keep_the_raw_edges():
     ((on, off),) = contacts
     assert on == pytest.approx(0.3, abs=1e-9) and off == pytest.approx(0.949, abs=1e-9)
     assert force_contacts(t, np.where(t < 0.5, 700.0, 0.0))[0][0] == -math.inf
+
+
+def test_a_c3d_of_markers_and_events_is_reported_through_inverse_kinematics(
+    walk, files, capsys, monkeypatch
+):
+    """``humanoid report trial.c3d``: the toolkit's markers on the walk (100 Hz, millimetres,
+    as a lab's C3D) and its events in the EVENT group, no force plates: inverse kinematics on
+    the default body, events from the file, kinematics only (said); its knee and hip curves
+    the walk's within 1 deg (markers exact: the fit's error)."""
+    import ezc3d
+
+    from humanoid.motion.markers import default_markers, marker_positions
+
+    w, ref = walk
+    rec = w.record
+    ks = np.arange(0, len(rec.t), 10)
+    markers = default_markers(w.body)
+    where = marker_positions(w.body, rec.q[ks], markers)  # (frames, markers, 3) [m]
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    c["parameters"]["POINT"]["RATE"]["value"] = [100]
+    c["parameters"]["POINT"]["LABELS"]["value"] = tuple(markers)
+    points = np.ones((4, len(markers), len(ks)))
+    points[:3] = np.transpose(where, (2, 1, 0)) * 1000.0
+    c["data"]["points"] = points
+    for s in SIDES:
+        for key, label in (("strike", "Foot Strike"), ("off", "Foot Off")):
+            for t in ref.events[s][key]:
+                c.add_event([0, float(t)], context=s.capitalize(), label=label)
+    path = files.dir / "walk.c3d"
+    c.write(str(path))
+    png = files.dir / "c3d.png"
+    from humanoid.walking import report
+
+    drawn = []
+    original = report.plot_trial_report
+    monkeypatch.setattr(
+        report,
+        "plot_trial_report",
+        lambda trial, *a, **k: drawn.append(trial) or original(trial, *a, **k),
+    )
+    assert main(["report", str(path), "-o", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "left         events from C3D events: 3 strikes, 2 offs; cycles 0.356-1.411" in out
+    assert "right        events from C3D events: 2 strikes, 3 offs; cycles 0.886-1.938" in out
+    assert "kinetics     none: kinematics only (no force plates)" in out
+    assert "FORCE_PLATFORM:USED is 0: no force plates" in out and png.exists()
+    (t,) = drawn
+    for s in SIDES:
+        for name in ("hip_flexion", "knee_flexion"):
+            d = t.analysis.curves[s][name][:, ::2] - ref.curves[s][name]
+            assert np.abs(d).max() < 1.0, (s, name, np.abs(d).max())

@@ -614,7 +614,8 @@ def run_report(args) -> int:
                                          "and plates)" if c3d else ""))  # fmt: skip
     source = Path(args.moments).name if args.moments else "the C3D's inverse dynamics"
     print("kinetics     " + (f"{source}, per kg of {trial.mass:.1f} kg" if trial.kinetics
-                              else "none: kinematics only (--moments)"))  # fmt: skip
+                              else "none: kinematics only"
+                              + (" (no force plates)" if c3d else " (--moments)")))  # fmt: skip
     if trial.kinetics and mass is None:
         print(f"mass         {trial.mass:.1f} kg, the body's: give the subject's (--mass)")
     print("forces       " + ("the loads' (--loads)" if trial.forces else "none"))

@@ -411,7 +411,7 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
         kin = leg_kinetics(h, qm[inside], vm[inside], tau)
         kinetics = (on.time, {s: low_pass(k, on.time) for s, k in kin.items()})
     else:
-        warnings.warn(f"{source}: no moments file: kinematics only (no moments or powers)",
+        warnings.warn(f"{source}: no moments: kinematics only (no moments or powers)",
                       TrialWarning, stacklevel=2)  # fmt: skip
     if force is not None:
         force = (force[0], {s: low_pass(f, force[0]) for s, f in force[1].items()})
@@ -508,7 +508,8 @@ def c3d_trial(h, path, *, mass: float | None = None, speed: float | None = None)
     fit = inverse_kinematics(h, markers, default_markers(h))
     try:
         loads = c3d_loads(path)[1]
-    except MotionFileError:  # no force plates
+    except MotionFileError as exc:  # no force plates
+        warnings.warn(f"{exc}: no inverse dynamics", TrialWarning, stacklevel=2)
         loads = []
     moments = None
     if loads:
