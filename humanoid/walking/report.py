@@ -407,7 +407,7 @@ def plot_trial_report(trial, path, title: str | None = None) -> Path:
     fig = plt.figure(figsize=(16, 16), constrained_layout=True)
     grid = fig.add_gridspec(5, 4)
     stance = {s: a.side_table(s)["stance"] for s in SIDE_COLOURS}
-    missing = {"N m/kg": "no moments file", "W/kg": "no moments file", "BW": "no loads"}
+    missing = {"N m/kg": "no moments", "W/kg": "no moments", "BW": "no loads"}
     slots = [*range(0, 8), *range(8, 12), *range(12, 15), 16, 17]  # 15: the caption
     for (name, label, unit), slot in zip(TRIAL_PANELS, slots, strict=True):
         ax = fig.add_subplot(grid[slot // 4, slot % 4])
