@@ -331,6 +331,37 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the foot (left, right) of every contact on a plate (its number, 1 "
                    "for the first), whatever the markers say (repeatable)")  # fmt: skip
 
+    rp = command("report", help="a gait lab's report of a person's own trial: angles, moments "
+                 "and powers over the gait cycle, left and right, over the normative band, and "
+                 "the spatiotemporal table (PNG)")  # fmt: skip
+    rp.add_argument("trial", help="the trial's coordinates (.mot/.sto: humanoid ik's or "
+                    "OpenSim's IK, its gait models' names), or a C3D with markers (and force "
+                    "plates): inverse kinematics and dynamics run on the body")  # fmt: skip
+    rp.add_argument("--moments", help="its generalised forces (.sto of humanoid id or OpenSim's "
+                    "ID, N m): moments and powers (without: kinematics only)")  # fmt: skip
+    rp.add_argument("--loads", help="the ground's loads (external loads .mot, or a C3D's force "
+                    "plates): the events and the ground reaction forces (without: events from "
+                    "the feet's motion)")  # fmt: skip
+    rp.add_argument("--loads-xml", help="the loads' ExternalLoads .xml")
+    rp.add_argument("--loads-side", action="append", default=[], metavar="PREFIX=SIDE",
+                    help="the foot (left, right) of a load column prefix (repeatable)")  # fmt: skip
+    rp.add_argument("--events", help="a C3D whose EVENT group has the foot strikes and foot "
+                    "offs: they come first")  # fmt: skip
+    rp.add_argument("--height", type=float, help="the subject's stature [m] (with --mass, "
+                    "--sex: the body is built for them)")  # fmt: skip
+    rp.add_argument("--mass", type=float, help="the subject's mass [kg]: the moments and powers "
+                    "are per kg of it (default: the body's)")  # fmt: skip
+    rp.add_argument("--sex", choices=("male", "female"), help="the subject's sex")
+    rp.add_argument("--model", help=BODY_HELP + " (default: adult_male)")
+    rp.add_argument("--map", help="the coordinates' model: gait2392, gait2354, rajagopal, or a "
+                    "TOML map (default: told from the file)")  # fmt: skip
+    rp.add_argument("--speed", type=float, help="the walking speed [m/s] that picks the "
+                    "normative band (a treadmill's belt; default: the strides')")  # fmt: skip
+    rp.add_argument("--threshold", type=float, default=20.0, help="a foot's contact: its "
+                    "vertical force above this [N] (it ends below half of it)")  # fmt: skip
+    rp.add_argument("--no-floor", action="store_true", help="keep the motion's height as it is")
+    rp.add_argument("-o", "--output", default="report.png", help="the report to write (PNG)")
+
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
             "that scenes and options accept")  # fmt: skip
 
@@ -389,6 +420,7 @@ OUTPUTS = {  # the options of each command that name a file or folder to write
     "track": ("output", "figure", "html", "mot"),
     "scale": ("output",),
     "loads": ("output",),
+    "report": ("output",),
     "bench": ("output",),
     "sweep": ("output",),
 }
@@ -477,6 +509,10 @@ def _dispatch(args) -> int:
         from .motion.commands import run_loads
 
         return run_loads(args)
+    if args.command == "report":
+        from .motion.commands import run_report
+
+        return run_report(args)
     if args.command == "sweep":
         from .study.commands import run_sweep
 

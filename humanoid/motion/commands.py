@@ -1,5 +1,5 @@
 """The motion commands of the command line: ``humanoid ik``, ``id``, ``track``, ``loads`` and
-``scale`` (and the helpers they share).
+``scale`` and ``report`` (and the helpers they share).
 
 Kept out of :mod:`humanoid.cli` so that the parser stays light: this module loads scipy and
 matplotlib only when a command runs.
@@ -22,6 +22,7 @@ __all__ = [
     "run_id",
     "run_ik",
     "run_loads",
+    "run_report",
     "run_scale",
     "run_track",
     "subject_body",
@@ -708,4 +709,68 @@ def run_scale(args) -> int:
     print(f"time         {elapsed:.2f} s")
     print(f"wrote        {out}")
     print(f"marker set   {markers}")
+
+
+def run_report(args) -> int:
+    """``humanoid report``: a gait lab's report of a person's trial (:mod:`humanoid.walking.
+    trial`): its figure, and its events, cycles and spatiotemporal table printed."""
+    import warnings
+
+    from ..walking.report import format_trial_table, plot_trial_report
+    from ..walking.trial import TrialWarning, c3d_trial, read_trial
+    from .c3d import PlateWarning
+
+    mass = args.mass
+    if args.mass is not None and args.height is None and args.sex is None:
+        args.mass = None  # the subject's mass alone: the moments' divisor, on the default body
+    h, what = subject_body(args)
+    path = Path(args.trial)
+    c3d = path.suffix.lower() == ".c3d"
+    if c3d and (args.moments or args.loads or args.events):
+        raise HumanoidError(
+            f"{path}: a C3D trial is its own markers, plates and events; --moments, --loads "
+            "and --events go with a coordinates file"
+        )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TrialWarning)
+        warnings.simplefilter("always", PlateWarning)
+        if c3d:
+            trial = c3d_trial(h, path, mass=mass, speed=args.speed)
+        else:
+            cmap = _map(args, None) if args.map is not None else None
+            if (
+                args.loads
+                and Path(args.loads).suffix.lower() == ".c3d"
+                and (args.loads_side or args.loads_xml)
+            ):
+                raise HumanoidError(f"{args.loads}: --loads-side and --loads-xml name the feet "
+                                    "of a .mot's loads; a C3D's plates are given to the feet "
+                                    "by its markers")  # fmt: skip
+            trial = read_trial(h, path, args.moments, args.loads, args.events, cmap=cmap,
+                               mass=mass, speed=args.speed, sides=_sides(args.loads_side),
+                               xml=args.loads_xml, floor=not args.no_floor,
+                               threshold=args.threshold)  # fmt: skip
+    a = trial.analysis
+    print(f"body         {what}")
+    print(f"trial        {path.name}" + (" (inverse kinematics and dynamics of its markers "
+                                         "and plates)" if c3d else ""))  # fmt: skip
+    source = Path(args.moments).name if args.moments else "the C3D's inverse dynamics"
+    print("kinetics     " + (f"{source}, per kg of {trial.mass:.1f} kg" if trial.kinetics
+                              else "none: kinematics only"
+                              + (" (no force plates)" if c3d else " (--moments)")))  # fmt: skip
+    if trial.kinetics and mass is None:
+        print(f"mass         {trial.mass:.1f} kg, the body's: give the subject's (--mass)")
+    print("forces       " + ("the loads' (--loads)" if trial.forces else "none"))
+    for s in ("left", "right"):
+        ev = a.events[s]
+        cycles = ", ".join(f"{t0:.3f}-{t1:.3f}" for t0, t1 in a.cycles[s]) or "none"
+        print(f"{s:<12} events from {trial.events.get(s, 'nothing')}: "
+              f"{len(ev['strike'])} strikes, {len(ev['off'])} offs; cycles {cycles} s")  # fmt: skip
+    for w in caught:
+        if issubclass(w.category, TrialWarning | PlateWarning):
+            print(f"warning      {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    print(format_trial_table(a))
+    print(f"report       {plot_trial_report(trial, args.output)}")
     return 0

@@ -82,6 +82,7 @@ __all__ = [
     "UnmappedWarning",
     "configurations",
     "coordinates_table",
+    "generalized_forces",
     "guess_map",
     "lowest_sole_point",
     "read_map",
@@ -541,3 +542,54 @@ def generalized_forces_table(h, time, q, tau, cmap: CoordinateMap | str = "rajag
             out.append(tau[:, iv : iv + 1] * jm.signs[0])
         labels += [f"{c}_moment" for c in jm.columns]
     return Table(np.asarray(time, dtype=float), labels, np.hstack(out), False, name)
+
+
+def generalized_forces(h, q, table: Table, cmap: CoordinateMap | str = "rajagopal") -> np.ndarray:
+    """The joints' generalised forces (n, nv) [N m] of a table of coordinate forces named as
+    OpenSim's inverse dynamics names them (``hip_flexion_r_moment``...), at the body's
+    configurations ``q`` (n, nq) on the table's times: the inverse of
+    :func:`generalized_forces_table` for every joint of ``cmap`` whose columns the table has
+    (a ball joint's moment in its child frame from the moments about its sequence's three
+    axes; a one-axis joint's, the column times the map's sign). NaN in the rows of the root
+    and of the joints whose columns the table lacks."""
+    from scipy.spatial.transform import Rotation
+
+    model = h.model
+    cmap = MAPS[cmap] if isinstance(cmap, str) else cmap
+    n = len(table.time)
+    q = np.asarray(q, dtype=float).reshape(n, model.nq)
+    tau = np.full((n, model.nv), np.nan)
+
+    def rotation(j):  # (n, 3, 3) a ball joint's rotations
+        k = model.joints[j].idx_q
+        return Rotation.from_quat(q[:, k : k + 4]).as_matrix()
+
+    has = {j.joints[0] for j in cmap.extras if all(model.existJointName(x) for x in j.joints)}
+    for jm in (*cmap.joints, *[j for j in cmap.extras if j.joints[0] in has]):
+        labels = [f"{c}_moment" for c in jm.columns]
+        if not all(model.existJointName(x) for x in jm.joints) or not all(
+            x in table for x in labels
+        ):
+            continue
+        ids = [model.getJointId(x) for x in jm.joints]
+        iv = model.joints[ids[0]].idx_v  # (a split joint's moment is its first joint's)
+        Q = np.column_stack([table.column(x) for x in labels])
+        if not jm.ball:
+            tau[:, iv] = Q[:, 0] / jm.signs[0]
+            continue
+        if "thoracic" in has and len(ids) > 1 and "thoracic" in jm.joints:
+            ids = ids[:1]  # (as coordinates_table writes it)
+        R = rotation(ids[0])
+        whole = R
+        for j in ids[1:]:
+            whole = whole @ rotation(j)
+        values = _angles(whole, jm.axes)  # (n, 3) the sequence's angles
+        # the sequence's axes in its parent's frame, one per row (_sequence_axes, all at once)
+        A, turned = np.zeros((n, 3, 3)), np.tile(np.eye(3), (n, 1, 1))
+        for c, a in enumerate(jm.axes):
+            axis = _axis(a)
+            A[:, c] = turned @ axis
+            turned = turned @ Rotation.from_rotvec(values[:, c : c + 1] * axis).as_matrix()
+        M = np.linalg.solve(A, Q[:, :, None])  # the moment in the parent's frame
+        tau[:, iv : iv + 3] = (np.swapaxes(R, 1, 2) @ M)[:, :, 0]
+    return tau

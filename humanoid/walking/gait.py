@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
@@ -60,6 +60,7 @@ from .transitions import start_stop
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
+    "ankle_joint", "clinical_kinetics", "contact_runs", "cycle_analysis", "gait_kinematics",
     "largest_push", "pelvis_push", "walk_on_ground",
 ]  # fmt: skip
 
@@ -87,6 +88,39 @@ MID_STANCE = 0.25  # [cycle] mid-stance: between the other foot's toe off and th
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0),
               "right": (0.0, -1.0)}  # fmt: skip
 EVERY = 10  # kinematic samples (angles, centre of mass) every this many steps
+
+
+def ankle_joint(h, chain) -> int:
+    """The ankle of a leg's :class:`~humanoid.walking.clinical.LegChain`: the first joint below
+    its knee (HumanoidError if there is none)."""
+    below = chain.joints[chain.joints.index(chain.knee) + 1 :]
+    if not below:
+        raise HumanoidError(f"{h.source}: the {chain.side} leg has no ankle below its knee")
+    return below[0]
+
+
+def clinical_kinetics(chain, ankle: int, foot: int, data, moment, velocity) -> list[float]:
+    """One leg's moments [N m] and powers [W] of :data:`_MOMENTS` (hip extensor, hip abductor,
+    knee extensor, ankle plantarflexor; hip, knee, ankle power) as a gait lab signs them (see
+    the module docstring), from ``data``'s placements (the sole frame's updated) and
+    ``moment(j)``, ``velocity(j)``: joint ``j``'s moment on its body (the proximal segment's
+    on the distal one) [N m] and its body's angular velocity [rad/s], world axes. ``ankle``:
+    :func:`ankle_joint`; ``foot``: the joint the sole hangs from."""
+    pelvis, thigh, _, _ = chain.segments(data)
+    p0, t0, s0, _ = chain.zero
+    shank = data.oMi[chain.knee].rotation
+    x_p, y_p = pelvis @ p0[0], pelvis @ p0[1]
+    y_t, y_s = thigh @ t0[1], shank @ s0[1]
+    sign = 1.0 if chain.side == "right" else -1.0
+    hip, knee = chain.joints[0], chain.knee
+    m_hip, m_knee, m_ankle = moment(hip), moment(knee), moment(ankle)
+    w_pelvis, w_thigh, w_shank = velocity(1), velocity(chain.thigh), velocity(knee)
+    w_foot = velocity(foot)
+    return [
+        m_hip @ y_p, -sign * (m_hip @ x_p), -(m_knee @ y_t), m_ankle @ y_s,
+        m_hip @ (w_thigh - w_pelvis), m_knee @ (w_shank - w_thigh),
+        m_ankle @ (w_foot - w_shank),
+    ]  # fmt: skip
 
 
 @dataclass
@@ -129,12 +163,7 @@ class GaitRecorder:
         self.sole = {s: h.sole_id(s) for s in SIDES}
         self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
         self.middle = {s: float(np.mean(h.sole_points(s)[:, 0])) for s in SIDES}
-        self.ankle = {}
-        for s, chain in self.chains.items():  # the ankle: the first joint below the knee
-            below = chain.joints[chain.joints.index(chain.knee) + 1 :]
-            if not below:
-                raise HumanoidError(f"{h.source}: the {s} leg has no ankle below its knee")
-            self.ankle[s] = below[0]
+        self.ankle = {s: ankle_joint(h, chain) for s, chain in self.chains.items()}
         # the side of every joint at or below a hip
         self.side_of = {}
         for j in range(1, model.njoints):
@@ -201,14 +230,8 @@ class GaitRecorder:
 
     def _kinetics(self, side: str) -> list[float]:
         """Moments [N m] and powers [W] of :data:`_MOMENTS` (``data`` after RNEA)."""
-        d, chain = self.data, self.chains[side]
+        d = self.data
         pin.updateFramePlacement(self.model, d, self.sole[side])
-        pelvis, thigh, _, _ = chain.segments(d)
-        p0, t0, s0, _ = chain.zero
-        shank = d.oMi[chain.knee].rotation
-        x_p, y_p = pelvis @ p0[0], pelvis @ p0[1]
-        y_t, y_s = thigh @ t0[1], shank @ s0[1]
-        sign = 1.0 if side == "right" else -1.0
 
         def m(j):
             return d.oMi[j].rotation @ d.f[j].angular
@@ -216,14 +239,7 @@ class GaitRecorder:
         def w(j):
             return d.oMi[j].rotation @ d.v[j].angular
 
-        hip, knee, ankle = chain.joints[0], chain.knee, self.ankle[side]
-        m_hip, m_knee, m_ankle = m(hip), m(knee), m(ankle)
-        w_pelvis, w_thigh, w_shank, w_foot = w(1), w(chain.thigh), w(knee), w(self.foot[side])
-        return [
-            m_hip @ y_p, -sign * (m_hip @ x_p), -(m_knee @ y_t), m_ankle @ y_s,
-            m_hip @ (w_thigh - w_pelvis), m_knee @ (w_shank - w_thigh),
-            m_ankle @ (w_foot - w_shank),
-        ]  # fmt: skip
+        return clinical_kinetics(self.chains[side], self.ankle[side], self.foot[side], d, m, w)
 
     def record(self, mass: float, dt: float) -> GaitRecord:
         width = 3 + 2 + 2 + 2 + len(_MOMENTS)
@@ -426,13 +442,15 @@ class GaitAnalysis:
     Attributes:
         events: per side, ``strike`` and ``off`` times [s].
         cycles: per side, the (start, end) times of the analysed cycles.
-        curves: per side, name -> (n_cycles, 51) over :data:`PERCENT`.
+        curves: per side, name -> (n_cycles, len(percent)) over :attr:`percent`.
         table: per cycle values: ``speed`` [m/s], ``cadence`` [steps/min], ``step_length``
             [m], ``stride_length`` [m], ``stance`` and ``double_support`` [fraction of the
             cycle], ``com_vertical`` and ``com_lateral`` (excursions) [m], one array each.
         feet: per side and stance, whether it went heel strike, foot flat, heel off, toe off;
             and the largest slide of its loaded points [m].
         dimensionless_speed: the walk's speed in leg lengths (for the normative bands).
+        percent: the curves' samples of the cycle [%] (default :data:`PERCENT`, the normative
+            data's 51).
     """
 
     events: dict
@@ -443,41 +461,66 @@ class GaitAnalysis:
     dimensionless_speed: float
     mass: float
     source: str = ""
+    percent: np.ndarray = field(default_factory=lambda: PERCENT)
 
     def mean(self, name: str, side: str | None = None) -> np.ndarray:
         """The mean curve of a side, or of both sides' cycles."""
         sides = [side] if side else list(SIDES)
         curves = [self.curves[s][name] for s in sides if len(self.curves[s][name])]
-        return np.vstack(curves).mean(axis=0) if curves else np.full(len(PERCENT), np.nan)
+        return np.vstack(curves).mean(axis=0) if curves else np.full(len(self.percent), np.nan)
+
+    def sd(self, name: str, side: str) -> np.ndarray:
+        """The standard deviation over a side's cycles of a curve (zero for one cycle, NaN for
+        none)."""
+        c = self.curves[side][name]
+        return c.std(axis=0) if len(c) else np.full(len(self.percent), np.nan)
+
+    def side_table(self, side: str) -> dict:
+        """:attr:`table`'s values of one side's cycles (from its heel strike), except
+        ``step_length``: the side's own steps, each its heel strike's distance ahead of the
+        other foot at its strike, measured along the stride (a cycle's row holds the other
+        side's step: the one ending at the other foot's strike within it)."""
+        counts = {s: len(self.cycles[s]) for s in SIDES}
+        start = {"left": 0, "right": counts["left"]}  # (rows are appended side by side)
+        rows = {s: slice(start[s], start[s] + counts[s]) for s in SIDES}
+        other = OTHER[side]
+        return {k: np.asarray(v)[rows[other if k == "step_length" else side]]
+                for k, v in self.table.items()}  # fmt: skip
+
+    def _norm(self, name: str, pelvis: str = "lab") -> tuple[np.ndarray, np.ndarray]:
+        """The normative (mean, sd) of a curve at the walk's speed, on :attr:`percent`."""
+        from .norms import norms
+
+        n = norms()
+        mean, sd = n.curve(name, self.dimensionless_speed, pelvis=pelvis)
+        if len(self.percent) == len(n.percent) and np.array_equal(self.percent, n.percent):
+            return mean, sd
+        return np.interp(self.percent, n.percent, mean), np.interp(self.percent, n.percent, sd)
 
     def in_band(self, name: str, sds: float = 2.0) -> float:
         """The share of the cycle [0-1] where the mean curve of both sides lies within the
         normative mean +- ``sds`` SD at the walk's dimensionless speed (the norm as the body
         measures it: ``Norms.curve(..., pelvis="level")``); NaN without a cycle."""
-        from .norms import norms
-
         c = self.mean(name)
         if not np.isfinite(c).all():
             return float("nan")
-        mean, sd = norms().curve(name, self.dimensionless_speed, pelvis="level")
+        mean, sd = self._norm(name, pelvis="level")
         return float(np.mean(np.abs(c - mean) <= sds * sd))
 
     def roughness(self, name: str) -> float:
-        """How much a mean curve zig-zags: its total variation (the sum of its 50 steps' sizes)
+        """How much a mean curve zig-zags: its total variation (the sum of its steps' sizes)
         over the normative mean's at the walk's speed. A smooth curve of the norm's shape is
         near 1; spikes and oscillations raise it (a 1 N m/kg spike adds up to 2 N m/kg)."""
-        from .norms import norms
-
         c = self.mean(name)
         if not np.isfinite(c).all():
             return float("nan")
-        mean, _ = norms().curve(name, self.dimensionless_speed)
+        mean, _ = self._norm(name)
         return float(np.abs(np.diff(c)).sum() / np.abs(np.diff(mean)).sum())
 
     def _peaks(self, side: str | None, stance: float) -> dict:
         """The peaks and troughs of one side's mean curves (``side`` None: both sides' mean),
         ``stance`` [% of the cycle] placing their windows."""
-        pct = PERCENT
+        pct = self.percent
 
         def window(name, lo, hi, fn):
             c = self.mean(name, side)
@@ -598,7 +641,7 @@ def hysteresis(x: np.ndarray, on: float, off: float) -> np.ndarray:
     return out
 
 
-def _runs(x: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
+def contact_runs(x: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]]:
     """(start, end) index pairs of the True runs of x, runs and gaps shorter than ``shortest``
     [s] removed (gaps first: a bounce does not split a contact)."""
 
@@ -611,6 +654,136 @@ def _runs(x: np.ndarray, t: np.ndarray, shortest: float) -> list[tuple[int, int]
         if a > 0 and b < len(x) and t[b - 1] - t[a] < shortest:
             x[a:b] = True
     return [(a, b) for a, b in edges(x) if t[b - 1] - t[a] >= shortest]
+
+
+def gait_kinematics(h, t: np.ndarray, qs: np.ndarray, stride: float, chains=None, arms=None):
+    """What a gait lab measures of the configurations ``qs`` at times ``t`` [s]: each side's
+    angles (N, 10) [deg] (:data:`ANGLES`, the pelvis's against the direction of progression,
+    then :data:`ARM_ANGLES`, zero without arms), the centre of mass (N, 3) [m], the soles'
+    positions (per side (N, 3) [m]) and the direction of progression (N,) [rad]: of the centre
+    of mass's path over ``stride`` [s] about each sample (:func:`progression`)."""
+    chains = chains if chains is not None else leg_chains(h)
+    arms = arms if arms is not None else arm_chains(h, chains)
+    angles, com, soles, pelvis = _kinematics(h, qs, chains, arms)
+    # the pelvis against the direction of progression (a curve turns it; straight on, it is
+    # the walk's drift): the centre of mass's path over one stride about each sample
+    heading = progression(com, t, stride)
+    for s in SIDES:
+        angles[s][:, :3] = [
+            chains[s].pelvis_angles(R, a) for R, a in zip(pelvis, heading, strict=True)
+        ]
+    return angles, com, soles, heading
+
+
+def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics: tuple, *,
+                   mass: float, force: tuple | None = None, kinetics: tuple | None = None,
+                   window: tuple[float, float] = (-math.inf, math.inf), arms: bool = True,
+                   percent: np.ndarray = PERCENT, speed: float | None = None,
+                   require_load: bool = False, source: str = "") -> GaitAnalysis:  # fmt: skip
+    """The gait cycles of a walk and what a gait lab reports of each (:func:`analyse`'s
+    second half, shared with a lab trial's: :mod:`humanoid.walking.trial`).
+
+    Args:
+        h: The body (its leg length scales the speed). contacts: per side, each contact as
+            (foot strike, foot off) times [s], ``-inf`` / ``inf`` where the record starts or
+            ends in it. te: the times [s] on which double support is counted (the events'
+            samples). tk: (N,) the kinematic samples [s]. kinematics: at ``tk``, what
+            :func:`gait_kinematics` returns (angles, centre of mass, soles, heading).
+        mass: [kg]. force: (times, per side (n, 3) [N]), the ground's force on each foot,
+            world axes, already low-passed, or None. kinetics: (times, per side (n, 7)) the
+            moments [N m] and powers [W] of :data:`_MOMENTS`, already low-passed, or None.
+            A cycle outside their times gets no curve of them; with ``require_load``, neither
+            does a cycle whose foot bears no load at mid-stance (a lab's plates catch some
+            steps only).
+        window: only the cycles within (start, end) [s]. arms: the arms' angles are curves.
+        percent: the cycle's samples [%]. speed: [m/s] for the normative bands (default
+            the cycles' mean). source: the walk's name.
+
+    A cycle runs from a heel strike of its side to the next, if the foot came off and the
+    other foot struck between them; its curves are sampled at ``percent`` of it (linear
+    interpolation), the forces in body weights and the kinetics per kg of ``mass``.
+    """
+    g = float(np.linalg.norm(h.model.gravity.linear))
+    weight = mass * g
+    angles, com, soles, heading = kinematics
+    loaded = {s: np.zeros(len(te), dtype=bool) for s in SIDES}
+    events = {}
+    for s in SIDES:
+        for on, off in contacts[s]:
+            loaded[s] |= (te >= on) & (te <= off)
+        events[s] = {"strike": [on for on, _ in contacts[s] if np.isfinite(on)],
+                     "off": [off for _, off in contacts[s] if np.isfinite(off)]}  # fmt: skip
+    both = loaded["left"] & loaded["right"]
+    names = (*ANGLES, *ARM_ANGLES) if arms else ANGLES
+    curves = {s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES}
+    table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
+                             "double_support", "com_vertical", "com_lateral")}  # fmt: skip
+    cycles = {s: [] for s in SIDES}
+
+    def at(x, times, tt):
+        return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
+
+    def covers(series, t0, t1):
+        return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
+
+    def bears(s, t0, off):
+        if not require_load:
+            return True
+        if not covers(force, t0, off) or s not in force[1]:
+            return False
+        return bool(np.interp(0.5 * (t0 + off), force[0], force[1][s][:, 2]) > 0.0)
+
+    for s in SIDES:
+        other = OTHER[s]
+        strikes = [on for on, _ in contacts[s] if np.isfinite(on)]
+        for t0, t1 in zip(strikes[:-1], strikes[1:], strict=True):
+            if t0 < window[0] or t1 > window[1]:
+                continue
+            offs = [off for _, off in contacts[s] if t0 <= off < t1]
+            others = [on for on, _ in contacts[other] if t0 < on < t1]
+            if not offs or not others:
+                continue
+            cycles[s].append((t0, t1))
+            T = t1 - t0
+            tt = t0 + percent / 100.0 * T
+            ang = at(angles[s], tk, tt)
+            for j, name in enumerate(names):
+                curves[s][name].append(ang[:, j])
+            p0, p1 = (at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
+            stride = (p1 - p0)[:2]
+            L = float(np.linalg.norm(stride))
+            u = stride / L if L > 0 else np.array([1.0, 0.0])
+            loaded = bears(s, t0, offs[0])
+            if covers(force, t0, t1) and s in force[1] and loaded:
+                f = at(force[1][s], force[0], tt) / weight
+                curves[s]["grf_vertical"].append(f[:, 2])
+                along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
+                curves[s]["grf_anterior"].append(f[:, 0] * np.cos(along)
+                                                 + f[:, 1] * np.sin(along))  # fmt: skip
+            if covers(kinetics, t0, t1) and loaded:
+                kin = at(kinetics[1][s], kinetics[0], tt) / mass
+                for j, name in enumerate(_MOMENTS):
+                    curves[s][name].append(kin[:, j])
+            po = at(soles[other], tk, np.array([others[0]]))[0]
+            table["speed"].append(L / T)
+            table["cadence"].append(120.0 / T)
+            table["stride_length"].append(L)
+            table["step_length"].append(float((po - p0)[:2] @ u))
+            table["stance"].append((offs[0] - t0) / T)
+            table["double_support"].append(float(both[(te >= t0) & (te < t1)].mean()))
+            c = at(com, tk, tt)
+            lateral = (c[:, :2] - c[0, :2]) @ np.array([-u[1], u[0]])
+            lateral -= np.linspace(lateral[0], lateral[-1], len(lateral))
+            table["com_vertical"].append(float(np.ptp(c[:, 2])))
+            table["com_lateral"].append(float(np.ptp(lateral)))
+    curves = {s: {n: np.array(c).reshape(len(c), len(percent)) for n, c in cs.items()}
+              for s, cs in curves.items()}  # fmt: skip
+    table = {k: np.array(v) for k, v in table.items()}
+    if speed is None:
+        speed = float(np.mean(table["speed"])) if len(table["speed"]) else 0.0
+    v_hat = speed / math.sqrt(g * leg_length(h))
+    feet = {s: [] for s in SIDES}
+    return GaitAnalysis(events, cycles, curves, table, feet, v_hat, mass, source, percent)
 
 
 def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> GaitAnalysis:
@@ -639,41 +812,19 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     # kinematics at 100 Hz: angles, centre of mass, soles
     ks = np.arange(0, len(t), EVERY)
     tk = t[ks]
-    angles, com, soles, pelvis = _kinematics(h, rec.q[ks], chains, arms)
     # events from the raw vertical force, with hysteresis
-    loaded, events, contacts = {}, {}, {}
+    contacts = {}
     for s in SIDES:
         on = hysteresis(rec.force[s][:, 2], EVENT_ON * weight, EVENT_OFF * weight)
-        contacts[s] = _runs(on, t, MIN_CONTACT)
-        loaded[s] = np.zeros(len(t), dtype=bool)
-        for a, b in contacts[s]:
-            loaded[s][a:b] = True
-        events[s] = {"strike": [t[a] for a, _ in contacts[s] if a > 0],
-                     "off": [t[b - 1] for _, b in contacts[s] if b < len(t)]}  # fmt: skip
-    both = loaded["left"] & loaded["right"]
-    # the pelvis against the direction of progression (a curve turns it; straight on, it is
-    # the walk's drift): the centre of mass's path over one stride about each sample
+        contacts[s] = contact_runs(on, t, MIN_CONTACT)
     strides = np.diff([t[a] for a, _ in contacts["right"] if a > 0])  # [s]
-    heading = progression(com, tk, float(np.median(strides)) if len(strides) else 1.0)
-    for s in SIDES:
-        angles[s][:, :3] = [
-            chains[s].pelvis_angles(R, a) for R, a in zip(pelvis, heading, strict=True)
-        ]
+    stride = float(np.median(strides)) if len(strides) else 1.0
+    kinematics = gait_kinematics(h, tk, rec.q[ks], stride, chains, arms)
     # forces, moments and powers low-passed before the cycles are sampled
     force = {s: low_pass(rec.force[s], t) for s in SIDES}
     kinetics = {s: low_pass(rec.kinetics[s], t) for s in SIDES}
-    curves = {s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES}
-    table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
-                             "double_support", "com_vertical", "com_lateral")}  # fmt: skip
-    cycles = {s: [] for s in SIDES}
     feet = {s: [] for s in SIDES}
-
-    def at(x, times, tt):
-        return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
-
     for s in SIDES:
-        other = OTHER[s]
-        strikes = [a for a, _ in contacts[s] if a > 0]
         for a, b in contacts[s]:  # every complete stance: the foot's rocker sequence
             if a == 0 or b == len(t):
                 continue
@@ -694,46 +845,10 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
                 "toe_off": bool(len(first)) and toe[last] and not heel[last],
                 "slip": float(np.linalg.norm(slide - slide[0], axis=1).max()),
             })  # fmt: skip
-        for i0, i1 in zip(strikes[:-1], strikes[1:], strict=True):
-            t0, t1 = t[i0], t[i1]
-            if t0 < skip or t1 > steady[1]:
-                continue
-            offs = [b for _, b in contacts[s] if i0 < b < i1]
-            others = [a for a, _ in contacts[other] if i0 < a < i1]
-            if not offs or not others:
-                continue
-            cycles[s].append((t0, t1))
-            T = t1 - t0
-            tt = t0 + PERCENT / 100.0 * T
-            ang = at(angles[s], tk, tt)
-            for j, name in enumerate((*ANGLES, *ARM_ANGLES) if arms else ANGLES):
-                curves[s][name].append(ang[:, j])
-            p0, p1 = (at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
-            stride = (p1 - p0)[:2]
-            L = float(np.linalg.norm(stride))
-            u = stride / L if L > 0 else np.array([1.0, 0.0])
-            f = at(force[s], t, tt) / weight
-            curves[s]["grf_vertical"].append(f[:, 2])
-            along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
-            curves[s]["grf_anterior"].append(f[:, 0] * np.cos(along) + f[:, 1] * np.sin(along))
-            kin = at(kinetics[s], t, tt) / rec.mass
-            for j, name in enumerate(_MOMENTS):
-                curves[s][name].append(kin[:, j])
-            po = at(soles[other], tk, np.array([t[others[0]]]))[0]
-            table["speed"].append(L / T)
-            table["cadence"].append(120.0 / T)
-            table["stride_length"].append(L)
-            table["step_length"].append(float((po - p0)[:2] @ u))
-            table["stance"].append((t[offs[0] - 1] - t0) / T)
-            table["double_support"].append(float(both[i0:i1].mean()))
-            c = at(com, tk, tt)
-            lateral = (c[:, :2] - c[0, :2]) @ np.array([-u[1], u[0]])
-            lateral -= np.linspace(lateral[0], lateral[-1], len(lateral))
-            table["com_vertical"].append(float(np.ptp(c[:, 2])))
-            table["com_lateral"].append(float(np.ptp(lateral)))
-    curves = {s: {n: np.array(c).reshape(len(c), len(PERCENT)) for n, c in cs.items()}
-              for s, cs in curves.items()}  # fmt: skip
-    table = {k: np.array(v) for k, v in table.items()}
-    speed = float(np.mean(table["speed"])) if len(table["speed"]) else 0.0
-    v_hat = speed / math.sqrt(g * leg_length(h))
-    return GaitAnalysis(events, cycles, curves, table, feet, v_hat, rec.mass, h.source)
+    times = {s: [(t[a] if a > 0 else -math.inf, t[b - 1] if b < len(t) else math.inf)
+                 for a, b in contacts[s]] for s in SIDES}  # fmt: skip
+    out = cycle_analysis(h, times, t, tk, kinematics, mass=rec.mass, force=(t, force),
+                         kinetics=(t, kinetics), window=(skip, steady[1]), arms=bool(arms),
+                         source=h.source)  # fmt: skip
+    out.feet = feet
+    return out

@@ -13,7 +13,16 @@ import numpy as np
 
 from .norms import ADULT, norms
 
-__all__ = ["format_gait_table", "format_summary", "gait_table", "plot_gait_report", "plot_walk"]
+__all__ = [
+    "format_gait_table",
+    "format_summary",
+    "format_trial_table",
+    "gait_table",
+    "plot_gait_report",
+    "plot_trial_report",
+    "plot_walk",
+    "trial_table",
+]
 
 ROWS = (
     # key, label, unit, scale, human value
@@ -257,7 +266,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .gait import CUTOFF, PERCENT
+    from .gait import CUTOFF
 
     n = norms()
     fig = plt.figure(figsize=(13, 18), constrained_layout=True)
@@ -273,7 +282,7 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
         for side, colour in SIDE_COLOURS.items():
             c = analysis.curves[side].get(name, [])
             if len(c):
-                ax.plot(PERCENT, c.mean(axis=0), color=colour, lw=1.6, label=side)
+                ax.plot(analysis.percent, c.mean(axis=0), color=colour, lw=1.6, label=side)
         if np.isfinite(stance):
             ax.axvline(stance, color="0.3", lw=0.8, ls=":")
         ax.axhline(0.0, color="0.5", lw=0.5)
@@ -311,6 +320,154 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
     name = Path(analysis.source).stem
     fig.suptitle(title or (f"{name}: {s['speed']:.2f} m/s, {s['cadence']:.0f} steps/min, "
                            f"{int(s['cycles'])} cycles analysed"))  # fmt: skip
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
+
+
+# -- the report of a person's own trial (humanoid.walking.trial) ------------------------------
+
+TRIAL_PANELS = (
+    # angles, moments, powers, forces: each row of the figure
+    ("hip_flexion", "hip flexion", "deg"),
+    ("knee_flexion", "knee flexion", "deg"),
+    ("ankle_dorsiflexion", "ankle dorsiflexion", "deg"),
+    ("pelvis_tilt", "pelvic tilt (anterior +)", "deg"),
+    ("pelvis_obliquity", "pelvic obliquity (own hip up +)", "deg"),
+    ("pelvis_rotation", "pelvic rotation (own hip forward +)", "deg"),
+    ("hip_adduction", "hip adduction", "deg"),
+    ("hip_rotation", "hip internal rotation", "deg"),
+    ("hip_abduction_moment", "hip abductor moment", "N m/kg"),
+    ("hip_extension_moment", "hip extensor moment", "N m/kg"),
+    ("knee_extension_moment", "knee extensor moment", "N m/kg"),
+    ("ankle_plantarflexion_moment", "ankle plantarflexor moment", "N m/kg"),
+    ("hip_power", "hip power", "W/kg"),
+    ("knee_power", "knee power", "W/kg"),
+    ("ankle_power", "ankle power", "W/kg"),
+    ("grf_vertical", "vertical GRF", "BW"),
+    ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
+)
+TRIAL_ROWS = (
+    # key, label, unit, scale, the adult norm (low, high), its source
+    ("speed", "speed", "m/s", 1.0, *_adult("speed")),
+    ("cadence", "cadence", "steps/min", 1.0, *_adult("cadence")),
+    ("step_length", "step length", "m", 1.0, *_adult("step_length")),
+    ("stride_length", "stride length", "m", 1.0, (1.32, 1.58), "Murray 1964/1970: 2 steps"),
+    ("stance", "stance", "% cycle", 100.0, (58.0, 62.0), "Perry & Burnfield"),
+    ("double_support", "double support", "% cycle", 100.0, *_adult("double_support", 100.0)),
+)
+
+
+def trial_table(analysis) -> list[tuple]:
+    """The trial's spatiotemporal rows: (label, left, right, adult norm, left within it, right
+    within it), each side's mean over its cycles (``-`` without a cycle; the step length of a
+    side ends at its own heel strike)."""
+    rows = []
+    sides = {s: analysis.side_table(s) for s in ("left", "right")}
+    for key, label, unit, scale, (lo, hi), source in TRIAL_ROWS:
+        texts, oks = [], []
+        for s in ("left", "right"):
+            v = sides[s][key]
+            value = float(np.mean(v)) * scale if len(v) else float("nan")
+            texts.append(f"{value:.3g} {unit}" if np.isfinite(value) else "-")
+            oks.append(bool(lo <= value <= hi) if np.isfinite(value) else None)
+        rows.append((label, *texts, f"{lo:.3g}-{hi:.3g} {unit} ({source})", *oks))
+    return rows
+
+
+def format_trial_table(analysis) -> str:
+    """The trial's spatiotemporal table as text (``*``: outside the adult norm)."""
+    lines = [f"{'':<16} {'left':>16} {'right':>16}   adult norm"]
+    for label, left, right, norm, ok_l, ok_r in trial_table(analysis):
+        left += " *" if ok_l is False else "  "
+        right += " *" if ok_r is False else "  "
+        lines.append(f"{label:<16} {left:>16} {right:>16}   {norm}")
+    counts = ", ".join(f"{len(analysis.cycles[s])} {s}" for s in ("left", "right"))
+    lines.append(f"(cycles: {counts}; * outside the adult norm)")
+    return "\n".join(lines)
+
+
+def plot_trial_report(trial, path, title: str | None = None) -> Path:
+    """A gait lab's report of a person's trial (:class:`~humanoid.walking.trial.Trial`, PNG):
+    the angles, moments and powers (and the ground reaction forces, with loads) over 0-100 %
+    of the cycle, each side's mean +- 1 SD over its cycles in its colour and its toe off as a
+    dotted line, over Schwartz 2008's normative band (mean +- 1 SD at the trial's
+    dimensionless speed, grey), and the spatiotemporal table per side beside adult norms."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .gait import CUTOFF
+
+    a = trial.analysis
+    n = norms()
+    fig = plt.figure(figsize=(16, 16), constrained_layout=True)
+    grid = fig.add_gridspec(5, 4)
+    stance = {s: a.side_table(s)["stance"] for s in SIDE_COLOURS}
+    missing = {"N m/kg": "no moments", "W/kg": "no moments", "BW": "no loads"}
+    slots = [*range(0, 8), *range(8, 12), *range(12, 15), 16, 17]  # 15: the caption
+    for (name, label, unit), slot in zip(TRIAL_PANELS, slots, strict=True):
+        ax = fig.add_subplot(grid[slot // 4, slot % 4])
+        if name in n.units:
+            mean, sd = n.curve(name, a.dimensionless_speed, pelvis="level")
+            ax.fill_between(n.percent, mean - sd, mean + sd, color="0.85", lw=0)
+            ax.plot(n.percent, mean, color="0.55", lw=1, ls="--")
+        drawn = False
+        for side, colour in SIDE_COLOURS.items():
+            c = a.curves[side][name]
+            if not len(c):
+                continue
+            drawn = True
+            mean, sd = c.mean(axis=0), c.std(axis=0)
+            ax.fill_between(a.percent, mean - sd, mean + sd, color=colour, alpha=0.18, lw=0)
+            ax.plot(a.percent, mean, color=colour, lw=1.6, label=f"{side} ({len(c)})")
+            if len(stance[side]):
+                ax.axvline(100.0 * float(np.mean(stance[side])), color=colour, lw=0.9, ls=":")
+        if not drawn and unit in missing:
+            ax.text(0.5, 0.5, missing[unit] if unit != "BW" or not trial.forces else
+                    "the feet on no plate", transform=ax.transAxes, ha="center",
+                    color="0.4")  # fmt: skip
+        ax.axhline(0.0, color="0.5", lw=0.5)
+        ax.set(title=label, ylabel=unit, xlim=(0, 100))
+        if slot >= 12:
+            ax.set_xlabel("% gait cycle")
+        ax.grid(alpha=0.3)
+        if slot == 0 and ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper right", fontsize=8, title="side (cycles)", title_fontsize=8)
+    ax = fig.add_subplot(grid[3, 3])
+    ax.axis("off")
+    sources = ", ".join(f"{s} {trial.events[s]}" for s in SIDE_COLOURS if s in trial.events)
+    ax.text(0.0, 1.0, "grey: Schwartz et al. 2008, mean +- 1 SD at\n"
+            f"the same dimensionless speed ({a.dimensionless_speed:.2f}; J Biomech\n"
+            "41:1639, CC-BY-SA 4.0); hip flexion and pelvic\n"
+            f"tilt less its mean tilt ({n.mean_tilt(a.dimensionless_speed):.1f} deg). "
+            "Colours: each\nside's mean +- 1 SD over its cycles; dotted: its\n"
+            f"toe off. Events: {sources}.\n"
+            f"Forces, moments and powers low-passed at {CUTOFF:g} Hz\n"
+            f"(zero lag); moments internal, per kg of {trial.mass:.1f} kg,\n"
+            "extensor / plantarflexor / abductor +; powers\ngenerated +.",
+            va="top", fontsize=8.5)  # fmt: skip
+    ax = fig.add_subplot(grid[4, 2:])
+    ax.axis("off")
+    rows = trial_table(a)
+    cells = [[label, left, right, norm] for label, left, right, norm, *_ in rows]
+    table = ax.table(cellText=cells, colLabels=["", "left", "right", "adult norm"],
+                     loc="upper center", colWidths=(0.22, 0.17, 0.17, 0.5),
+                     cellLoc="left")  # fmt: skip
+    table.auto_set_font_size(False)
+    table.set_fontsize(8.5)
+    table.scale(1.0, 1.3)
+    for k, (*_, ok_l, ok_r) in enumerate(rows, start=1):
+        for col, ok in ((1, ok_l), (2, ok_r)):
+            if ok is False:
+                table[k, col].set_text_props(color="tab:red")
+    s = a.summary
+    speed = f"{s['speed']:.2f} m/s, " if np.isfinite(s["speed"]) else ""
+    counts = f"left {len(a.cycles['left'])}, right {len(a.cycles['right'])}"
+    fig.suptitle(title or f"{trial.source}: {speed}{int(s['cycles'])} cycles ({counts})")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=80)
