@@ -263,9 +263,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
     tr.add_argument("--y-up", action="store_true", help="keypoints with Y up")
-    tr.add_argument(
-        "--cutoff", type=float, default=6.0, help="low-pass cutoff of the reference [Hz] (0: none)"
-    )
+    tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
+                    "none; default: Winter's residual analysis of the motion)")  # fmt: skip
     tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
     tr.add_argument("-o", "--output", default="tracked.npz", help="the run to write (.npz)")
     tr.add_argument("--mot", help="also write it as OpenSim files (coordinates, ground forces)")

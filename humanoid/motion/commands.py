@@ -509,7 +509,7 @@ def run_track(args) -> int:
     else:
         h, what, t, q, loads, _, _ = read_motion(args)
         recording = None
-    cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
+    cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
     res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)
     h = res.body  # (its toes locked)
     traj = res.trajectory
@@ -521,6 +521,8 @@ def run_track(args) -> int:
     worst = np.argsort(-rms)[:5]
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
     print(f"body         {what}")
+    print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
+          + (" (Winter's residual analysis)" if cutoff == "auto" else ""))  # fmt: skip
     print(
         f"status       {meta['status']}" + (f": {meta['message']}" if meta.get("message") else "")
     )

@@ -42,12 +42,17 @@ from ..errors import RunFailed
 from ..model import SIDES
 from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
 from .coordinates import lowest_sole_point
-from .inverse_dynamics import contact_schedule, derivatives
+from .inverse_dynamics import contact_schedule, derivatives, residual_cutoff
 from .loads import Load
 
 __all__ = ["MotionReference", "MotionTracker", "TrackGains", "Tracked", "track"]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+# [Hz] the automatic cutoff is never below this: a walk's feet need their stride's first three
+# harmonics (about 1 Hz each). Keypoints with 1 cm of noise at 30 Hz: Winter's 2.0-2.4 Hz
+# tracked 4 walks of 5 (3 of 5 from four cameras' pixels), falling in the last step; at 3 Hz,
+# 5 of 5 each way; at 6 Hz, 2 of 5
+LOWEST_CUTOFF = 3.0
 
 
 @dataclass(frozen=True)
@@ -208,7 +213,8 @@ class Tracked:
             reference [rad] (the root's 6 first: position [m] and orientation [rad]).
         contacts: side -> (times, in contact) as scheduled. wall_time: [s]. body: the body
             that moved (a body with toes tracks with them locked:
-            :func:`~humanoid.model.lock_foot_hinges`).
+            :func:`~humanoid.model.lock_foot_hinges`). cutoff: the reference's low-pass
+            cutoff [Hz] (None: unfiltered).
     """
 
     trajectory: object
@@ -217,17 +223,22 @@ class Tracked:
     contacts: dict
     wall_time: float
     body: object = None
+    cutoff: float | None = None
 
     @property
     def completed(self) -> bool:
         return self.trajectory.status == "completed"
 
 
-def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 6.0,
+def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | None = "auto",
           dt: float = 1e-3, mu: float = 0.8, gains: TrackGains | None = None,
           record_rate: float = 100.0, quiet: bool = True) -> Tracked:  # fmt: skip
     """Follow the motion ``q`` (n, nq) at ``time`` in forward simulation (see the module
     docstring); ``loads`` (measured ground forces) only say when each foot is on the ground.
+    ``cutoff``: the reference's low-pass cutoff [Hz]; ``"auto"`` (the default): Winter's
+    residual analysis of the motion (:func:`~humanoid.motion.inverse_dynamics.
+    residual_cutoff`: a noisy motion or one at a video's rate is smoothed more), at least
+    :data:`LOWEST_CUTOFF`.
 
     The run starts in the reference's first state; it stops as failed if the body falls (its
     centre of mass below half its starting height); what it recorded up to then is kept. A
@@ -244,6 +255,8 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 
     if np.shape(q)[-1] != h.model.nq:
         q = restrict_configurations(q, full, h)
     model = h.model
+    if cutoff == "auto":
+        cutoff = max(residual_cutoff(model, time, q), LOWEST_CUTOFF)
     t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
     contacts = contact_schedule(h, t, qf, vf, loads)
     duration = float(t[-1] - t[0])
@@ -265,4 +278,4 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | None = 
     wall = clock.perf_counter() - start
     ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff)
