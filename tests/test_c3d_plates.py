@@ -354,6 +354,34 @@ def test_contact_has_hysteresis(tmp_path):
     np.testing.assert_allclose(plate.cop[a:b], np.tile([0.3, 0.0, 0.0], (b - a, 1)), atol=1e-9)
 
 
+def test_an_unloaded_plate_pulling_down_is_no_contact(tmp_path):
+    """A plate's unloaded offset that pulls the subject down (-25 N, as OpenSim's walking5.c3d
+    reads without zeroing: |Fz| over the threshold) is no contact; the step on it is one. A
+    file holding the force on the plate (every sign turned) is read with its contact and a
+    warning; a plate never stepped on whose offset points down is neither."""
+    spec = _plate(2, (0.3, 0.0, 0.0), 0.0, (0, 0, -40), (0.3, 0.6), (0.2, 0), (0.4, 0),
+                  range(3, 9))  # fmt: skip
+    fz = np.interp(TIME, [0, 0.3, 0.45, 0.6, 1.0], [-25, -25, 600, -25, -25])
+    step = fz > 20.0
+
+    def offset(signals, sign=1.0, force=fz):
+        signals[2:8] = 0.0
+        signals[4] = -sign * force  # upward on the subject: the plate's -z
+
+    (plate,) = read_plates(_write(tmp_path / "o.c3d", [spec], edit=offset))
+    np.testing.assert_allclose(plate.force[:, 2], fz, atol=1e-4)
+    (a, b), = plate.contacts()  # fmt: skip
+    assert a == np.flatnonzero(step)[0] and b - 1 == np.flatnonzero(fz > 10.0)[-1]
+    path = _write(tmp_path / "d.c3d", [spec], edit=lambda s: offset(s, -1.0))
+    with pytest.warns(PlateWarning, match="points down"):
+        (down,) = read_plates(path)
+    assert down.contacts() == [(a, b)]
+    idle = _write(tmp_path / "i.c3d", [spec], edit=lambda s: offset(s, 1.0, np.full_like(fz, -25)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PlateWarning)
+        assert read_plates(idle)[0].contacts() == []
+
+
 # -- feet ----------------------------------------------------------------------------------
 
 

@@ -52,9 +52,15 @@ markers (Y up labs by ``POINT:Y_SCREEN``), metres and N m, at the analog rate. A
 vertical force points down through its contacts (a file holding the force on the plate) is
 read as recorded, with a :class:`PlateWarning`.
 
-**Contact.** A plate is in contact while the force along its normal exceeds ``threshold``
-(default 20 N); once in contact, it stays so until the force falls below ``release`` (default
-half the threshold): a hysteresis, so that noise around the threshold does not chatter.
+**Contact.** A plate is in contact while the force along its normal **pressing the subject
+up** exceeds ``threshold`` (default 20 N); once in contact, it stays so until that force falls
+below ``release`` (default half the threshold): a hysteresis, so that noise around the
+threshold does not chatter. The force's sign counts: an unloaded plate's offset that pulls
+down (real plates read -10 to -30 N when nobody stands on them and the file has no zeroing,
+e.g. OpenSim's ``walking5.c3d``) is not a contact. A horizontal plate whose downward force
+peaks higher than its upward one and above five times the threshold holds the force on the
+plate (the opposite sign): its contacts are where that force exceeds the threshold, with a
+:class:`PlateWarning`. A plate that is not horizontal (a wall's) uses the normal force's size.
 Outside contact the centre of pressure is undefined: NaN, and the free moment 0 (the force is
 kept as measured).
 
@@ -225,6 +231,19 @@ def _hysteresis(fn: np.ndarray, on: float, off: float) -> np.ndarray:
     return (last >= 0) & (event[np.maximum(last, 0)] == 1)
 
 
+def _contact(fz: np.ndarray, up: float, threshold: float, release: float):
+    """(contact (n,) bool, whether the plate holds the force on it) of a plate's normal force
+    ``fz`` (its axes) whose z is ``up`` along our vertical (see the module docstring)."""
+    if abs(up) <= 0.9:  # not horizontal: the normal force's size
+        return _hysteresis(np.abs(fz), threshold, release), False
+    pressing = np.sign(up) * fz  # the vertical force on the subject, up positive
+    top = float(np.max(pressing)) if len(fz) else 0.0
+    bottom = float(np.max(-pressing)) if len(fz) else 0.0
+    down = bottom > top and bottom > 5.0 * threshold
+    contact = _hysteresis(-pressing if down else pressing, threshold, release)
+    return contact, bool(down and contact.any())
+
+
 def read_plates(path: str | Path, y_up: bool | None = None, threshold: float = 20.0,
                 release: float | None = None) -> list[Plate]:  # fmt: skip
     """The force plates of a C3D file, as its ``FORCE_PLATFORM`` group describes them (see
@@ -361,11 +380,12 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
         r = np.column_stack([ch[:, 3] * lscale[0], ch[:, 4] * lscale[1], np.zeros(len(ch))])
         T = ch[:, 5] * _moment_scale(ch_units[5], length)
         o = np.zeros(3)
-        contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
     else:  # the force and the moment about the transducer's origin
         F, M, o = _wrench(path, fp, kind, k, used, ch, ch_units, o, length)
         MP = M + np.cross(F, o)  # about the top surface's centre
-        contact = _hysteresis(np.abs(F[:, 2]), threshold, release)
+    up = (A @ R[:, 2])[2]  # the plate's z, our vertical
+    contact, down = _contact(F[:, 2], up, threshold, release)
+    if kind != 1:
         fz = np.where(contact, F[:, 2], 1.0)
         r = np.column_stack([-MP[:, 1] / fz, MP[:, 0] / fz, np.zeros(len(F))])
         T = MP[:, 2] - (r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0])
@@ -373,8 +393,7 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
     cop[~contact] = np.nan
     free = np.where(contact, T, 0.0)[:, None] * R[:, 2]
     force = (F @ R.T) @ A.T
-    up = (A @ R[:, 2])[2]  # the plate's z, our vertical
-    if contact.any() and abs(up) > 0.9 and np.mean(force[contact, 2]) < 0.0:
+    if down:
         warnings.warn(
             f"{path}: plate {index}'s vertical force points down during its contacts "
             f"(mean {np.mean(force[contact, 2]):.0f} N): the file may hold the force on the "

@@ -711,6 +711,7 @@ def run_scale(args) -> int:
     print(f"time         {elapsed:.2f} s")
     print(f"wrote        {out}")
     print(f"marker set   {markers}")
+    return 0
 
 
 def run_report(args) -> int:
