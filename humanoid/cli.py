@@ -838,10 +838,10 @@ def _view(args) -> int:
         if traj is None:
             raise HumanoidError("--markers are drawn with a motion: a run (.npz) or joint "
                                 "coordinates (.mot/.sto)")  # fmt: skip
-        from .motion.commands import _markers_file
+        from .motion.commands import markers_file
         from .motion.markers import default_markers, read_markers
 
-        markers = _markers_file(args.markers, args)
+        markers = markers_file(args.markers, args)
         marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
     title = Path(args.target).stem
     if args.html:

@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import HumanoidError
 
 __all__ = [
+    "markers_file",
     "moments_figure",
     "read_loads_file",
     "read_motion",
@@ -239,7 +240,7 @@ def run_id(args) -> int:
         from .markers import default_markers, read_markers
 
         marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
-        feet = recorded_feet(h, t, q, _markers_file(args.markers, args), marker_set)
+        feet = recorded_feet(h, t, q, markers_file(args.markers, args), marker_set)
     start = clock.perf_counter()
     r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity,
                          recorded_feet=feet)  # fmt: skip
@@ -318,7 +319,7 @@ def _camera_keypoints(args):
     return keypoints, match_cameras(keypoints, cameras, args.calibration)
 
 
-def _markers_file(path, args):
+def markers_file(path, args):
     """Marker trajectories: a TRC or C3D file, or keypoints (.npy (frames, k, 3) or .npz with
     ``points`` and optional ``time``) in ``--layout`` at ``--rate``."""
     from .markers import keypoints, read_c3d, read_trc
@@ -371,7 +372,7 @@ def run_ik(args) -> int:
     if getattr(args, "calibration", None):
         markers, cameras = _camera_keypoints(args)
     else:
-        markers = _markers_file(args.markers, args)
+        markers = markers_file(args.markers, args)
     h, what = subject_body(args)
     marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
     if args.map not in (None, *MAPS):
@@ -381,7 +382,7 @@ def run_ik(args) -> int:
                disable=args.quiet or not sys.stderr.isatty())  # fmt: skip
     start = clock.perf_counter()
     try:
-        static = _markers_file(args.static, args) if args.static else None
+        static = markers_file(args.static, args) if args.static else None
         with warnings.catch_warnings():  # (said below, one line each)
             warnings.simplefilter("ignore", RangeLimitWarning)
             warnings.simplefilter("ignore", UnconstrainedWarning)
@@ -498,7 +499,7 @@ def run_track(args) -> int:
         from .ik import inverse_kinematics
         from .markers import default_markers
 
-        markers = _markers_file(args.motion, args)
+        markers = markers_file(args.motion, args)
         h, what = subject_body(args)
         marker_set = default_markers(h)
         fit = inverse_kinematics(h, markers, marker_set)
@@ -663,7 +664,7 @@ def run_scale(args) -> int:
     from .markers import read_markers, write_markers
     from .scale import ScaleWarning, scale_body
 
-    static = _markers_file(args.static, args)
+    static = markers_file(args.static, args)
     name = args.model or ("adult_female" if args.sex == "female" else "adult_male")
     h = load(name)
     marker_set = read_markers(args.marker_set) if args.marker_set else None
