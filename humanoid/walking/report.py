@@ -140,21 +140,44 @@ def plot_walk(result, path) -> Path:
 
 # -- the gait lab's report of a walk on the ground ------------------------------------------
 
-PANELS = (
-    ("hip_flexion", "hip flexion", "deg"),
-    ("knee_flexion", "knee flexion", "deg"),
-    ("ankle_dorsiflexion", "ankle dorsiflexion", "deg"),
-    ("hip_extension_moment", "hip extensor moment", "N m/kg"),
-    ("knee_extension_moment", "knee extensor moment", "N m/kg"),
-    ("ankle_plantarflexion_moment", "ankle plantarflexor moment", "N m/kg"),
-    ("hip_power", "hip power", "W/kg"),
-    ("knee_power", "knee power", "W/kg"),
-    ("ankle_power", "ankle power", "W/kg"),
-    ("grf_vertical", "vertical GRF", "BW"),
-    ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
-    ("pelvis_obliquity", "pelvic obliquity (own hip up +)", "deg"),
-    ("pelvis_rotation", "pelvic rotation (own hip forward +)", "deg"),
-    ("shoulder_flexion", "shoulder flexion (arm swing; no norm)", "deg"),
+LABELS = {  # each curve's title and unit
+    "hip_flexion": ("hip flexion", "deg"),
+    "knee_flexion": ("knee flexion", "deg"),
+    "ankle_dorsiflexion": ("ankle dorsiflexion", "deg"),
+    "hip_extension_moment": ("hip extensor moment", "N m/kg"),
+    "knee_extension_moment": ("knee extensor moment", "N m/kg"),
+    "ankle_plantarflexion_moment": ("ankle plantarflexor moment", "N m/kg"),
+    "hip_power": ("hip power", "W/kg"),
+    "knee_power": ("knee power", "W/kg"),
+    "ankle_power": ("ankle power", "W/kg"),
+    "grf_vertical": ("vertical GRF", "BW"),
+    "grf_anterior": ("fore-aft GRF (braking -)", "BW"),
+    "pelvis_obliquity": ("pelvic obliquity (own hip up +)", "deg"),
+    "pelvis_rotation": ("pelvic rotation (own hip forward +)", "deg"),
+    "shoulder_flexion": ("shoulder flexion (arm swing; no norm)", "deg"),
+    "pelvis_tilt": ("pelvic tilt (anterior +)", "deg"),
+    "hip_adduction": ("hip adduction", "deg"),
+    "hip_rotation": ("hip internal rotation", "deg"),
+    "hip_abduction_moment": ("hip abductor moment", "N m/kg"),
+}
+PANELS = tuple(
+    (n, *LABELS[n])
+    for n in (
+        "hip_flexion",
+        "knee_flexion",
+        "ankle_dorsiflexion",
+        "hip_extension_moment",
+        "knee_extension_moment",
+        "ankle_plantarflexion_moment",
+        "hip_power",
+        "knee_power",
+        "ankle_power",
+        "grf_vertical",
+        "grf_anterior",
+        "pelvis_obliquity",
+        "pelvis_rotation",
+        "shoulder_flexion",
+    )
 )
 SIDE_COLOURS = {"left": "tab:red", "right": "tab:green"}  # a gait lab's colours
 CAPTION = 11  # the report's grid slot (row-major, three a row) that holds the caption
@@ -329,25 +352,28 @@ def plot_gait_report(analysis, path, title: str | None = None) -> Path:
 
 # -- the report of a person's own trial (humanoid.walking.trial) ------------------------------
 
-TRIAL_PANELS = (
-    # angles, moments, powers, forces: each row of the figure
-    ("hip_flexion", "hip flexion", "deg"),
-    ("knee_flexion", "knee flexion", "deg"),
-    ("ankle_dorsiflexion", "ankle dorsiflexion", "deg"),
-    ("pelvis_tilt", "pelvic tilt (anterior +)", "deg"),
-    ("pelvis_obliquity", "pelvic obliquity (own hip up +)", "deg"),
-    ("pelvis_rotation", "pelvic rotation (own hip forward +)", "deg"),
-    ("hip_adduction", "hip adduction", "deg"),
-    ("hip_rotation", "hip internal rotation", "deg"),
-    ("hip_abduction_moment", "hip abductor moment", "N m/kg"),
-    ("hip_extension_moment", "hip extensor moment", "N m/kg"),
-    ("knee_extension_moment", "knee extensor moment", "N m/kg"),
-    ("ankle_plantarflexion_moment", "ankle plantarflexor moment", "N m/kg"),
-    ("hip_power", "hip power", "W/kg"),
-    ("knee_power", "knee power", "W/kg"),
-    ("ankle_power", "ankle power", "W/kg"),
-    ("grf_vertical", "vertical GRF", "BW"),
-    ("grf_anterior", "fore-aft GRF (braking -)", "BW"),
+TRIAL_PANELS = tuple(
+    (n, *LABELS[n])
+    for n in (
+        # angles, moments, powers, forces: each row of the figure
+        "hip_flexion",
+        "knee_flexion",
+        "ankle_dorsiflexion",
+        "pelvis_tilt",
+        "pelvis_obliquity",
+        "pelvis_rotation",
+        "hip_adduction",
+        "hip_rotation",
+        "hip_abduction_moment",
+        "hip_extension_moment",
+        "knee_extension_moment",
+        "ankle_plantarflexion_moment",
+        "hip_power",
+        "knee_power",
+        "ankle_power",
+        "grf_vertical",
+        "grf_anterior",
+    )
 )
 TRIAL_ROWS = (
     # key, label, unit, scale, the adult norm (low, high), its source
