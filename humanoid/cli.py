@@ -263,6 +263,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
     tr.add_argument("--y-up", action="store_true", help="keypoints with Y up")
+    tr.add_argument("--marker-set", help="where the markers are on the body (TOML), as for "
+                    "ik; default: the toolkit's set")  # fmt: skip
+    tr.add_argument("--register", action="store_true", help="place the technical (cluster) "
+                    "markers first, as for ik")  # fmt: skip
+    tr.add_argument("--static", help="a static trial to register the technical markers on")
+    tr.add_argument("--calibration", help="the cameras' calibration (Pose2Sim's TOML): MOTION "
+                    "is then a folder of OpenPose .json folders, one per camera, fitted by "
+                    "reprojection error first")  # fmt: skip
     tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
                     "none; default: Winter's residual analysis of the motion)")  # fmt: skip
     tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")

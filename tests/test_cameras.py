@@ -276,8 +276,8 @@ def test_keypoints_check_their_shapes():
 
 def test_cli_ik_fits_camera_folders_to_their_calibration(tmp_path, seen_walk, capsys):
     """``humanoid ik pose/ --calibration Calib.toml --layout body25 --rate 50``: Pose2Sim's
-    layout in, the coordinates out, the reprojection error printed; a calibration with one
-    camera fewer is refused naming both."""
+    layout in, the coordinates out, the reprojection error printed; ``humanoid track`` takes
+    the same folders; a calibration with one camera fewer is refused naming both."""
     from humanoid.cli import main
     from humanoid.data import BODIES
 
@@ -295,6 +295,11 @@ def test_cli_ik_fits_camera_folders_to_their_calibration(tmp_path, seen_walk, ca
     assert "reprojected  4 cameras" in text and out.exists()
     px = float(text.split("reprojected  4 cameras, RMS per frame: mean ")[1].split(" px")[0])
     assert 1.0 < px < 4.0, text
+    # the markerless pipeline to the end: the same folders tracked in forward simulation
+    run = tmp_path / "tracked.npz"
+    assert main(["track", *args[1:-2], "-o", str(run)]) == 0
+    text = capsys.readouterr().out
+    assert "status       completed" in text and run.exists(), text
     write_calibration(calib, cams[:3])
     assert main(args) != 0
     err = capsys.readouterr().err

@@ -303,18 +303,18 @@ def run_id(args) -> int:
     return 0
 
 
-def _camera_keypoints(args):
-    """2D keypoints (a folder of OpenPose JSON folders, one per camera, in ``--layout`` at
-    ``--rate``) and the ``--calibration``'s cameras, matched."""
+def _camera_keypoints(args, path):
+    """2D keypoints (``path``: a folder of OpenPose JSON folders, one per camera, in
+    ``--layout`` at ``--rate``) and the ``--calibration``'s cameras, matched."""
     from .cameras import match_cameras, read_calibration, read_openpose
 
     if args.layout is None:
-        raise HumanoidError(f"{args.markers}: 2D keypoints need --layout (coco17, h36m17, "
-                            f"body25, halpe26, smpl24)")  # fmt: skip
-    if not Path(args.markers).is_dir():
-        raise HumanoidError(f"{args.markers}: with --calibration, MARKERS is a folder of "
+        raise HumanoidError(f"{path}: 2D keypoints need --layout (coco17, h36m17, body25, "
+                            f"halpe26, smpl24)")  # fmt: skip
+    if not Path(path).is_dir():
+        raise HumanoidError(f"{path}: with --calibration, the keypoints are a folder of "
                             f"OpenPose .json folders, one per camera")  # fmt: skip
-    keypoints = read_openpose(args.markers, args.layout, args.rate or 30.0)
+    keypoints = read_openpose(path, args.layout, args.rate or 30.0)
     cameras = read_calibration(args.calibration)
     return keypoints, match_cameras(keypoints, cameras, args.calibration)
 
@@ -370,7 +370,7 @@ def run_ik(args) -> int:
 
     cameras = None
     if getattr(args, "calibration", None):
-        markers, cameras = _camera_keypoints(args)
+        markers, cameras = _camera_keypoints(args, args.markers)
     else:
         markers = markers_file(args.markers, args)
     h, what = subject_body(args)
@@ -495,15 +495,26 @@ def run_track(args) -> int:
     from .tracking import track
 
     suffix = Path(args.motion).suffix.lower()
-    if suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout):
+    fitted = suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout)
+    if fitted or args.calibration:
         from .ik import inverse_kinematics
-        from .markers import default_markers
+        from .markers import default_markers, read_markers
 
-        markers = markers_file(args.motion, args)
+        cameras = None
+        if args.calibration:
+            markers, cameras = _camera_keypoints(args, args.motion)
+        else:
+            markers = markers_file(args.motion, args)
         h, what = subject_body(args)
-        marker_set = default_markers(h)
-        fit = inverse_kinematics(h, markers, marker_set)
+        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        static = markers_file(args.static, args) if args.static else None
+        fit = inverse_kinematics(h, markers, marker_set, static=static, cameras=cameras,
+                                 register=args.register or static is not None)  # fmt: skip
         t, q, loads = fit.time, fit.q, []
+        if cameras:  # the keypoints as the cameras see them together
+            from .cameras import triangulate
+
+            markers = triangulate(markers, cameras)
         recording = (markers, fit.marker_set or marker_set)
         print(f"ik           {len(fit.names)} markers, residual RMS per frame "
               f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
