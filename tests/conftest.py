@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -65,19 +67,43 @@ def random_state(h: hm.Humanoid, rng: np.random.Generator, inside_limits: bool =
     return q, v
 
 
+# every process this test session starts carries this tag in its environment (an orphan
+# keeps it): the viewer-process checks look at this session's servers only, not at another
+# pytest-xdist worker's or another run's on the same machine
+TAG = f"{os.getpid()}-{os.environ.get('PYTEST_XDIST_WORKER', 'main')}"
+os.environ["HUMANOID_TEST_SESSION"] = TAG
+
+
+def viewer_servers() -> list[str]:
+    """The meshcat servers (``humanoid._meshcat_server``) this test session started that
+    still run (zombies aside): "pid command" each."""
+    out = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                args = f.read().replace(b"\0", b" ").decode(errors="replace")
+            if "humanoid._meshcat_server" not in args:
+                continue
+            with open(f"/proc/{pid}/stat") as f:
+                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    continue
+            with open(f"/proc/{pid}/environ", "rb") as f:
+                if f"HUMANOID_TEST_SESSION={TAG}".encode() not in f.read().split(b"\0"):
+                    continue
+        except OSError:  # gone meanwhile, or not ours to read
+            continue
+        out.append(f"{pid} {args.strip()}")
+    return out
+
+
 @pytest.fixture(scope="session", autouse=True)
 def no_viewer_process_outlives_the_tests():
     """After the whole session, no meshcat server started by the tests may still run."""
     yield
-    import subprocess
     import time
 
     for _ in range(50):
-        ps = subprocess.run(["ps", "-eo", "pid,stat,args"], capture_output=True, text=True).stdout
-        left = [
-            line for line in ps.splitlines()
-            if "humanoid._meshcat_server" in line and " Z" not in line
-        ]  # fmt: skip
+        left = viewer_servers()
         if not left:
             return
         time.sleep(0.1)

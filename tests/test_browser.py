@@ -14,7 +14,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 import pytest
-from conftest import get_model, landing_run
+from conftest import get_model, landing_run, viewer_servers
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 FLAGS = [
@@ -196,8 +196,7 @@ def test_live_viewer_in_the_browser(browser):
 
 
 def test_no_viewer_process_is_left():
-    out = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
-    servers = [line for line in out.splitlines() if "humanoid._meshcat_server" in line]
+    servers = viewer_servers()
     assert not servers, servers
 
 

@@ -10,7 +10,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import BODIES, SCENES
+from conftest import BODIES, SCENES, viewer_servers
 
 import humanoid as hm
 from humanoid.cli import main
@@ -258,8 +258,7 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
     finally:
         if proc.poll() is None:
             proc.kill()
-    ps = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout
-    assert "humanoid._meshcat_server" not in ps
+    assert not viewer_servers()
 
 
 @pytest.fixture(scope="module")
