@@ -24,9 +24,8 @@ demo: $(STAMP)
 	$(PY) -m humanoid walk --gait welded -o results/welded.npz --html results/welded.html --figure results/welded.png
 	@echo "demo: results in results/: walk.npz, walk.html, gait_report.png (the person's walk), welded.npz, welded.png, welded.html (open the HTML in a browser)"
 
-# the suite on the machine's two cores (pytest-xdist), each test file whole on one worker
 test: $(STAMP) lint
-	$(PY) -m pytest -q -n 2 --dist loadfile
+	$(PY) -m pytest -q
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check humanoid tests scripts
