@@ -172,13 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "residuals between")  # fmt: skip
     v.add_argument("--marker-set", help="where the markers are on the body (TOML; default: "
                    "the toolkit's set)")  # fmt: skip
-    v.add_argument(
-        "--layout",
-        choices=("coco17", "h36m17", "body25", "smpl24"),
-        help="the keypoints' order (for --markers .npy/.npz)",
-    )
-    v.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
-    v.add_argument("--y-up", action="store_true", help="keypoints with Y up")
+    _keypoint_options(v)
     v.add_argument("--model", help=BODY_HELP + " (for .mot/.sto coordinates; default "
                    "adult_male)")  # fmt: skip
     v.add_argument("--map", help="the coordinates' model (gait2392, gait2354, rajagopal, TOML; "
@@ -204,17 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: 0 with 40 markers or more, 1e-7 with fewer: keypoints)")  # fmt: skip
     k.add_argument("--static", help="a static trial (.trc, .c3d) to register the technical "
                    "markers on (implies --register)")  # fmt: skip
-    k.add_argument(
-        "--layout",
-        choices=("coco17", "h36m17", "body25", "halpe26", "smpl24"),
-        help="the keypoints' order (for .npy/.npz)",
-    )
-    k.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when the file has "
-                   "no time (default 30)")  # fmt: skip
-    k.add_argument("--y-up", action="store_true", help="keypoints with Y up (z up otherwise)")
-    k.add_argument("--calibration", help="the cameras' calibration (Pose2Sim's TOML): MARKERS "
-                   "is then a folder of OpenPose .json folders, one per camera (2D keypoints "
-                   "in --layout at --rate), fitted by reprojection error")  # fmt: skip
+    _keypoint_options(k, calibration="MARKERS")
     k.add_argument("--map", help="the coordinates' names: rajagopal (default), gait2392, "
                    "gait2354")  # fmt: skip
     k.add_argument("-o", "--output", default="ik.mot", help="coordinates to write (.mot, .csv)")
@@ -256,21 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument("--map", help="the coordinates' model (gait2392, gait2354, rajagopal, TOML)")
     tr.add_argument("--no-floor", action="store_true", help="keep the motion's height")
-    tr.add_argument(
-        "--layout",
-        choices=("coco17", "h36m17", "body25", "halpe26", "smpl24"),
-        help="keypoints' order (for .npy/.npz keypoints)",
-    )
-    tr.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] (default 30)")
-    tr.add_argument("--y-up", action="store_true", help="keypoints with Y up")
+    _keypoint_options(tr, calibration="MOTION")
     tr.add_argument("--marker-set", help="where the markers are on the body (TOML), as for "
                     "ik; default: the toolkit's set")  # fmt: skip
     tr.add_argument("--register", action="store_true", help="place the technical (cluster) "
                     "markers first, as for ik")  # fmt: skip
     tr.add_argument("--static", help="a static trial to register the technical markers on")
-    tr.add_argument("--calibration", help="the cameras' calibration (Pose2Sim's TOML): MOTION "
-                    "is then a folder of OpenPose .json folders, one per camera, fitted by "
-                    "reprojection error first")  # fmt: skip
     tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
                     "none; default: Winter's residual analysis of the motion)")  # fmt: skip
     tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
@@ -400,6 +375,26 @@ def _subject_options(parser) -> None:
     parser.add_argument("--mass", type=float, help="the subject's mass [kg]")
     parser.add_argument("--sex", choices=("male", "female"), help="the subject's sex")
     parser.add_argument("--model", help=BODY_HELP + " (default: adult_male, or a run's own)")
+
+
+# humanoid.motion.markers.KEYPOINT_LAYOUTS' names (written here: the parser stays light)
+KEYPOINT_LAYOUTS = ("coco17", "h36m17", "body25", "halpe26", "smpl24")
+
+
+def _keypoint_options(parser, calibration: str | None = None) -> None:
+    """The options of a command that reads keypoints (.npy/.npz, or with ``--calibration``
+    a folder of 2D keypoints, named ``calibration`` in the help)."""
+    parser.add_argument("--layout", choices=KEYPOINT_LAYOUTS, help="the keypoints' order "
+                        "(.npy/.npz keypoints, or 2D keypoints with --calibration)")  # fmt: skip
+    parser.add_argument("--rate", type=float, help="keypoints' frame rate [Hz] when they have "
+                        "no time (default 30)")  # fmt: skip
+    parser.add_argument("--y-up", action="store_true", help="keypoints with Y up (z up "
+                        "otherwise)")  # fmt: skip
+    if calibration:
+        parser.add_argument("--calibration", help="the cameras' calibration (Pose2Sim's TOML): "
+                            f"{calibration} is then a folder of OpenPose .json folders, one "
+                            "per camera (2D keypoints in --layout at --rate), fitted by "
+                            "reprojection error")  # fmt: skip
 
 
 def _model_options(parser, ball_joints: bool = True) -> None:

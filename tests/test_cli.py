@@ -424,3 +424,17 @@ def test_variants_lists_every_registry(capsys):
     out = capsys.readouterr().out
     for registry in REGISTRIES:
         assert registry.what in out and all(name in out for name in registry)
+
+
+def test_the_parsers_keypoint_layouts_are_the_toolkits():
+    """The parser names the layouts without importing the motion package: the same names, in
+    the same order, as humanoid.motion.markers.KEYPOINT_LAYOUTS; every command that reads
+    keypoints offers them all."""
+    from humanoid import cli
+    from humanoid.motion.markers import KEYPOINT_LAYOUTS
+
+    assert cli.KEYPOINT_LAYOUTS == tuple(KEYPOINT_LAYOUTS)
+    parser = cli.build_parser()
+    for command in ("view", "ik", "track"):
+        args = parser.parse_args([command, "x", "--layout", "halpe26"])
+        assert args.layout == "halpe26"

@@ -307,10 +307,11 @@ def _camera_keypoints(args, path):
     """2D keypoints (``path``: a folder of OpenPose JSON folders, one per camera, in
     ``--layout`` at ``--rate``) and the ``--calibration``'s cameras, matched."""
     from .cameras import match_cameras, read_calibration, read_openpose
+    from .markers import KEYPOINT_LAYOUTS
 
     if args.layout is None:
-        raise HumanoidError(f"{path}: 2D keypoints need --layout (coco17, h36m17, body25, "
-                            f"halpe26, smpl24)")  # fmt: skip
+        raise HumanoidError(f"{path}: 2D keypoints need --layout "
+                            f"({', '.join(KEYPOINT_LAYOUTS)})")  # fmt: skip
     if not Path(path).is_dir():
         raise HumanoidError(f"{path}: with --calibration, the keypoints are a folder of "
                             f"OpenPose .json folders, one per camera")  # fmt: skip
@@ -322,7 +323,7 @@ def _camera_keypoints(args, path):
 def markers_file(path, args):
     """Marker trajectories: a TRC or C3D file, or keypoints (.npy (frames, k, 3) or .npz with
     ``points`` and optional ``time``) in ``--layout`` at ``--rate``."""
-    from .markers import keypoints, read_c3d, read_trc
+    from .markers import KEYPOINT_LAYOUTS, keypoints, read_c3d, read_trc
 
     path = Path(path)
     suffix = path.suffix.lower()
@@ -336,9 +337,7 @@ def markers_file(path, args):
         return read_bvh(path)
     if suffix in (".npy", ".npz"):
         if args.layout is None:
-            raise HumanoidError(
-                f"{path}: keypoints need --layout (coco17, h36m17, body25, halpe26, smpl24)"
-            )
+            raise HumanoidError(f"{path}: keypoints need --layout ({', '.join(KEYPOINT_LAYOUTS)})")
         try:
             loaded = np.load(path, allow_pickle=False)
         except (OSError, ValueError) as exc:
