@@ -193,6 +193,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "the toolkit's set (joint centres, gait2354's landmarks)")  # fmt: skip
     k.add_argument("--register", action="store_true", help="place the technical (cluster) "
                    "markers where the anatomical ones' fit finds them, then fit all")  # fmt: skip
+    k.add_argument("--ball-ranges", action="store_true", help="keep the ball joints (hips, "
+                   "spine, shoulders, neck) in their ranges too, reported as the hinges' are "
+                   "(default: the hinges only)")  # fmt: skip
     k.add_argument("--smoothing", type=float,
                    help="the joints' pull towards the frame before, on their velocity [s^2] "
                    "(default: 0 with 40 markers or more, 1e-7 with fewer: keypoints)")  # fmt: skip
@@ -246,6 +249,14 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--register", action="store_true", help="place the technical (cluster) "
                     "markers first, as for ik")  # fmt: skip
     tr.add_argument("--static", help="a static trial to register the technical markers on")
+    tr.add_argument("--floor", choices=("auto", "fit", "motion"), default="auto",
+                    help="the floor the motion is followed on: fitted to its stances ('fit'), "
+                    "the plane of its lowest sole point ('motion'), or 'auto' (default): the "
+                    "fitted one if it has a treadmill's belt, a tilt over 0.5 deg or a height "
+                    "over 5 mm")  # fmt: skip
+    tr.add_argument("--reduce", action="store_true", help="reduce the pelvis residuals first "
+                    "(small changes to the motion, as OpenSim's RRA; under --loads, or loads "
+                    "estimated on the floor)")  # fmt: skip
     tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
                     "none; default: Winter's residual analysis of the motion)")  # fmt: skip
     tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
@@ -276,6 +287,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "recorded foot was")  # fmt: skip
     d.add_argument("--marker-set", help="where the markers are on the body (TOML; default: "
                    "the toolkit's set)")  # fmt: skip
+    d.add_argument("--reduce", action="store_true", help="reduce the pelvis residuals first: "
+                   "small changes to the motion, the body's mass and its trunk's mass centre "
+                   "(as OpenSim's RRA); the moments are the reduced motion's")  # fmt: skip
+    d.add_argument("--reduced", help="write the reduced motion here (.mot, the input's map)")
     d.add_argument("--estimate-loads", action="store_true",
                    help="estimate the feet's ground forces from the motion (as without "
                    "--loads) and, with --loads, compare")  # fmt: skip

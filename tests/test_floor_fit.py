@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 from conftest import get_model
 
-from humanoid.motion.floor import Floor, fit_floor, residual_check
+from humanoid.motion.floor import Floor, belt_velocity, fit_floor, residual_check
 from humanoid.motion.inverse_dynamics import derivatives, estimate_loads, inverse_dynamics
 from humanoid.motion.loads import Load
 from humanoid.motion.storage import MotionFileError
@@ -123,3 +123,59 @@ def test_loads_estimated_on_the_fitted_floor(walk_100hz):
     assert residual_check(r.time, r.residual_force, W, loads, floor) is None
     text = residual_check(rf.time, rf.residual_force, W, [], floor)
     assert text is not None and "no foot on the floor" in text and " s (" in text
+
+
+def on_treadmill(t: np.ndarray, q: np.ndarray, speed: float) -> np.ndarray:
+    """The walk as a treadmill's cameras see it: the lab moves with the walker, so every point
+    moves back at ``speed`` [m/s] (the standing foot with the belt)."""
+    q = q.copy()
+    q[:, 0] -= speed * (t - t[0])
+    return q
+
+
+def test_a_level_walk_has_no_belt(walk_100hz):
+    h, t, q = walk_100hz
+    assert np.all(belt_velocity(h, t, q) == 0.0)
+    assert fit_floor(h, t, q).speed == 0.0 and "belt" not in fit_floor(h, t, q).summary()
+
+
+def test_a_treadmill_walk_gives_its_belt_and_its_walk_back(walk_100hz):
+    """The walk on a treadmill at 0.8 m/s (the walk's own speed: its pelvis stays put), tilted
+    2 deg about y and raised 12 mm: the fit finds the belt within 0.03 m/s along the floor,
+    the tilt within 0.2 deg, and the floor's frame gives back the walk over ground (its root
+    within 5 mm and 0.3 deg of the walk's); gravity turns with the floor."""
+    h, t, q = walk_100hz
+    R = about("y", 2.0)
+    qt = moved(on_treadmill(t, q, 0.8), R, 0.012)
+    floor = fit_floor(h, t, qt)
+    assert abs(floor.tilt_y_deg - 2.0) < 0.2 and abs(floor.tilt_x_deg) < 0.2, floor
+    np.testing.assert_allclose(floor.belt, R @ [-0.8, 0.0, 0.0], atol=0.03)
+    assert abs(np.dot(floor.belt, floor.normal)) < 1e-12
+    assert "belt 0.8" in floor.summary()
+    back = floor.onto(h.model, t, qt)
+    err = np.array([pin.difference(h.model, a, b)[:6] for a, b in zip(q, back, strict=True)])
+    assert np.abs(err[:, :3]).max() < 5e-3, np.abs(err[:, :3]).max(axis=0)
+    assert np.degrees(np.abs(err[:, 3:]).max()) < 0.3
+    np.testing.assert_allclose(back[:, 7:], qt[:, 7:])  # the joints untouched
+    np.testing.assert_allclose(floor.gravity(), floor.rotation.T @ [0.0, 0.0, -9.81])
+    assert floor.gravity()[0] == pytest.approx(9.81 * math.sin(math.radians(2.0)), abs=0.04)
+    # a belt given as its speed (along -x) fits the same floor
+    given = fit_floor(h, t, on_treadmill(t, q, 0.8), belt=0.8)
+    assert abs(given.tilt_y_deg) < 0.2 and given.speed == pytest.approx(0.8, abs=1e-3)
+
+
+def test_a_treadmill_walk_is_tracked_in_its_floors_frame(walk_100hz):
+    """The treadmill walk (belt 0.8 m/s, floor tilted 2 deg) tracked in the fitted floor's
+    frame completes, its joints within 3 deg RMS of the reference; followed in the lab's
+    frame (floor=None) the standing foot cannot move with a belt the ground does not have,
+    and the body falls."""
+    from humanoid.motion.tracking import track
+
+    h, t, q = walk_100hz
+    qt = moved(on_treadmill(t, q, 0.8), about("y", 2.0), 0.012)
+    res = track(h, t, qt, floor="fit")
+    assert res.completed, res.trajectory.metadata.get("message")
+    assert res.floor is not None and res.floor.speed == pytest.approx(0.8, abs=0.03)
+    assert np.degrees(np.sqrt(np.mean(res.joint_error[:, 6:] ** 2))) < 3.0
+    lab = track(h, t, qt)
+    assert not lab.completed

@@ -10,6 +10,7 @@ import pinocchio as pin
 import pytest
 
 import humanoid as hm
+from humanoid.constraints.limits import JointRanges
 from humanoid.motion.ik import (
     RangeLimitWarning,
     UnconstrainedWarning,
@@ -26,9 +27,10 @@ def body():
 
 def _motion(h, n=30, amplitude=0.3, margin=0.05):
     """``n`` configurations at 50 Hz swinging every joint about standing, kept ``margin``
-    [rad] inside every range."""
+    [rad] inside every range (a ball joint's: each of the hinge angles it replaces)."""
     model = h.model
     standing = h.standing_configuration()
+    balls = JointRanges(h)
     t = np.arange(n) * 0.02
     qs = []
     for ti in t:
@@ -37,6 +39,10 @@ def _motion(h, n=30, amplitude=0.3, margin=0.05):
         q = pin.integrate(model, standing, v)
         for _, iq, lo, hi in _ranges(model):
             q[iq] = np.clip(q[iq], lo + margin, hi - margin)
+        angles = balls.angles(q, remember=False)
+        for (ball, iq, _, lo, hi), th in zip(balls.balls, angles, strict=True):
+            R = ball.rotation(np.clip(th, lo + margin, hi - margin))
+            q[iq : iq + 4] = pin.Quaternion(R).coeffs()
         qs.append(q)
     return t, np.array(qs)
 
@@ -82,6 +88,37 @@ def test_a_joint_held_at_its_bound_is_reported(body):
     text = str(ranged[0].message)
     assert "right_ankle_flexion held at its upper limit 20.0 deg" in text
     assert f"in {past.sum()} of {len(t)} frames" in text and "wanted up to 25.0 deg" in text
+
+
+def test_a_ball_joint_held_at_its_bound_is_reported(body):
+    """The trunk's thoracic ball joint flexed to 5 degrees past its 45-degree bound over the
+    trial's second half: the fit with ``ball_ranges`` holds the flexion at 45, the report
+    names the hinge it replaces with its frames, and the markers wanted 5 degrees more (within
+    1); without, the fit follows the markers past the bound."""
+    h = body
+    t, qs = _motion(h, n=20, amplitude=0.05)
+    balls = JointRanges(h)
+    k = next(i for i, b in enumerate(balls.balls) if b[0].name.startswith("thoracic"))
+    ball, iq, _, lo, hi = balls.balls[k]
+    a = ball.hinges.index("thoracic_flexion")
+    over = np.radians(np.linspace(-5.0, 5.0, len(t)))
+    for q, extra in zip(qs, over, strict=True):
+        th = balls.angles(q, remember=False)[k]
+        th[a] = hi[a] + extra
+        q[iq : iq + 4] = pin.Quaternion(ball.rotation(th)).coeffs()
+    r, said = _fit(h, t, qs, default_markers(h), ball_ranges=True)
+    past = over > 1e-9
+    got = np.array([balls.angles(q, remember=False)[k, a] for q in r.q])
+    np.testing.assert_allclose(got[past], hi[a], atol=2e-4)
+    assert np.all(balls.excess(r.q[-1]) < 2e-4)
+    report = next(x for x in r.at_limit if x.coordinate == "thoracic_flexion")
+    assert report.limit == "upper" and report.bound == pytest.approx(np.degrees(hi[a]))
+    assert report.frames >= past.sum() - 1
+    assert report.excess == pytest.approx(5.0, abs=1.0)
+    assert any("thoracic_flexion held at its upper limit" in str(w.message) for w in said)
+    free, _ = _fit(h, t, qs, default_markers(h))
+    past_free = np.array([balls.angles(q, remember=False)[k, a] for q in free.q])
+    assert past_free[-1] > hi[a] + np.radians(4.0)
 
 
 def test_a_motion_inside_its_ranges_warns_nothing(body):

@@ -210,6 +210,7 @@ def run_id(args) -> int:
     from .storage import write_csv, write_storage
 
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
+    shown = cutoff  # the filter the motion went through
     import scipy.signal  # noqa: F401 - imported before the clock starts: the timing is the ID's
 
     h, what, t, q, loads, cmap, left_out = read_motion(args)
@@ -241,6 +242,11 @@ def run_id(args) -> int:
 
         marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
         feet = recorded_feet(h, t, q, markers_file(args.markers, args), marker_set)
+    reduced = None
+    if getattr(args, "reduce", False) or getattr(args, "reduced", None):
+        h, t, q, loads, reduced = _reduced(h, t, q, loads, cutoff, args, cmap)
+        shown = cutoff
+        cutoff, feet = None, None  # (the reduced motion and its loads are filtered)
     start = clock.perf_counter()
     r = inverse_dynamics(h, t, q, loads, cutoff=cutoff, rate=args.rate, velocity=args.velocity,
                          recorded_feet=feet)  # fmt: skip
@@ -257,13 +263,15 @@ def run_id(args) -> int:
     print(f"body         {what}, map {cmap.name}")
     print(f"motion       {n} frames at {1.0 / (r.time[1] - r.time[0]):.1f} Hz, "
           f"{r.time[0]:.3f}-{r.time[-1]:.3f} s, "
-          f"filter {'none' if cutoff is None else f'{cutoff:g} Hz'}")  # fmt: skip
+          f"filter {'none' if shown is None else f'{shown:g} Hz'}")  # fmt: skip
     names = ", ".join(f"{x.body} ({x.name or 'run'})" for x in loads) or "none"
     print(f"loads        {names}")
     if floor_line:
         print(f"floor        {floor_line}")
     if left_out:
         print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
+    for line in reduced or []:
+        print(f"reduced      {line}")
     weight = h.mass * 9.81
     for side, t0, t1, dx, dy in r.carried:
         print(f"carried      {side} load {t0:.2f}-{t1:.2f} s by ({dx * 1e3:+.0f}, "
@@ -301,6 +309,30 @@ def run_id(args) -> int:
                           np.zeros(n), {"model": h.source, "status": "completed"})  # fmt: skip
         print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse dynamics')}")
     return 0
+
+
+def _reduced(h, t, q, loads, cutoff, args, cmap=None):
+    """The motion with its residuals reduced (:func:`~humanoid.motion.reduce.
+    reduce_residuals`): (the body with the mass changes, time, q, the loads as applied, the
+    summary's lines); ``args.reduced``: the motion written there too."""
+    import copy
+
+    from .reduce import reduce_residuals
+
+    start = clock.perf_counter()
+    red = reduce_residuals(h, t, q, loads, cutoff=cutoff)
+    body = copy.copy(h)
+    body.model = red.model
+    lines = [*red.summary(), f"in {clock.perf_counter() - start:.1f} s ({red.iterations} "
+             "Gauss-Newton iterations)"]  # fmt: skip
+    if getattr(args, "reduced", None):
+        from .coordinates import coordinates_table
+        from .storage import write_storage
+
+        table = coordinates_table(h, red.time, red.q, cmap or "rajagopal")
+        table.name = "Coordinates (residuals reduced)"
+        lines.append(f"wrote {write_storage(Path(args.reduced), table)}")
+    return body, red.time, red.q, red.loads, lines
 
 
 def _camera_keypoints(args, path):
@@ -388,6 +420,7 @@ def run_ik(args) -> int:
             r = inverse_kinematics(h, markers, marker_set,
                                    register=args.register or static is not None, static=static,
                                    smoothing=args.smoothing, cameras=cameras,
+                                   ball_ranges=getattr(args, "ball_ranges", False),
                                    progress=lambda i: bar.update(1))  # fmt: skip
     finally:
         bar.close()
@@ -521,7 +554,17 @@ def run_track(args) -> int:
         h, what, t, q, loads, _, _ = read_motion(args)
         recording = None
     cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
-    res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet)
+    floor, floor_line = _tracking_floor(h, t, q, getattr(args, "floor", "auto"))
+    reduced = []
+    if getattr(args, "reduce", False):
+        given = loads
+        if not loads:
+            from .inverse_dynamics import derivatives, estimate_loads
+
+            loads = estimate_loads(h, *derivatives(h.model, t, q), floor=floor)
+        _, t, q, _, reduced = _reduced(h, t, q, loads, 6.0, args)
+        loads = given  # (measured loads tell the contacts; estimated ones are the motion's)
+    res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
     h = res.body  # (its toes locked)
     traj = res.trajectory
     path = traj.save(args.output)
@@ -532,6 +575,9 @@ def run_track(args) -> int:
     worst = np.argsort(-rms)[:5]
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
     print(f"body         {what}")
+    print(f"floor        {floor_line}")
+    for line in reduced:
+        print(f"reduced      {line}")
     print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
           + (" (Winter's residual analysis)" if cutoff == "auto" else ""))  # fmt: skip
     print(
@@ -576,6 +622,25 @@ def run_track(args) -> int:
         print(f"viewer       {page}")
         _print_hidden(caught)
     return 0 if res.completed else 3
+
+
+def _tracking_floor(h, t, q, choice: str):
+    """(the floor to track on or None, a line saying which): ``choice`` ``"fit"``,
+    ``"motion"`` (the plane of the lowest sole point) or ``"auto"`` (the fitted one if it has a
+    belt, a tilt over 0.5 deg or a height over 5 mm)."""
+    from .floor import fit_floor
+
+    if choice == "motion":
+        return None, "the plane of the motion's lowest sole point (--floor motion)"
+    try:
+        floor = fit_floor(h, t, q)
+    except HumanoidError as exc:
+        return None, f"not fitted ({exc}): the plane of the motion's lowest sole point"
+    off = (floor.speed > 0.0 or max(abs(floor.tilt_x_deg), abs(floor.tilt_y_deg)) > 0.5
+           or abs(floor.height) > 0.005)  # fmt: skip
+    if choice == "fit" or off:
+        return floor, f"{floor.summary()}: followed in its frame"
+    return None, f"{floor.summary()}: level, the motion's own kept"
 
 
 def tracking_figure(path, res, labels, mass: float, title: str = "") -> Path:

@@ -6,6 +6,14 @@ the sole points (:meth:`~humanoid.model.Humanoid.sole_points`) in their stance p
 by stillness (no assumption on where the floor is), a robust least-squares plane through them.
 :func:`~humanoid.motion.inverse_dynamics.estimate_loads` and
 :func:`~humanoid.motion.inverse_dynamics.contact_schedule` take the result as ``floor``.
+
+On a treadmill the standing foot is not still: it moves back with the belt. The belt's velocity
+(:func:`belt_velocity`: the median velocity of the lowest sole point, zero over ground) is found
+first and stillness is judged relative to it. :meth:`Floor.onto` turns a motion into the
+floor's own frame, level and moving with its belt: a treadmill walk becomes the walk over
+ground it is (the physics is the same in any frame moving at a constant velocity), which
+forward tracking (:func:`~humanoid.motion.tracking.track`) can follow on a level floor under
+gravity turned as the floor is (:meth:`Floor.gravity`).
 """
 
 from __future__ import annotations
@@ -19,7 +27,19 @@ import pinocchio as pin
 from ..model import SIDES
 from .storage import MotionFileError
 
-__all__ = ["Floor", "ResidualWarning", "fit_floor", "residual_check", "stance_points"]
+__all__ = [
+    "LEVEL",
+    "Floor",
+    "ResidualWarning",
+    "belt_velocity",
+    "fit_floor",
+    "residual_check",
+    "stance_points",
+]
+
+# [m/s] a lowest sole point moving faster than this, over most of the motion, is on a belt: over
+# ground it is still (under 0.1 m/s); treadmills run from about 0.4 m/s
+BELT_SPEED = 0.25
 
 
 class ResidualWarning(UserWarning):
@@ -39,6 +59,8 @@ class Floor:
             negative tilt about y; along +y, a positive tilt about x).
         points_used: How many stance samples of sole points it was fitted to (inliers).
         rms: The RMS distance of those points from it [m].
+        belt: A treadmill belt's velocity (3,) [m/s, world axes, along the floor]; zero over
+            ground.
     """
 
     normal: tuple[float, float, float]
@@ -47,17 +69,26 @@ class Floor:
     tilt_y_deg: float = 0.0
     points_used: int = 0
     rms: float = 0.0
+    belt: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @classmethod
-    def from_normal(cls, normal, height: float, points_used: int = 0, rms: float = 0.0) -> Floor:
+    def from_normal(cls, normal, height: float, points_used: int = 0, rms: float = 0.0,
+                    belt=(0.0, 0.0, 0.0)) -> Floor:  # fmt: skip
         """The floor of a normal (any length, made unit and upward) and a height at the origin
-        [m], its tilts computed."""
+        [m], its tilts computed; ``belt`` [m/s] is projected onto it."""
         n = np.asarray(normal, dtype=float).reshape(3)
         n = n / np.linalg.norm(n) * (1.0 if n[2] >= 0 else -1.0)
         tx = math.degrees(math.atan2(-n[1], math.hypot(n[0], n[2])))
         ty = math.degrees(math.atan2(n[0], n[2]))
+        b = np.asarray(belt, dtype=float).reshape(3)
+        b = b - (b @ n) * n
         return cls(tuple(float(x) for x in n), float(height), tx, ty, int(points_used),
-                   float(rms))  # fmt: skip
+                   float(rms), tuple(float(x) for x in b))  # fmt: skip
+
+    @property
+    def speed(self) -> float:
+        """The belt's speed [m/s] (0 over ground)."""
+        return float(np.linalg.norm(self.belt))
 
     @property
     def rotation(self) -> np.ndarray:
@@ -87,12 +118,40 @@ class Floor:
         torque = m - np.cross(point, f)
         return point, torque
 
+    def gravity(self, gravity=(0.0, 0.0, -9.81)) -> np.ndarray:
+        """World ``gravity`` (3,) [m/s^2] in the floor's axes (:meth:`onto`)."""
+        return self.rotation.T @ np.asarray(gravity, dtype=float)
+
+    def onto(self, model, time, q) -> np.ndarray:
+        """The configurations ``q`` (n, nq) at ``time`` (n,) [s] of a free-flyer ``model`` in
+        the floor's frame: its plane is z = 0 and level (the floor's axes, :attr:`rotation`),
+        and the frame moves with the belt from ``time[0]`` on (a treadmill walk becomes a walk
+        over ground; physics is the same in it, under :meth:`gravity`). Only the root's
+        placement changes."""
+        if "FreeFlyer" not in model.joints[1].shortname():
+            raise MotionFileError("a floor's frame needs a body with a free-flyer root")
+        time = np.asarray(time, dtype=float).reshape(-1)
+        out = np.array(q, dtype=float, copy=True)
+        R = self.rotation
+        moved = np.outer(time - time[0], np.asarray(self.belt)) + np.array([0, 0, self.height])
+        out[:, :3] = (out[:, :3] - moved) @ R  # R^T (p - o) per row
+        turn = pin.Quaternion(R.T)
+        for row in out:
+            quat = turn * pin.Quaternion(row[6], row[3], row[4], row[5])
+            row[3:7] = quat.coeffs()  # x, y, z, w
+        return out
+
     def summary(self) -> str:
         """One line: "tilt 1.98 deg about y, -0.03 about x, 12.0 mm at the origin (fitted to
-        412 stance points, 1.1 mm RMS)"."""
+        412 stance points, 1.1 mm RMS)", and a treadmill's "; belt 1.15 m/s"."""
+        belt = f"; belt {self.speed:.2f} m/s" if self.speed > 0.0 else ""
         return (f"tilt {self.tilt_y_deg:.2f} deg about y, {self.tilt_x_deg:.2f} about x, "
                 f"{self.height * 1e3:.1f} mm at the origin (fitted to {self.points_used} stance "
-                f"points, {self.rms * 1e3:.1f} mm RMS)")  # fmt: skip
+                f"points, {self.rms * 1e3:.1f} mm RMS){belt}")  # fmt: skip
+
+
+# the level floor z = 0, without a belt
+LEVEL = Floor((0.0, 0.0, 1.0), 0.0)
 
 
 def _sole_positions(h, q) -> np.ndarray:
@@ -110,28 +169,59 @@ def _sole_positions(h, q) -> np.ndarray:
     return out
 
 
+def _sole_velocities(h, time, q, cutoff: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Every sole point's position and velocity in every sample, (n, points, 3) each, the
+    velocities from the positions low-passed at ``cutoff`` [Hz] (None: not filtered)."""
+    from .inverse_dynamics import lowpass
+
+    P = _sole_positions(h, np.asarray(q, dtype=float))
+    if len(time) < 2:
+        return P, np.zeros_like(P)
+    flat = P.reshape(len(time), -1)
+    rate = (len(time) - 1) / (time[-1] - time[0])
+    if cutoff is not None and len(time) > 12 and cutoff < rate / 2.0:
+        flat = lowpass(flat, rate, cutoff)
+    return P, np.gradient(flat, time, axis=0).reshape(P.shape)
+
+
+def belt_velocity(h, time, q, cutoff: float | None = 6.0) -> np.ndarray:
+    """A treadmill belt's velocity (3,) [m/s, world axes] under a motion: the median velocity of
+    the lowest sole point of each sample (in a walk one foot always stands), zero if that is
+    under ``BELT_SPEED`` (0.25 m/s: over ground) or if the body goes along with it (its root's
+    mean velocity over half of it: a body carried, not walking on a belt, which keeps the
+    walker in place)."""
+    time = np.asarray(time, dtype=float).reshape(-1)
+    P, V = _sole_velocities(h, time, q, cutoff)
+    if len(time) < 3:
+        return np.zeros(3)
+    low = np.argmin(P[:, :, 2], axis=1)
+    v = np.median(V[np.arange(len(time)), low], axis=0)
+    q = np.asarray(q, dtype=float)
+    root = (q[-1, :3] - q[0, :3]) / (time[-1] - time[0])
+    speed = float(np.linalg.norm(v[:2]))
+    if speed <= BELT_SPEED or float(np.linalg.norm(root[:2])) > 0.5 * speed:
+        return np.zeros(3)
+    return v
+
+
 def stance_points(h, time, q, speed: float = 0.1, release: float = 0.2,
-                  duration: float = 0.05, cutoff: float | None = 6.0) -> np.ndarray:  # fmt: skip
+                  duration: float = 0.05, cutoff: float | None = 6.0,
+                  belt=(0.0, 0.0, 0.0)) -> np.ndarray:  # fmt: skip
     """The sole points' positions in their stances: (m, 3) [m, world], every sample at which a
     sole point is still, wherever it is (no floor height is assumed).
 
     A point is still from when its speed [m/s] falls under ``speed`` until it rises over
     ``release`` (hysteresis), for at least ``duration`` [s]; speeds are from the positions
-    low-passed at ``cutoff`` [Hz] (None: not filtered), then differentiated. Over ground only:
-    on a treadmill the standing foot moves with the belt.
+    low-passed at ``cutoff`` [Hz] (None: not filtered), then differentiated, and relative to a
+    treadmill's ``belt`` velocity (3,) [m/s] (:func:`belt_velocity`; a standing foot moves
+    with the belt).
     """
-    from .inverse_dynamics import lowpass
-
     time = np.asarray(time, dtype=float).reshape(-1)
-    P = _sole_positions(h, np.asarray(q, dtype=float))
+    P, V = _sole_velocities(h, time, q, cutoff)
     if len(time) < 2:
         return P.reshape(-1, 3)[:0]
-    flat = P.reshape(len(time), -1)
     rate = (len(time) - 1) / (time[-1] - time[0])
-    if cutoff is not None and len(time) > 12 and cutoff < rate / 2.0:
-        flat = lowpass(flat, rate, cutoff)
-    vel = np.gradient(flat, time, axis=0).reshape(P.shape)
-    fast = np.linalg.norm(vel, axis=2)
+    fast = np.linalg.norm(V - np.asarray(belt, dtype=float), axis=2)
     still = np.zeros(fast.shape, dtype=bool)
     state = fast[0] < speed
     for i in range(len(time)):
@@ -157,7 +247,7 @@ def _plane(points: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def fit_floor(h, time, q, *, speed: float = 0.1, release: float = 0.2, duration: float = 0.05,
-              cutoff: float | None = 6.0, iterations: int = 20) -> Floor:  # fmt: skip
+              cutoff: float | None = 6.0, iterations: int = 20, belt=None) -> Floor:  # fmt: skip
     """The floor a motion stands on: a plane fitted to the sole points in their stances
     (:func:`stance_points`, with ``speed``, ``release`` [m/s], ``duration`` [s], ``cutoff``
     [Hz]) by iteratively reweighted total least squares (Tukey's biweight on the distances to
@@ -166,6 +256,9 @@ def fit_floor(h, time, q, *, speed: float = 0.1, release: float = 0.2, duration:
 
     Args:
         h: The :class:`~humanoid.model.Humanoid`. time: (n,) [s]. q: (n, nq) configurations.
+        belt: A treadmill's belt velocity (3,) [m/s, world axes], or its speed (along the
+            motion's backward direction, -x); default None: :func:`belt_velocity` of the
+            motion (zero over ground).
 
     Returns:
         The :class:`Floor` (world axes).
@@ -174,8 +267,12 @@ def fit_floor(h, time, q, *, speed: float = 0.1, release: float = 0.2, duration:
         MotionFileError: fewer than 3 stance points, or all of them on a line (spread under
             1 cm across it): no plane is defined.
     """
+    if belt is None:
+        belt = belt_velocity(h, time, q, cutoff)
+    elif np.ndim(belt) == 0:
+        belt = np.array([-float(belt), 0.0, 0.0])
     P = stance_points(h, time, q, speed=speed, release=release, duration=duration,
-                      cutoff=cutoff)  # fmt: skip
+                      cutoff=cutoff, belt=belt)  # fmt: skip
     if len(P) < 3:
         raise MotionFileError(
             f"the floor needs at least 3 stance points (sole points still for {duration:g} s "
@@ -200,7 +297,7 @@ def fit_floor(h, time, q, *, speed: float = 0.1, release: float = 0.2, duration:
     inliers = weights > 0
     rms = float(np.sqrt(np.mean(((P[inliers] - centre) @ normal) ** 2)))
     height = float(centre @ normal / normal[2])  # where the plane crosses x = y = 0
-    return Floor.from_normal(normal, height, int(inliers.sum()), rms)
+    return Floor.from_normal(normal, height, int(inliers.sum()), rms, belt)
 
 
 def residual_check(time, residual_force, weight: float, loads=(), floor: Floor | None = None,

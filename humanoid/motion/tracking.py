@@ -218,7 +218,9 @@ class Tracked:
         contacts: side -> (times, in contact) as scheduled. wall_time: [s]. body: the body
             that moved (a body with toes tracks with them locked:
             :func:`~humanoid.model.lock_foot_hinges`). cutoff: the reference's low-pass
-            cutoff [Hz] (None: unfiltered).
+            cutoff [Hz] (None: unfiltered). floor: the
+            :class:`~humanoid.motion.floor.Floor` whose frame the run is in (None: the
+            motion's own).
     """
 
     trajectory: object
@@ -228,6 +230,7 @@ class Tracked:
     wall_time: float
     body: object = None
     cutoff: float | None = None
+    floor: object = None
 
     @property
     def completed(self) -> bool:
@@ -236,7 +239,7 @@ class Tracked:
 
 def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | None = "auto",
           dt: float = 1e-3, mu: float = 0.8, gains: TrackGains | None = None,
-          record_rate: float = 100.0, quiet: bool = True) -> Tracked:  # fmt: skip
+          record_rate: float = 100.0, quiet: bool = True, floor=None) -> Tracked:  # fmt: skip
     """Follow the motion ``q`` (n, nq) at ``time`` in forward simulation (see the module
     docstring); ``loads`` (measured ground forces) only say when each foot is on the ground.
     ``cutoff``: the reference's low-pass cutoff [Hz]; ``"auto"`` (the default): Winter's
@@ -248,6 +251,12 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     centre of mass below half its starting height); what it recorded up to then is kept. A
     body with toes tracks with them locked (the tracker plans a rigid foot); the result's
     :attr:`Tracked.body` is the body that moved.
+
+    ``floor``: the :class:`~humanoid.motion.floor.Floor` the motion was recorded on
+    (:func:`~humanoid.motion.floor.fit_floor`), or ``"fit"`` to fit it: the motion is followed
+    in the floor's frame (:meth:`~humanoid.motion.floor.Floor.onto`: level, moving with a
+    treadmill's belt, under gravity turned as the floor is), and the run is recorded in that
+    frame; default None: on the horizontal plane of the motion's lowest sole point.
     """
     import time as clock
 
@@ -259,22 +268,35 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     if np.shape(q)[-1] != h.model.nq:
         q = restrict_configurations(q, full, h)
     model = h.model
+    gravity = np.asarray(model.gravity.linear, dtype=float)
+    if floor is not None:
+        from .floor import LEVEL, fit_floor
+
+        if isinstance(floor, str):
+            floor = fit_floor(h, time, q)
+        q = floor.onto(model, time, q)
+        gravity = floor.gravity(gravity)
     if cutoff == "auto":
         cutoff = min(max(residual_cutoff(model, time, q), LOWEST_CUTOFF), HIGHEST_CUTOFF)
     t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
-    contacts = contact_schedule(h, t, qf, vf, loads)
+    contacts = contact_schedule(h, t, qf, vf, loads, floor=None if floor is None else LEVEL)
     duration = float(t[-1] - t[0])
     scene = Scene(
         name="track", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
         integrator="semi_implicit_euler", record_rate=record_rate,
-        effects=Effects(joint_limits=JointLimitSpec(kind="constraint"),
+        effects=Effects(gravity=tuple(float(x) for x in gravity),
+                        joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu)),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
-    shifted = MotionReference(model, t - t[0], qf, vf, af, floor=lowest_sole_point(h, qf))
+    base = lowest_sole_point(h, qf) if floor is None else 0.0
+    shifted = MotionReference(model, t - t[0], qf, vf, af, floor=base)
     contacts = {s: (times - t[0], on) for s, (times, on) in contacts.items()}
     ctl = MotionTracker(h, sim.model, shifted, contacts, sim.ground, dt, gains)
     sim.q0, sim.v0, _ = shifted.state(0.0)
+    # a fitted floor is a plane through the stances: a foot may start a centimetre in it, and
+    # the run would open with an impact; it starts on it
+    sim.q0[2] += max(0.0, base - lowest_sole_point(h, sim.q0[None]))
     sim.controller = ctl
     sim.monitors.append(FallMonitor(sim.model, sim.q0))
     start = clock.perf_counter()
@@ -282,4 +304,4 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     wall = clock.perf_counter() - start
     ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor)
