@@ -170,8 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--markers", help="the trial's markers (.trc, .c3d; keypoints .npy/.npz "
                    "with --layout) drawn with the motion: measured, on the body, and the "
                    "residuals between")  # fmt: skip
-    v.add_argument("--marker-set", help="where the markers are on the body (TOML; default: "
-                   "the toolkit's set)")  # fmt: skip
+    v.add_argument("--marker-set", help=MARKER_SET_HELP)
     _keypoint_options(v)
     v.add_argument("--model", help=BODY_HELP + " (for .mot/.sto coordinates; default "
                    "adult_male)")  # fmt: skip
@@ -189,8 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("markers", help="marker trajectories (.trc, .c3d), a BVH motion or keypoints "
                    "(.npy (frames, k, 3), or .npz with 'points' and 'time') [m]")  # fmt: skip
     _subject_options(k)
-    k.add_argument("--marker-set", help="where the markers are on the body (TOML); default: "
-                   "the toolkit's set (joint centres, gait2354's landmarks)")  # fmt: skip
+    k.add_argument("--marker-set", help=MARKER_SET_HELP)
     k.add_argument("--register", action="store_true", help="place the technical (cluster) "
                    "markers where the anatomical ones' fit finds them, then fit all")  # fmt: skip
     k.add_argument("--ball-ranges", action="store_true", help="keep the ball joints (hips, "
@@ -244,8 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--map", help="the coordinates' model (gait2392, gait2354, rajagopal, TOML)")
     tr.add_argument("--no-floor", action="store_true", help="keep the motion's height")
     _keypoint_options(tr, calibration="MOTION")
-    tr.add_argument("--marker-set", help="where the markers are on the body (TOML), as for "
-                    "ik; default: the toolkit's set")  # fmt: skip
+    tr.add_argument("--marker-set", help=MARKER_SET_HELP)
     tr.add_argument("--register", action="store_true", help="place the technical (cluster) "
                     "markers first, as for ik")  # fmt: skip
     tr.add_argument("--static", help="a static trial to register the technical markers on")
@@ -357,6 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--threshold", type=float, default=20.0, help="a foot's contact: its "
                     "vertical force above this [N] (it ends below half of it)")  # fmt: skip
     rp.add_argument("--no-floor", action="store_true", help="keep the motion's height as it is")
+    rp.add_argument("--marker-set", help=MARKER_SET_HELP + " (a C3D trial)")
     rp.add_argument("-o", "--output", default="report.png", help="the report to write (PNG)")
 
     command("variants", help="list the integrators, formulations, backends, contact kinds... "
@@ -391,6 +389,14 @@ def _subject_options(parser) -> None:
     parser.add_argument("--sex", choices=("male", "female"), help="the subject's sex")
     parser.add_argument("--model", help=BODY_HELP + " (default: adult_male, or a run's own)")
 
+
+# humanoid.motion.marker_sets.MARKER_SETS' names (written here: the parser stays light)
+MARKER_SETS = ("gait2354", "plugin-gait", "clusters")
+MARKER_SET_HELP = (
+    "where the markers are on the body: a shipped set ("
+    + ", ".join(MARKER_SETS)
+    + ") or a TOML file; default: the shipped set the labels call for"
+)
 
 # humanoid.motion.markers.KEYPOINT_LAYOUTS' names (written here: the parser stays light)
 KEYPOINT_LAYOUTS = ("coco17", "h36m17", "body25", "halpe26", "smpl24")
@@ -856,11 +862,11 @@ def _view(args) -> int:
         if traj is None:
             raise HumanoidError("--markers are drawn with a motion: a run (.npz) or joint "
                                 "coordinates (.mot/.sto)")  # fmt: skip
-        from .motion.commands import markers_file
-        from .motion.markers import default_markers, read_markers
+        from .motion.commands import marker_set_of, markers_file
 
-        markers = markers_file(args.markers, args)
-        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        chosen, markers = marker_set_of(h, markers_file(args.markers, args), args.marker_set,
+                                        crop=False)  # fmt: skip
+        marker_set = chosen.markers
     title = Path(args.target).stem
     if args.html:
         path = export_html(h, args.html, traj=traj, overlays=overlays, speed=args.speed,

@@ -238,10 +238,9 @@ def run_id(args) -> int:
               "(no force plates, or --estimate-loads)")  # fmt: skip
     feet = None
     if args.markers:  # where the recorded feet were: carry the loads with the body's feet
-        from .markers import default_markers, read_markers
-
-        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
-        feet = recorded_feet(h, t, q, markers_file(args.markers, args), marker_set)
+        chosen, recorded = marker_set_of(h, markers_file(args.markers, args), args.marker_set,
+                                         crop=False)  # fmt: skip
+        feet = recorded_feet(h, t, q, recorded, chosen.markers)
     reduced = None
     if getattr(args, "reduce", False) or getattr(args, "reduced", None):
         h, t, q, loads, reduced = _reduced(h, t, q, loads, cutoff, args, cmap)
@@ -387,6 +386,33 @@ def markers_file(path, args):
     raise HumanoidError(f"{path}: markers are .trc, .c3d, .bvh, or keypoints in .npy/.npz")
 
 
+def marker_set_of(h, markers, choice, crop: bool = True):
+    """The marker set for a trial's markers (:func:`~humanoid.motion.marker_sets.
+    resolve_marker_set`: ``choice`` a shipped set's name, a TOML file, or None: told from the
+    labels), printed with what it left out; and the trial's markers (labels without a
+    subject's prefix), cropped to the frames where half of them are seen if ``crop``."""
+    import warnings
+
+    from .marker_sets import MarkerSetWarning, resolve_marker_set
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", MarkerSetWarning)
+        chosen = resolve_marker_set(h, markers, choice)
+    print(f"marker set   {chosen.describe()}")
+    for w in caught:
+        if issubclass(w.category, MarkerSetWarning):
+            print(f"warning      {w.message}")
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    markers = chosen.trajectories
+    if crop:
+        markers, before, after = chosen.cropped()
+        if before or after:
+            print(f"frames       {markers.time[0]:.3f}-{markers.time[-1]:.3f} s, where half the "
+                  f"markers are seen ({before} frames before, {after} after left out)")  # fmt: skip
+    return chosen, markers
+
+
 def run_ik(args) -> int:
     """``humanoid ik``: inverse kinematics of markers or keypoints, written as coordinates."""
     import sys
@@ -396,7 +422,8 @@ def run_ik(args) -> int:
 
     from .coordinates import MAPS, coordinates_table
     from .ik import RangeLimitWarning, UnconstrainedWarning, inverse_kinematics
-    from .markers import default_markers, read_markers, write_markers
+    from .marker_sets import strip_prefix
+    from .markers import MarkerTrajectories, default_markers, read_markers, write_markers
     from .storage import write_csv, write_storage
 
     cameras = None
@@ -405,20 +432,28 @@ def run_ik(args) -> int:
     else:
         markers = markers_file(args.markers, args)
     h, what = subject_body(args)
-    marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
     if args.map not in (None, *MAPS):
         raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)}")
-    bar = tqdm(total=len(markers.time) * (2 if args.register and not args.static else 1),
+    if cameras:
+        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        register = False
+    else:
+        chosen, markers = marker_set_of(h, markers, args.marker_set)
+        marker_set, register = chosen.markers, args.register or chosen.register
+    bar = tqdm(total=len(markers.time) * (2 if register and not args.static else 1),
                unit="frame",
                disable=args.quiet or not sys.stderr.isatty())  # fmt: skip
     start = clock.perf_counter()
     try:
         static = markers_file(args.static, args) if args.static else None
+        if static is not None:  # (its labels without a subject's prefix, as the trial's)
+            static = MarkerTrajectories(static.time, strip_prefix(static.names)[0],
+                                        static.positions, static.source)  # fmt: skip
         with warnings.catch_warnings():  # (said below, one line each)
             warnings.simplefilter("ignore", RangeLimitWarning)
             warnings.simplefilter("ignore", UnconstrainedWarning)
             r = inverse_kinematics(h, markers, marker_set,
-                                   register=args.register or static is not None, static=static,
+                                   register=register or static is not None, static=static,
                                    smoothing=args.smoothing, cameras=cameras,
                                    ball_ranges=getattr(args, "ball_ranges", False),
                                    progress=lambda i: bar.update(1))  # fmt: skip
@@ -428,14 +463,15 @@ def run_ik(args) -> int:
     table = coordinates_table(h, r.time, r.q, args.map or "rajagopal")
     out = Path(args.output)
     written = write_csv(out, table) if out.suffix.lower() == ".csv" else write_storage(out, table)
-    unused = [n for n in markers.names if n not in marker_set]
     frame = r.frame_rms()
     print(f"body         {what}")
     print(f"markers      {len(r.names)} of {len(markers.names)} in the set, {len(r.time)} frames"
-          f" at {markers.rate:.1f} Hz" + (", registered" if args.register or args.static else "")
+          f" at {markers.rate:.1f} Hz" + (", registered" if register or args.static else "")
           + (f" on {Path(args.static).name}" if args.static else ""))  # fmt: skip
-    if unused:
-        print(f"not in set   {', '.join(unused)}")
+    if cameras:
+        unused = [n for n in markers.names if n not in marker_set]
+        if unused:
+            print(f"not in set   {', '.join(unused)}")
     print(f"residual     RMS per frame: mean {np.nanmean(frame) * 1e3:.1f} mm, "
           f"max {np.nanmax(frame) * 1e3:.1f} mm"
           + (" (from the cameras' rays)" if cameras else ""))  # fmt: skip
@@ -538,10 +574,15 @@ def run_track(args) -> int:
         else:
             markers = markers_file(args.motion, args)
         h, what = subject_body(args)
-        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        register = args.register
+        if cameras:
+            marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        else:
+            chosen, markers = marker_set_of(h, markers, args.marker_set)
+            marker_set, register = chosen.markers, register or chosen.register
         static = markers_file(args.static, args) if args.static else None
         fit = inverse_kinematics(h, markers, marker_set, static=static, cameras=cameras,
-                                 register=args.register or static is not None)  # fmt: skip
+                                 register=register or static is not None)  # fmt: skip
         t, q, loads = fit.time, fit.q, []
         if cameras:  # the keypoints as the cameras see them together
             from .cameras import triangulate
@@ -736,13 +777,14 @@ def run_scale(args) -> int:
 
     from ..anthropometry import CHAIN
     from ..model import load
-    from .markers import read_markers, write_markers
+    from .markers import write_markers
     from .scale import ScaleWarning, scale_body
 
-    static = markers_file(args.static, args)
     name = args.model or ("adult_female" if args.sex == "female" else "adult_male")
     h = load(name)
-    marker_set = read_markers(args.marker_set) if args.marker_set else None
+    chosen, static = marker_set_of(h, markers_file(args.static, args), args.marker_set,
+                                   crop=False)  # fmt: skip
+    marker_set = chosen.markers
     start = clock.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ScaleWarning)
@@ -798,7 +840,10 @@ def run_report(args) -> int:
     from ..walking.report import format_trial_table, plot_trial_report
     from ..walking.trial import TrialWarning, c3d_trial, read_trial
     from .c3d import PlateWarning
+    from .marker_sets import MarkerSetWarning
 
+    if args.marker_set and Path(args.trial).suffix.lower() != ".c3d":
+        raise HumanoidError(f"{args.trial}: --marker-set goes with a C3D trial's markers")
     mass = args.mass
     if args.mass is not None and args.height is None and args.sex is None:
         args.mass = None  # the subject's mass alone: the moments' divisor, on the default body
@@ -813,8 +858,10 @@ def run_report(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TrialWarning)
         warnings.simplefilter("always", PlateWarning)
+        warnings.simplefilter("always", MarkerSetWarning)
         if c3d:
-            trial = c3d_trial(h, path, mass=mass, speed=args.speed)
+            trial = c3d_trial(h, path, mass=mass, speed=args.speed,
+                              marker_set=args.marker_set)  # fmt: skip
         else:
             cmap = _map(args, None) if args.map is not None else None
             if (
@@ -833,6 +880,8 @@ def run_report(args) -> int:
     print(f"body         {what}")
     print(f"trial        {path.name}" + (" (inverse kinematics and dynamics of its markers "
                                          "and plates)" if c3d else ""))  # fmt: skip
+    if trial.marker_set:
+        print(f"marker set   {trial.marker_set}")
     source = Path(args.moments).name if args.moments else "the C3D's inverse dynamics"
     print("kinetics     " + (f"{source}, per kg of {trial.mass:.1f} kg" if trial.kinetics
                               else "none: kinematics only"
@@ -846,7 +895,7 @@ def run_report(args) -> int:
         print(f"{s:<12} events from {trial.events.get(s, 'nothing')}: "
               f"{len(ev['strike'])} strikes, {len(ev['off'])} offs; cycles {cycles} s")  # fmt: skip
     for w in caught:
-        if issubclass(w.category, TrialWarning | PlateWarning):
+        if issubclass(w.category, TrialWarning | PlateWarning | MarkerSetWarning):
             print(f"warning      {w.message}")
         else:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

@@ -324,7 +324,8 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         fit = _solve(h, source, first, iterations, tolerance, damping, regularization,
                      smoothing, unseen, hold, q0,
                      progress if static is None else None)  # fmt: skip
-        marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical)
+        marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical,
+                                                         fit.held)  # fmt: skip
         if static is None:
             q0 = fit.q[0]
     result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
@@ -345,20 +346,28 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
 
 
 def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: dict,
-                     names) -> dict[str, Marker]:  # fmt: skip
+                     names, held: np.ndarray | None = None) -> dict[str, Marker]:  # fmt: skip
     """The markers ``names`` moved to their mean place on their frames over the fitted
     configurations ``q`` (one per frame of ``markers``; frames where a marker is missing do not
-    count)."""
+    count, nor, given the fit's ``held`` (n, nv) coordinates, frames where the fit held one
+    that moves the marker's frame: its segment was not seen there)."""
     model = h.model
     data = model.createData()
     sums = {n: np.zeros(3) for n in names}
     counts = dict.fromkeys(names, 0)
     cols = {n: markers.names.index(n) for n in names}
+    moves = {}
+    for n in names:  # the velocity coordinates that move the marker's frame
+        joints = model.supports[model.frames[model.getFrameId(marker_set[n].frame)].parentJoint]
+        moves[n] = np.concatenate([np.arange(model.joints[j].idx_v,
+                                             model.joints[j].idx_v + model.joints[j].nv)
+                                   for j in joints if j > 0] or [np.zeros(0, int)])  # fmt: skip
     for i, qi in enumerate(q):
         pin.framesForwardKinematics(model, data, qi)
         for n in names:
             p = markers.positions[i, cols[n]]
-            if np.all(np.isfinite(p)):
+            unseen = held is not None and bool(held[i, moves[n]].any())
+            if np.all(np.isfinite(p)) and not unseen:
                 sums[n] += data.oMf[model.getFrameId(marker_set[n].frame)].actInv(p)
                 counts[n] += 1
     out = {}

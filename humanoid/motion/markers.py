@@ -39,7 +39,6 @@ millimetres or metres by ``Units``.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,6 +56,7 @@ __all__ = [
     "MarkerTrajectories",
     "default_markers",
     "keypoints",
+    "landmark_names",
     "marker_positions",
     "read_c3d",
     "read_markers",
@@ -127,11 +127,62 @@ def _body_frame(model, side: str, segment: str) -> str:
     return f"{side}_{segment}"
 
 
-def default_markers(h) -> dict[str, Marker]:
-    """The default marker set of a toolkit body (see the module docstring).
+def _landmarks(path: Path) -> tuple[str, dict]:
+    """(the sided markers' name format, the landmarks) of a landmark file, checked.
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's (its frames have other names).
+        HumanoidError: bad TOML, no ``[landmarks.NAME]`` tables, a landmark without a frame,
+            a ``from`` or an offset, or with ``sides`` not true, false, "left" or "right".
+    """
+    spec = read_toml(path, "landmark set")
+    table, names = spec.get("landmarks"), spec.get("names", "{side}.{name}")
+    if not isinstance(table, dict) or not table:
+        raise HumanoidError(f"{path}: no [landmarks.NAME] tables")
+    if not isinstance(names, str) or "{side}" not in names or "{name}" not in names:
+        raise HumanoidError(
+            f"{path}: names must be a format with {{side}} and {{name}}, as "
+            f'"{{side}}{{name}}" (RASI) or "{{side}}.{{name}}" (R.ASIS)'
+        )
+    for key, m in table.items():
+        try:
+            ok = (isinstance(m["frame"], str) and isinstance(m["from"], str)
+                  and len([float(x) for x in m["offset"]]) == 3
+                  and m.get("sides", False) in (True, False, "left", "right"))  # fmt: skip
+        except (KeyError, TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise HumanoidError(
+                f"{path}: landmarks.{key} needs a frame, a from, an offset of 3 "
+                'numbers, and sides true, false, "left" or "right"'
+            )
+    return names, table
+
+
+def landmark_names(path: str | Path = LANDMARKS) -> list[str]:
+    """The markers' names of a landmark file (without the joint centres every set has)."""
+    names, table = _landmarks(Path(path))
+    out = []
+    for key, spec in table.items():
+        name, sides = spec.get("name", key), spec.get("sides", False)
+        if sides is False:
+            out.append(name)
+            continue
+        for letter, s in _SIDE.items():
+            if sides is True or sides == s:
+                out.append(names.format(side=letter, name=name))
+    return out
+
+
+def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
+    """The default marker set of a toolkit body (see the module docstring), or another set of
+    landmarks written as ``default.toml`` is (``landmarks``: its file, as
+    ``data/markers/plugin_gait.toml``; its optional ``names`` the sided markers' name format,
+    default ``"{side}.{name}"``; a landmark's ``sides`` true, false, or ``"left"`` or
+    ``"right"`` for one side's marker only; its ``name`` if not its key).
+
+    Raises:
+        HumanoidError: the body is not one of the toolkit's (its frames have other names); a
+            landmark file that cannot be read (naming it and the landmark).
     """
     model = h.model
     needed = ["pelvis", "thorax", "head", "neck"] + [
@@ -145,17 +196,28 @@ def default_markers(h) -> dict[str, Marker]:
             f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
             f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
         )
+    path = Path(landmarks)
+    names, landmarks = _landmarks(path)
     data = model.createData()
     q0 = h.standing_configuration()
     pin.framesForwardKinematics(model, data, q0)
 
     def at(name):
+        if not model.existFrame(name):
+            raise HumanoidError(
+                f"{path}: no point {name!r} to place a landmark from (hip, knee, "
+                "ankle, shoulder, elbow, wrist, neck, root, heel, toe)"
+            )
         return data.oMf[model.getFrameId(name)]
 
     scale = abs(at("left_hip").translation[1] - at("right_hip").translation[1]) / 0.16
     out = {}
 
     def attach(marker, frame, world, weight=1.0, anatomical=True):
+        if not model.existFrame(frame):
+            raise HumanoidError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
+                                "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
+                                "head)")  # fmt: skip
         offset = at(frame).actInv(np.asarray(world, dtype=float))
         out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
@@ -166,7 +228,6 @@ def default_markers(h) -> dict[str, Marker]:
     attach("neck", "neck", at("neck").translation)
     attach("head", "head", at("neck").translation + np.array([0.0, 0.0, 0.12]) * scale)
     sole = {s: (h.sole_points(s), at(h.model.frames[h.sole_id(s)].name)) for s in ("left", "right")}
-    landmarks = tomllib.loads(LANDMARKS.read_text(encoding="utf-8"))["landmarks"]
     for letter, s in _SIDE.items():
         mirror = 1.0 if s == "left" else -1.0
         points, M = sole[s]
@@ -179,23 +240,24 @@ def default_markers(h) -> dict[str, Marker]:
         heel, toe = ends
         attach(f"{s}_toes", f"{s}_foot", toe + np.array([-0.06, 0.0, 0.02]) * scale)
         centre = {"root": at("pelvis").translation, "heel": heel, "toe": toe}
-        for name, spec in landmarks.items():
-            if not spec["sides"]:
+        for key, spec in landmarks.items():
+            if spec.get("sides", False) not in (True, s):
                 continue
             joint = spec["from"]
             origin = centre.get(joint)
             if origin is None:
                 origin = at(f"{s}_{_JOINTS[joint]}" if joint in _JOINTS else joint).translation
             d = np.array(spec["offset"]) * scale * np.array([1.0, mirror, 1.0])
-            attach(f"{letter}.{name}", _body_frame(model, s, spec["frame"]), origin + d,
-                   anatomical=spec["anatomical"])  # fmt: skip
-    for name, spec in landmarks.items():
-        if spec["sides"]:
+            marker = names.format(side=letter, name=spec.get("name", key))
+            attach(marker, _body_frame(model, s, spec["frame"]), origin + d,
+                   anatomical=spec.get("anatomical", True))  # fmt: skip
+    for key, spec in landmarks.items():
+        if spec.get("sides", False) is not False:
             continue
         joint = spec["from"]
         origin = at("pelvis").translation if joint == "root" else at(joint).translation
-        attach(name, spec["frame"], origin + np.array(spec["offset"]) * scale,
-               anatomical=spec["anatomical"])  # fmt: skip
+        attach(spec.get("name", key), spec["frame"], origin + np.array(spec["offset"]) * scale,
+               anatomical=spec.get("anatomical", True))  # fmt: skip
     return out
 
 

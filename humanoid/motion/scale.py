@@ -12,7 +12,8 @@ body is made theirs in three steps (:func:`scale_body`):
    alternatives, the first whose markers the trial and the marker set both have is used: the
    joint centres of the default set (``right_hip`` ... : a lab's computed joint centres,
    which span exactly the body's segments), then OpenSim gait2354's landmarks (``R.ASIS``,
-   ``R.Knee.Lat`` ...), then Vicon Plug-in Gait's (``RASI``, ``RKNE`` ...). A segment that
+   ``R.Knee.Lat`` ...), then Vicon Plug-in Gait's (``RASI``, ``RKNE`` ...), then the cluster
+   set's (``RLFC``, ``RLMAL``, ``RCAL``: :mod:`~humanoid.motion.marker_sets`). A segment that
    no measurement reaches keeps the stature scaling, and is reported
    (:attr:`ScaleResult.unmeasured`).
 2. **Build** the body through :class:`~humanoid.anthropometry.BodyParameters`: each measured
@@ -97,16 +98,16 @@ def _sided(*pairs: tuple[str, str]) -> tuple[tuple[str, str], ...]:
     return tuple(p for a, b in pairs for p in ((a, b), (left(a), left(b))))
 
 
-# joint centres (the default set's), gait2354's landmarks, Plug-in Gait's
+# joint centres (the default set's), gait2354's landmarks, Plug-in Gait's, the cluster set's
 MEASUREMENTS = (
     Measurement("thigh", ("thigh",), (
         _sided(("right_hip", "right_knee")), _sided(("R.ASIS", "R.Knee.Lat")),
-        _sided(("RASI", "RKNE")))),
+        _sided(("RASI", "RKNE")), _sided(("RASI", "RLFC")))),
     Measurement("shank", ("shank",), (
         _sided(("right_knee", "right_ankle")), _sided(("R.Knee.Lat", "R.Ankle.Lat")),
-        _sided(("RKNE", "RANK")))),
+        _sided(("RKNE", "RANK")), _sided(("RLFC", "RLMAL")))),
     Measurement("foot", ("foot",), (
-        _sided(("R.Heel", "R.Toe.Tip")), _sided(("RHEE", "RTOE")))),
+        _sided(("R.Heel", "R.Toe.Tip")), _sided(("RHEE", "RTOE")), _sided(("RCAL", "RMT1")))),
     Measurement("trunk", ("pelvis", "abdomen", "thorax"), (
         (("pelvis", "neck"),), _sided(("R.ASIS", "R.Acromium")), _sided(("RASI", "RSHO")))),
     Measurement("pelvis_width", (), (

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +111,8 @@ class Trial:
         kinetics: whether the moments and powers were measured (a moments file);
             forces: whether the ground's forces were (loads).
         mass: the mass the moments are divided by [kg]. source: the trial's name.
+        marker_set: a C3D trial's: the set its markers were fitted with, and why
+            (:meth:`~humanoid.motion.marker_sets.ChosenSet.describe`).
     """
 
     analysis: GaitAnalysis
@@ -119,6 +121,7 @@ class Trial:
     forces: bool
     mass: float
     source: str = ""
+    marker_set: str = ""
 
 
 def force_contacts(t: np.ndarray, fz: np.ndarray, threshold: float = THRESHOLD,
@@ -492,20 +495,26 @@ def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
                          source=Path(motion).name)  # fmt: skip
 
 
-def c3d_trial(h, path, *, mass: float | None = None, speed: float | None = None) -> Trial:
+def c3d_trial(h, path, *, mass: float | None = None, speed: float | None = None,
+              marker_set=None) -> Trial:  # fmt: skip
     """:func:`analyse_trial` of a C3D trial with markers (and force plates): inverse
-    kinematics of its markers on the body (the toolkit's marker set,
-    :func:`~humanoid.motion.ik.inverse_kinematics`), its plates' loads given to the feet by
-    its markers, inverse dynamics (:func:`~humanoid.motion.inverse_dynamics.inverse_dynamics`,
-    6 Hz, as ``humanoid id``) with them (without plates: kinematics only), its events."""
+    kinematics of its markers on the body (:func:`~humanoid.motion.ik.inverse_kinematics`,
+    with ``marker_set``: a shipped set's name, a TOML file, or None: the shipped set its
+    labels call for, :func:`~humanoid.motion.marker_sets.resolve_marker_set`, which warns of
+    the labels it leaves out; the frames where half the markers are seen; technical markers
+    registered if the set says so), its plates' loads given to the feet by its markers,
+    inverse dynamics (:func:`~humanoid.motion.inverse_dynamics.inverse_dynamics`, 6 Hz, as
+    ``humanoid id``) with them (without plates: kinematics only), its events."""
     from ..motion.c3d import c3d_loads, read_events
     from ..motion.coordinates import generalized_forces_table
     from ..motion.ik import inverse_kinematics
     from ..motion.inverse_dynamics import inverse_dynamics
-    from ..motion.markers import default_markers, read_c3d
+    from ..motion.marker_sets import resolve_marker_set
+    from ..motion.markers import read_c3d
 
-    markers = read_c3d(path)
-    fit = inverse_kinematics(h, markers, default_markers(h))
+    chosen = resolve_marker_set(h, read_c3d(path), marker_set)
+    markers = chosen.cropped()[0]
+    fit = inverse_kinematics(h, markers, chosen.markers, register=chosen.register)
     try:
         loads = c3d_loads(path)[1]
     except MotionFileError as exc:  # no force plates
@@ -516,5 +525,6 @@ def c3d_trial(h, path, *, mass: float | None = None, speed: float | None = None)
         r = inverse_dynamics(h, fit.time, fit.q, loads)
         moments = generalized_forces_table(h, r.time, r.q, r.tau, "rajagopal")
         moments.source = str(path)
-    return analyse_trial(h, fit.time, fit.q, moments, loads, read_events(path), mass=mass,
-                         speed=speed, source=Path(path).name)  # fmt: skip
+    trial = analyse_trial(h, fit.time, fit.q, moments, loads, read_events(path), mass=mass,
+                          speed=speed, source=Path(path).name)  # fmt: skip
+    return replace(trial, marker_set=chosen.describe())
