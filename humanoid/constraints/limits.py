@@ -66,6 +66,8 @@ class JointRanges:
                     lo.append(a)
                     hi.append(b)
         self.iq, self.iv = np.array(iq, dtype=int), np.array(iv, dtype=int)
+        self.hinge_ids = [j for j in range(2, model.njoints)
+                          if model.joints[j].idx_q in set(self.iq.tolist())]  # fmt: skip
         self.lo, self.hi = np.array(lo), np.array(hi)
         self.balls = []  # (BallJoint, idx_q, idx_v, lower (3,), upper (3,))
         if h.fusion is not None:
@@ -240,6 +242,30 @@ class JointRanges:
         """Every hinge's two rows (lower, then upper bound): (r, J), r >= 0 inside, J constant
         (+-1 on the hinge's velocity)."""
         return self._hsign * (q[self._hq] - self._hbound), self._hJ
+
+    def names(self) -> list[str]:
+        """A name per entry of :meth:`excess`'s halves: each hinge's joint, then each ball
+        joint's three hinges (the triplet it replaces)."""
+        out = [self.model.names[j] for j in self.hinge_ids]
+        for b, *_ in self.balls:
+            out += list(b.hinges)
+        return out
+
+    def clamp(self, q) -> tuple[np.ndarray, np.ndarray]:
+        """``q`` with every hinge and every ball joint's angle inside its range, and how far each
+        was past it [rad] (>= 0, in :meth:`names`'s order): a ball's angles clipped and its
+        rotation made again from them."""
+        out = np.array(q, dtype=float, copy=True)
+        x = out[self.iq]
+        past = [np.maximum(self.lo - x, 0.0) + np.maximum(x - self.hi, 0.0)]
+        out[self.iq] = np.clip(x, self.lo, self.hi)
+        if self.balls:
+            th = self.angles(out, remember=False)
+            past.append((np.maximum(self._blo - th, 0.0) + np.maximum(th - self._bhi, 0.0)).ravel())
+            for (b, iq, *_), a, lo, hi in zip(self.balls, th, self._blo, self._bhi, strict=True):
+                if np.any(a < lo) or np.any(a > hi):
+                    out[iq : iq + 4] = pin.Quaternion(b.rotation(np.clip(a, lo, hi))).coeffs()
+        return out, np.concatenate(past)
 
     def excess(self, q) -> np.ndarray:
         """How far q is beyond each bound [rad], >= 0 (0 inside): every hinge's lower and upper

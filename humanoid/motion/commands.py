@@ -560,7 +560,7 @@ def residual_figure(path, r, title: str = "") -> Path:
 def run_track(args) -> int:
     """``humanoid track``: a motion followed in forward simulation, by joint torques."""
     from .inverse_dynamics import joint_labels
-    from .tracking import track
+    from .tracking import describe_clamped, inside_ranges, track
 
     suffix = Path(args.motion).suffix.lower()
     fitted = suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout)
@@ -595,6 +595,7 @@ def run_track(args) -> int:
         h, what, t, q, loads, _, _ = read_motion(args)
         recording = None
     cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
+    q, clamped = inside_ranges(h, q)  # (before the reduction: it makes them consistent)
     floor, floor_line = _tracking_floor(h, t, q, getattr(args, "floor", "auto"))
     reduced = []
     if getattr(args, "reduce", False):
@@ -617,6 +618,9 @@ def run_track(args) -> int:
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
     print(f"body         {what}")
     print(f"floor        {floor_line}")
+    if clamped:
+        print(f"ranges       the motion clamped into the joint ranges: "
+              f"{describe_clamped(clamped, len(q))}")  # fmt: skip
     for line in reduced:
         print(f"reduced      {line}")
     print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
