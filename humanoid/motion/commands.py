@@ -606,7 +606,18 @@ def run_track(args) -> int:
             loads = estimate_loads(h, *derivatives(h.model, t, q), floor=floor)
         _, t, q, _, reduced = _reduced(h, t, q, loads, 6.0, args)
         loads = given  # (measured loads tell the contacts; estimated ones are the motion's)
-    res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
+    import warnings
+
+    from .tracking import ReferenceRangeWarning
+
+    with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
+        warnings.simplefilter("always", ReferenceRangeWarning)
+        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
+    again = [str(w.message).split(": ", 1)[-1] for w in caught
+             if issubclass(w.category, ReferenceRangeWarning)]  # fmt: skip
+    for w in caught:
+        if not issubclass(w.category, ReferenceRangeWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     h = res.body  # (its toes locked)
     traj = res.trajectory
     path = traj.save(args.output)
@@ -623,6 +634,8 @@ def run_track(args) -> int:
               f"{describe_clamped(clamped, len(q))}")  # fmt: skip
     for line in reduced:
         print(f"reduced      {line}")
+    for line in again:
+        print(f"ranges       clamped again (the reduced motion): {line}")
     print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
           + (" (Winter's residual analysis)" if cutoff == "auto" else ""))  # fmt: skip
     print(
