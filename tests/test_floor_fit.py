@@ -168,7 +168,7 @@ def test_a_treadmill_walk_is_tracked_in_its_floors_frame(walk_100hz):
     """The treadmill walk (belt 0.8 m/s, floor tilted 2 deg) tracked in the fitted floor's
     frame completes, its joints within 3 deg RMS of the reference; followed in the lab's
     frame (floor=None) the standing foot cannot move with a belt the ground does not have,
-    and the body falls."""
+    and the body falls, the message saying when it lost the motion and how."""
     from humanoid.motion.tracking import track
 
     h, t, q = walk_100hz
@@ -179,3 +179,5 @@ def test_a_treadmill_walk_is_tracked_in_its_floors_frame(walk_100hz):
     assert np.degrees(np.sqrt(np.mean(res.joint_error[:, 6:] ** 2))) < 3.0
     lab = track(h, t, qt)
     assert not lab.completed
+    said = lab.trajectory.metadata["message"]  # when it fell, and when and how it lost the walk
+    assert "fell at t = " in said and "it lost the motion at t = " in said and " cm " in said

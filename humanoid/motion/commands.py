@@ -399,11 +399,8 @@ def marker_set_of(h, markers, choice, crop: bool = True):
         warnings.simplefilter("always", MarkerSetWarning)
         chosen = resolve_marker_set(h, markers, choice)
     print(f"marker set   {chosen.describe()}")
-    for w in caught:
-        if issubclass(w.category, MarkerSetWarning):
-            print(f"warning      {w.message}")
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in _said(caught, MarkerSetWarning):
+        print(f"warning      {message}")
     markers = chosen.trajectories
     if crop:
         markers, before, after = chosen.cropped()
@@ -510,18 +507,28 @@ def run_ik(args) -> int:
     return 0
 
 
+def _said(caught, categories) -> list[str]:
+    """The messages of the caught warnings of ``categories`` (a class or a union), to print as
+    lines of a command's summary; every other caught warning raised again."""
+    import warnings
+
+    out = []
+    for w in caught:
+        if issubclass(w.category, categories):
+            out.append(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out
+
+
 def _print_hidden(caught) -> None:
     """The viewer's :class:`~humanoid.viewer.HiddenMarkerWarning` as a line of the summary
     (other warnings raised again)."""
-    import warnings
 
     from ..viewer import HiddenMarkerWarning
 
-    for w in caught:
-        if issubclass(w.category, HiddenMarkerWarning):
-            print(f"viewer hides {w.message}")
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in _said(caught, HiddenMarkerWarning):
+        print(f"viewer hides {message}")
 
 
 def _print_ik_hidden(r, worst: int = 5) -> None:
@@ -613,11 +620,7 @@ def run_track(args) -> int:
     with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
         warnings.simplefilter("always", ReferenceRangeWarning)
         res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
-    again = [str(w.message).split(": ", 1)[-1] for w in caught
-             if issubclass(w.category, ReferenceRangeWarning)]  # fmt: skip
-    for w in caught:
-        if not issubclass(w.category, ReferenceRangeWarning):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
     h = res.body  # (its toes locked)
     traj = res.trajectory
     path = traj.save(args.output)
@@ -764,11 +767,8 @@ def run_loads(args) -> int:
               f"{args.threshold:g} N: {side or 'no'} foot")  # fmt: skip
     if not contacts:
         print(f"contacts     none above {args.threshold:g} N")
-    for w in caught:
-        if issubclass(w.category, PlateWarning):
-            print(f"warning      {w.message}")
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in _said(caught, PlateWarning):
+        print(f"warning      {message}")
     events = read_events(path)
     if events:
         print(f"events       {len(events)}: " + ", ".join(
@@ -838,11 +838,8 @@ def run_scale(args) -> int:
         far = sorted(r.moved.items(), key=lambda kv: -kv[1])[:3]
         print(f"moved        {len(r.moved)} markers placed; furthest "
               + ", ".join(f"{k} {v * 1e3:.1f} mm" for k, v in far))  # fmt: skip
-    for w in caught:
-        if issubclass(w.category, ScaleWarning):
-            print(f"warning      {w.message}")
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in _said(caught, ScaleWarning):
+        print(f"warning      {message}")
     print(f"time         {elapsed:.2f} s")
     print(f"wrote        {out}")
     print(f"marker set   {markers}")
@@ -911,11 +908,8 @@ def run_report(args) -> int:
         cycles = ", ".join(f"{t0:.3f}-{t1:.3f}" for t0, t1 in a.cycles[s]) or "none"
         print(f"{s:<12} events from {trial.events.get(s, 'nothing')}: "
               f"{len(ev['strike'])} strikes, {len(ev['off'])} offs; cycles {cycles} s")  # fmt: skip
-    for w in caught:
-        if issubclass(w.category, TrialWarning | PlateWarning | MarkerSetWarning):
-            print(f"warning      {w.message}")
-        else:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    for message in _said(caught, TrialWarning | PlateWarning | MarkerSetWarning):
+        print(f"warning      {message}")
     print(format_trial_table(a))
     print(f"report       {plot_trial_report(trial, args.output)}")
     return 0

@@ -405,4 +405,31 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     wall = clock.perf_counter() - start
     ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
+    if traj.status != "completed" and len(err):
+        cause = _lost(traj.t, err, ctl)
+        if cause:
+            traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
     return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor)
+
+
+# a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
+LOST_POSITION, LOST_ANGLE = 0.10, 15.0
+
+
+def _lost(times, err: np.ndarray, ctl: MotionTracker) -> str:
+    """Why a run fell: when it lost the motion (its pelvis first over :data:`LOST_POSITION`
+    or :data:`LOST_ANGLE` from the motion's) and how, and what the feet were doing then."""
+    off = (np.linalg.norm(err[:, :3], axis=1) > LOST_POSITION) | (
+        np.degrees(np.linalg.norm(err[:, 3:6], axis=1)) > LOST_ANGLE)  # fmt: skip
+    if not off.any():
+        return ""
+    i = int(np.argmax(off))
+    t = float(times[i])
+    dx, dy = err[i, 0], err[i, 1]  # the motion's pelvis from the run's, in the run's axes
+    where = [f"{abs(dx) * 100:.0f} cm {'behind' if dx > 0 else 'ahead of'} it",
+             f"{abs(dy) * 100:.0f} cm to its {'right' if dy > 0 else 'left'}"]  # fmt: skip
+    feet = [s for s in SIDES if ctl.in_contact(s, t)]
+    stance = {0: "in flight", 1: f"on the {feet[0]} foot" if feet else "", 2: "on both feet"}
+    return (f"it lost the motion at t = {t:.2f} s, {stance[len(feet)]}: the pelvis "
+            f"{', '.join(where)}, turned {np.degrees(np.linalg.norm(err[i, 3:6])):.0f} deg from "
+            "it")  # fmt: skip
