@@ -812,7 +812,8 @@ def _scale_mass(args, markers, marker_set) -> tuple[float, str]:
                                 "force plates)") from None  # fmt: skip
     if Path(args.static).suffix.lower() != ".c3d":
         raise HumanoidError(f"--mass auto weighs the subject on a C3D's force plates; "
-                            f"{Path(args.static).name} is not a C3D: give the mass in kg")  # fmt: skip
+                            f"{Path(args.static).name} is not a C3D: give the mass "
+                            "in kg")  # fmt: skip
     from .c3d import read_plates
     from .scale_walk import plate_mass
 
@@ -820,8 +821,8 @@ def _scale_mass(args, markers, marker_set) -> tuple[float, str]:
     w = plate_mass(read_plates(args.static), markers, pelvis)
     stances = ", ".join(f"{p} {a:.3f}-{b:.3f} s {m:.1f} kg" for p, a, b, m in w.stances)
     return w.mass, (f"{w.mass:.1f} kg from the plates: the vertical impulse over each single "
-                    f"stance on a plate (the other foot swinging), over g T + the pelvis "
-                    f"markers' change of vertical speed: {stances}")  # fmt: skip
+                    "stance with the foot all on a plate (the other foot swinging), over g T + "
+                    f"the pelvis markers' change of vertical speed: {stances}")  # fmt: skip
 
 
 def run_scale(args) -> int:
@@ -865,8 +866,11 @@ def run_scale(args) -> int:
         print(f"mode         static (the markers move {r.movement * 1e3:.0f} mm, median): pairs' "
               "mean distances, the markers placed on the mean pose")  # fmt: skip
     if r.joint_centres:
-        print("joint centres " + ", ".join(f"{v} as {k}" for k, v in r.joint_centres.items())
-              + " (the trial's, a pipeline's: they measure, they are not fitted)")
+        print(
+            "joint centres "
+            + ", ".join(f"{v} as {k}" for k, v in r.joint_centres.items())
+            + " (the trial's, a pipeline's: they measure, they are not fitted)"
+        )
     if weighed:
         print(f"mass         {weighed}")
     told = "" if args.height else " (stature from the markers)"

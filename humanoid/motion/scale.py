@@ -443,9 +443,9 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
 
     Raises:
         HumanoidError: the body is not one of the toolkit's; an unknown ``mode``; the trial
-            has no frame in ``time_range`` or no marker of the set; no measurement can be made; a pair's ratio
-            outside 0.5-2 (wrong units or names). BodyParameterError: the mass, the stature or
-            a measured length out of range.
+            has no frame in ``time_range`` or no marker of the set; no measurement can be
+            made; a pair's ratio outside 0.5-2 (wrong units or names). BodyParameterError:
+            the mass, the stature or a measured length out of range.
     """
     from ..anthropometry import BodyParameters, body_dimensions
     from ..body import build_urdf

@@ -26,7 +26,10 @@ needs, measured another way:
   they are not fitted (the pipeline computed them from the very markers the fit uses).
 - **The mass** from a C3D's force plates (:func:`plate_mass`), if the file does not say it:
   over each single stance on a plate (the other foot swinging: its markers faster than 1 m/s,
-  no other plate loaded), the vertical impulse is the mass times g T plus the change of the
+  no other plate loaded; the stance foot's markers all over the plate, else part of the load
+  goes to the floor beside it: walking5's left heel lands 13 cm off FP1, which reads 48 kg),
+  its unloaded reading taken off (the median outside contact: walking5's read -15 N), the
+  vertical impulse is the mass times g T plus the change of the
   mass centre's vertical speed, read from the pelvis markers' (the mass centre rises through
   single stance and falls: the mean force alone reads some 5-10 % light).
 - **Placing the markers** (OpenSim's MarkerPlacer on a static trial): the scaled body, its
@@ -46,8 +49,16 @@ import numpy as np
 from ..errors import HumanoidError
 from .markers import Marker, MarkerTrajectories, marker_positions
 
-__all__ = ["JOINT_CENTRE", "MOVING", "Weighed", "joint_centres", "movement", "pair_distances",
-           "picked", "plate_mass"]
+__all__ = [
+    "JOINT_CENTRE",
+    "MOVING",
+    "Weighed",
+    "joint_centres",
+    "movement",
+    "pair_distances",
+    "picked",
+    "plate_mass",
+]
 
 MOVING = 0.05  # [m]: a trial whose markers move more than this (median) is not static
 # a pipeline's joint centre: side, joint (Nexus: LHJC, RKJC, LAJC ...; a prefix taken off)
@@ -123,7 +134,6 @@ def pair_distances(h, trial: MarkerTrajectories, marker_set: dict[str, Marker],
     return measure
 
 
-
 SWING = 1.0  # [m/s]: a foot whose markers move faster than this (mean) is swinging
 G = 9.81  # [m/s^2]
 
@@ -158,6 +168,16 @@ def _vertical_speed(markers: MarkerTrajectories, cols, t: float, half: float = 0
     return float(np.polyfit(markers.time[near], z[near], 1)[0])
 
 
+def _on_plate(p, markers: MarkerTrajectories, cols, t: np.ndarray) -> bool:
+    """Whether every foot marker ``cols`` is over the plate's surface (its corners' box in x
+    and y) in the middle third of the contact ``t``."""
+    mid = (markers.time >= t[0] + (t[-1] - t[0]) / 3) & (markers.time <= t[-1] - (t[-1] - t[0]) / 3)
+    xy = markers.positions[mid][:, cols, :2].reshape(-1, 2)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    lo, hi = p.corners[:, :2].min(axis=0), p.corners[:, :2].max(axis=0)
+    return bool(len(xy)) and bool(np.all((xy >= lo) & (xy <= hi)))
+
+
 def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING,
                shortest: float = 0.1) -> Weighed:  # fmt: skip
     """The subject's mass from the force plates (see the module docstring).
@@ -170,7 +190,8 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
             stance shorter than this is not used [s].
 
     Raises:
-        HumanoidError: no single stance on a plate of at least ``shortest``, no pelvis marker.
+        HumanoidError: no single stance of at least ``shortest`` with the foot all on a plate,
+            no pelvis marker.
     """
     from .c3d import assign_contacts, foot_markers
 
@@ -189,6 +210,8 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
         for q in plates:
             if q is not p:
                 swinging &= ~np.interp(t, q.time, q.contact.astype(float)).astype(bool)
+        if not _on_plate(p, markers, feet[side], t):
+            continue
         edges = np.flatnonzero(np.diff(np.concatenate([[0], swinging.astype(np.int8), [0]])))
         if not len(edges):
             continue
@@ -196,11 +219,13 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
         if t[b - 1] - t[a] < shortest:
             continue
         sl = slice(i0 + a, i0 + b)
-        impulse = float(np.trapezoid(p.force[sl, 2], p.time[sl]))
+        unloaded = float(np.median(p.force[~p.contact, 2])) if (~p.contact).any() else 0.0
+        impulse = float(np.trapezoid(p.force[sl, 2] - unloaded, p.time[sl]))
         t0, t1 = float(p.time[sl][0]), float(p.time[sl][-1])
         dv = _vertical_speed(markers, cols, t1) - _vertical_speed(markers, cols, t0)
         rows.append((p.name, t0, t1, impulse / (G * (t1 - t0) + dv)))
     if not rows:
-        raise HumanoidError(f"{markers.source}: no single stance of {shortest:g} s on a plate "
-                            "(the other foot swinging, no other plate loaded): give the mass")
+        raise HumanoidError(f"{markers.source}: no single stance of {shortest:g} s with the foot "
+                            "all on a plate (the other foot swinging, no other plate loaded): "
+                            "give the mass")  # fmt: skip
     return Weighed(float(np.mean([r[3] for r in rows])), tuple(rows))
