@@ -208,10 +208,17 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--save-markers", help="write the marker set as used (TOML)")
     k.add_argument("--quiet", action="store_true", help="no progress bar")
 
-    sc = command("scale", help="scale a body to a subject from a static trial, as OpenSim's "
-                 "ScaleTool: the URDF and its placed marker set")  # fmt: skip
-    sc.add_argument("static", help="the static trial (.trc, .c3d): the subject standing still")
-    sc.add_argument("--mass", type=float, required=True, help="the subject's mass [kg]")
+    sc = command("scale", help="scale a body to a subject from a static trial (or a walk), "
+                 "as OpenSim's ScaleTool: the URDF and its placed marker set")  # fmt: skip
+    sc.add_argument("static", help="the static trial (.trc, .c3d): the subject standing still; "
+                    "or a walk (told by its markers moving, see --mode)")  # fmt: skip
+    sc.add_argument("--mass", required=True, help="the subject's mass [kg], or 'auto': from "
+                    "the C3D's force plates (a single stance's impulse)")  # fmt: skip
+    sc.add_argument("--mode", choices=SCALE_MODES, default="auto", help="static: a standing "
+                    "trial's mean; walk: medians, the markers placed on the walk's frames "
+                    "fitted; auto: walk if the markers move over 5 cm")  # fmt: skip
+    sc.add_argument("--fit-frames", type=int, help="frames fitted to measure, place and report "
+                    "(default: 10 of a static trial, 60 of a walk)")  # fmt: skip
     sc.add_argument("--height", type=float, help="the subject's stature [m] (default: the "
                     "measured segments', sole to vertex)")  # fmt: skip
     sc.add_argument("--sex", choices=("male", "female"), help="default: the unscaled body's")
@@ -390,6 +397,8 @@ def _subject_options(parser) -> None:
     parser.add_argument("--model", help=BODY_HELP + " (default: adult_male, or a run's own)")
 
 
+# humanoid.motion.scale.MODES (written here: the parser stays light)
+SCALE_MODES = ("auto", "static", "walk")
 # humanoid.motion.marker_sets.MARKER_SETS' names (written here: the parser stays light)
 MARKER_SETS = ("gait2354", "plugin-gait", "clusters")
 MARKER_SET_HELP = (

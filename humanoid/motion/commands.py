@@ -806,6 +806,44 @@ def run_loads(args) -> int:
     return 0
 
 
+def segment_groups(names, marker_set) -> dict[str, list[str]]:
+    """The markers ``names`` by the segment they are on (their frame without its side)."""
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        frame = marker_set[n].frame.removeprefix("left_").removeprefix("right_")
+        groups.setdefault(frame, []).append(n)
+    return groups
+
+
+def group_rms(fit, names) -> float:
+    """The RMS residual of a fit's markers ``names`` over every frame [m]."""
+    cols = [fit.names.index(n) for n in names if n in fit.names]
+    return float(np.sqrt(np.nanmean(fit.residuals[:, cols] ** 2))) if cols else float("nan")
+
+
+def _scale_mass(args, markers, marker_set) -> tuple[float, str]:
+    """``--mass``: a number [kg], or ``auto`` from the C3D's plates (and how it was weighed)."""
+    if str(args.mass).lower() != "auto":
+        try:
+            return float(args.mass), ""
+        except ValueError:
+            raise HumanoidError(f"--mass {args.mass}: a mass in kg, or auto (from a C3D's "
+                                "force plates)") from None  # fmt: skip
+    if Path(args.static).suffix.lower() != ".c3d":
+        raise HumanoidError(f"--mass auto weighs the subject on a C3D's force plates; "
+                            f"{Path(args.static).name} is not a C3D: give the mass "
+                            "in kg")  # fmt: skip
+    from .c3d import read_plates
+    from .scale_walk import plate_mass
+
+    pelvis = [n for n in markers.names if n in marker_set and marker_set[n].frame == "pelvis"]
+    w = plate_mass(read_plates(args.static), markers, pelvis)
+    stances = ", ".join(f"{p} {a:.3f}-{b:.3f} s {m:.1f} kg" for p, a, b, m in w.stances)
+    return w.mass, (f"{w.mass:.1f} kg from the plates: the vertical impulse over each single "
+                    "stance with the foot all on a plate (the other foot swinging), over g T + "
+                    f"the pelvis markers' change of vertical speed: {stances}")  # fmt: skip
+
+
 def run_scale(args) -> int:
     """``humanoid scale``: a body scaled to the subject of a static trial, written as a URDF
     with its placed marker set next to it (``<name>_markers.toml``)."""
@@ -815,29 +853,48 @@ def run_scale(args) -> int:
     from ..model import load
     from .markers import write_markers
     from .scale import ScaleWarning, scale_body
+    from .scale_walk import MOVING
 
     name = args.model or ("adult_female" if args.sex == "female" else "adult_male")
     h = load(name)
     chosen, static = marker_set_of(h, markers_file(args.static, args), args.marker_set,
                                    crop=False)  # fmt: skip
     marker_set = chosen.markers
+    mass, weighed = _scale_mass(args, static, marker_set)
     start = clock.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ScaleWarning)
-        r = scale_body(h, static, marker_set, args.mass, height=args.height, sex=args.sex,
-                       time_range=tuple(args.time_range) if args.time_range else None)  # fmt: skip
+        r = scale_body(h, static, marker_set, mass, height=args.height, sex=args.sex,
+                       time_range=tuple(args.time_range) if args.time_range else None,
+                       fit_frames=args.fit_frames, mode=args.mode)  # fmt: skip
     elapsed = clock.perf_counter() - start
     out = Path(args.output)
     out.write_text(r.urdf, encoding="utf-8")
     markers = write_markers(out.with_name(f"{out.stem}_markers.toml"), r.marker_set)
     p = r.params
-    n = len(static.time)
-    print(f"static       {Path(args.static).name}: {n} frames, {static.time[0]:.3f}-"
-          f"{static.time[-1]:.3f} s, {len(r.fits['placed'].names)} of {len(static.names)} "
+    fit = r.fits["placed"]
+    print(f"trial        {Path(args.static).name}: {len(fit.time)} of its frames fitted, "
+          f"{fit.time[0]:.3f}-{fit.time[-1]:.3f} s, {len(fit.names)} of {len(static.names)} "
           "markers in the set")  # fmt: skip
+    if r.mode == "walk":
+        print(f"mode         walk (the markers move {r.movement * 1e3:.0f} mm, median; over "
+              f"{MOVING * 1e3:.0f} mm is not static): pairs' median distances, a pair across a "
+              "joint measured in the unscaled body's fitted poses, the markers placed on the "
+              "walk's frames fitted")  # fmt: skip
+    else:
+        print(f"mode         static (the markers move {r.movement * 1e3:.0f} mm, median): pairs' "
+              "mean distances, the markers placed on the mean pose")  # fmt: skip
+    if r.joint_centres:
+        print(
+            "joint centres "
+            + ", ".join(f"{v} as {k}" for k, v in r.joint_centres.items())
+            + " (the trial's, a pipeline's: they measure, they are not fitted)"
+        )
+    if weighed:
+        print(f"mass         {weighed}")
     told = "" if args.height else " (stature from the markers)"
     print(f"body         {name} ({r.height[0]:.3f} m, {h.mass:.1f} kg) -> {p.height:.3f} m, "
-          f"{p.mass:g} kg, {p.sex}{told}")  # fmt: skip
+          f"{p.mass:.1f} kg, {p.sex}{told}")  # fmt: skip
     print(f"{'measurement':13s}{'factor':>8s}  pairs: experimental / unscaled body [mm]")
     for m in r.measured:
         pairs = ", ".join(f"{a}-{b} {e * 1e3:.1f}/{d * 1e3:.1f}" for a, b, e, d, _ in m.pairs)
@@ -848,11 +905,17 @@ def run_scale(args) -> int:
         why = f"  not measured: {'closes the chain' if closes else 'stature scaling'}"
         why = why if k in r.unmeasured else ""
         print(f"{k:13s}{a:9.4f}{b:9.4f}{why}")
-    print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the static trial")
-    for fit, what in (("unscaled", "unscaled"), ("scaled", "scaled"), ("placed", "placed")):
+    print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the {r.mode} "
+          "trial's frames")  # fmt: skip
+    for fit in ("unscaled", "scaled", "placed"):
         worst = max(r.fits[fit].marker_rms().items(), key=lambda kv: kv[1])
-        print(f"{what:13s}{r.rms(fit) * 1e3:9.1f}{r.max(fit) * 1e3:9.1f}  worst {worst[0]} "
+        print(f"{fit:13s}{r.rms(fit) * 1e3:9.1f}{r.max(fit) * 1e3:9.1f}  worst {worst[0]} "
               f"{worst[1] * 1e3:.1f} mm RMS")  # fmt: skip
+    groups = segment_groups(r.fits["placed"].names, r.marker_set)
+    print(f"{'by segment':13s}" + "".join(f"{g:>10s}" for g in groups) + "  RMS [mm]")
+    for fit in ("unscaled", "scaled", "placed"):
+        print(f"{fit:13s}" + "".join(f"{group_rms(r.fits[fit], n) * 1e3:10.1f}"
+                                     for n in groups.values()))  # fmt: skip
     if r.moved:
         far = sorted(r.moved.items(), key=lambda kv: -kv[1])[:3]
         print(f"moved        {len(r.moved)} markers placed; furthest "

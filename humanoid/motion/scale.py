@@ -47,6 +47,7 @@ import pinocchio as pin
 
 from ..errors import HumanoidError
 from .markers import Marker, MarkerTrajectories, default_markers, marker_positions
+from .scale_walk import MOVING, joint_centres, movement, pair_distances, picked
 
 __all__ = [
     "MEASUREMENTS",
@@ -56,8 +57,11 @@ __all__ = [
     "ScaleWarning",
     "body_parameters_of",
     "scale_body",
+    "MODES",
 ]
 
+MODES = ("auto", "static", "walk")
+WALK_FRAMES = 60  # a walk's frames fitted to measure, place and report at most
 STILL = 0.01  # [m]: a marker whose position's standard deviation is above this moved
 FACTOR_RANGE = (0.5, 2.0)  # a factor outside it is a unit or marker-name mistake
 SIDES_AGREE = 0.1  # a measurement's pairs further apart than this (relative) are reported
@@ -161,6 +165,11 @@ class ScaleResult:
             (the scaled body, the set carried onto it) and ``"placed"`` (the markers placed):
             :class:`~humanoid.motion.ik.IKResult` each.
         source: The static trial's file.
+        mode: ``"static"`` or ``"walk"`` (:func:`scale_body`'s ``mode``, as used).
+        movement: How far the trial's markers move, the median over them [m]
+            (:func:`~humanoid.motion.scale_walk.movement`).
+        joint_centres: A pipeline's joint centres read as the set's ({the set's name: the
+            trial's label}, :func:`~humanoid.motion.scale_walk.joint_centres`).
     """
 
     params: object
@@ -175,6 +184,9 @@ class ScaleResult:
     moved: dict[str, float]
     fits: dict = field(default_factory=dict)
     source: str = ""
+    mode: str = "static"
+    movement: float = 0.0
+    joint_centres: dict[str, str] = field(default_factory=dict)
 
     @property
     def factors(self) -> dict[str, float]:
@@ -245,9 +257,9 @@ def _trial(static: MarkerTrajectories, time_range) -> MarkerTrajectories:
                               static.source)  # fmt: skip
 
 
-def _seen(static: MarkerTrajectories, names, where: str) -> list[str]:
+def _seen(static: MarkerTrajectories, names, where: str, walk: bool = False) -> list[str]:
     """The markers of ``names`` the trial has in at least one frame; warns of those missing in
-    every frame or in some, and of those that moved."""
+    every frame, and (a static trial) of those missing in some or that moved."""
     cols = {n: static.names.index(n) for n in names if n in static.names}
     pos = static.positions
     n = len(static.time)
@@ -265,10 +277,10 @@ def _seen(static: MarkerTrajectories, names, where: str) -> list[str]:
     if never:
         warnings.warn(f"{where}: no position in any frame for {', '.join(never)}: left out",
                       ScaleWarning, stacklevel=3)  # fmt: skip
-    if partly:
+    if partly and not walk:
         warnings.warn(f"{where}: missing in some frames (averaged over the others): "
                       + ", ".join(partly), ScaleWarning, stacklevel=3)  # fmt: skip
-    if moving:
+    if moving and not walk:
         more = f" and {len(moving) - 8} more" if len(moving) > 8 else ""
         warnings.warn(f"{where}: markers that moved in a trial meant to be still (standard "
                       f"deviation over {STILL * 1e3:.0f} mm): {', '.join(moving[:8])}{more}",
@@ -276,10 +288,24 @@ def _seen(static: MarkerTrajectories, names, where: str) -> list[str]:
     return [x for x in cols if x not in never]
 
 
-def _measure(static, seen, model_pos, measurements, where):
-    """(the measurements made, the unmeasured lengths with why)."""
+def _static_pairs(static, model_pos):
+    """A static trial's measure of a pair: (the mean over the frames of the two markers'
+    distance, as OpenSim's ModelScaler; the standing body's distance) [m]."""
+
+    def measure(a: str, b: str) -> tuple[float, float]:
+        pa = static.positions[:, static.names.index(a)]
+        pb = static.positions[:, static.names.index(b)]
+        d = np.linalg.norm(pa - pb, axis=1)
+        return float(np.nanmean(d)), float(np.linalg.norm(model_pos[a] - model_pos[b]))
+
+    return measure
+
+
+def _measure(seen, model_pos, measurements, where, distance):
+    """(the measurements made, the unmeasured lengths with why); ``distance(a, b)`` gives a
+    pair's (experimental, body) distances [m]."""
     made, unmeasured = [], {}
-    cols = {n: static.names.index(n) for n in seen}
+    cols = set(seen)
     for m in measurements:
         usable = None
         for pairs in m.alternatives:
@@ -306,10 +332,7 @@ def _measure(static, seen, model_pos, measurements, where):
                           stacklevel=3)  # fmt: skip
         rows = []
         for a, b in ok:
-            pa, pb = static.positions[:, cols[a]], static.positions[:, cols[b]]
-            d = np.linalg.norm(pa - pb, axis=1)  # per frame, as OpenSim's ModelScaler
-            experimental = float(np.nanmean(d))
-            model = float(np.linalg.norm(model_pos[a] - model_pos[b]))
+            experimental, model = distance(a, b)
             if model < 1e-6:
                 raise HumanoidError(f"{m.name}: markers {a} and {b} are at the same place on "
                                     "the body; their distance cannot scale it")  # fmt: skip
@@ -370,7 +393,7 @@ def _carry(h, body, marker_set: dict, ratios: dict) -> dict[str, Marker]:
     return out
 
 
-def _fit(h, static, marker_set, names, q0=None):
+def _fit(h, static, marker_set, names, q0=None, register=False):
     """The body fitted to the trial's markers of ``names`` (the warnings of a fit kept quiet:
     the result holds what they say)."""
     from .ik import RangeLimitWarning, UnconstrainedWarning, inverse_kinematics
@@ -379,14 +402,14 @@ def _fit(h, static, marker_set, names, q0=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RangeLimitWarning)
         warnings.simplefilter("ignore", UnconstrainedWarning)
-        return inverse_kinematics(h, static, used, q0=q0)
+        return inverse_kinematics(h, static, used, q0=q0, register=register)
 
 
 def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Marker] | None,
                mass: float, *, height: float | None = None, sex: str | None = None,
                measurements=MEASUREMENTS,
                time_range: tuple[float, float] | None = None,
-               fit_frames: int = 10) -> ScaleResult:  # fmt: skip
+               fit_frames: int | None = None, mode: str = "auto") -> ScaleResult:  # fmt: skip
     """Scale a body to the subject of a static trial (see the module docstring).
 
     Args:
@@ -402,7 +425,12 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
         measurements: The :class:`Measurement` s to make (default :data:`MEASUREMENTS`).
         time_range: (start, end) [s] of the frames to use (default: all).
         fit_frames: The residuals are those of the body fitted to this many of the trial's
-            frames at most, evenly spread (a still trial's frames differ by their noise).
+            frames at most, evenly spread (default: 10 of a static trial, whose frames differ
+            by their noise; 60 of a walk, on which the markers are also placed).
+        mode: ``"static"``, ``"walk"`` (:mod:`~humanoid.motion.scale_walk`: the median of a
+            pair's distances, pairs across a joint measured in the fitted poses, the markers
+            placed on a fit of the walk's frames), or ``"auto"``: a walk if the markers move
+            more than :data:`~humanoid.motion.scale_walk.MOVING` (median), else static.
 
     Returns:
         The :class:`ScaleResult`.
@@ -414,10 +442,10 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
             2 % off the markers'; coordinates no marker sees in the static pose.
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's; the trial has no frame in
-            ``time_range`` or no marker of the set; no measurement can be made; a pair's ratio
-            outside 0.5-2 (wrong units or names). BodyParameterError: the mass, the stature or
-            a measured length out of range.
+        HumanoidError: the body is not one of the toolkit's; an unknown ``mode``; the trial
+            has no frame in ``time_range`` or no marker of the set; no measurement can be
+            made; a pair's ratio outside 0.5-2 (wrong units or names). BodyParameterError:
+            the mass, the stature or a measured length out of range.
     """
     from ..anthropometry import BodyParameters, body_dimensions
     from ..body import build_urdf
@@ -429,16 +457,38 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
     # (the mass first: nothing is worth measuring for a body that cannot be built)
     BodyParameters(params.height, mass, sex or params.sex)
     marker_set = default_markers(h) if marker_set is None else dict(marker_set)
+    if mode not in MODES:
+        raise HumanoidError(f"scaling mode {mode!r}: one of {', '.join(MODES)}")
     static = _trial(static, time_range)
+    static, centres = joint_centres(static, marker_set)
     in_set = [n for n in static.names if n in marker_set]
     if not in_set:
         raise HumanoidError(f"{where}: no marker of the trial is in the marker set (the trial's: "
                             f"{', '.join(static.names[:8])}; the set's: "
                             f"{', '.join(list(marker_set)[:8])})")  # fmt: skip
-    seen = _seen(static, in_set, where)
+    fitted = [n for n in in_set if n not in centres]  # (a pipeline's centres measure only)
+    moves = movement(static, fitted)
+    if mode == "auto":
+        mode = "walk" if moves > MOVING else "static"
+    walk = mode == "walk"
+    if walk:
+        from .marker_sets import seen_frames
+
+        span = seen_frames(static, fitted)  # (walking into the cameras' volume and out)
+        static = MarkerTrajectories(static.time[span], list(static.names),
+                                    static.positions[span], static.source)  # fmt: skip
+    seen = _seen(static, in_set, where, walk)
+    fitted = [n for n in seen if n not in centres]
     model_pos = dict(zip(seen, marker_positions(h, h.standing_configuration(), marker_set,
                                                 seen)[0], strict=True))  # fmt: skip
-    made, unmeasured = _measure(static, seen, model_pos, measurements, where)
+    some = picked(static, fit_frames or (WALK_FRAMES if walk else 10))
+    unscaled_fit = None
+    if walk:
+        unscaled_fit = _fit(h, some, marker_set, fitted, register=True)
+        distance = pair_distances(h, static, marker_set, unscaled_fit.q)
+    else:
+        distance = _static_pairs(static, model_pos)
+    made, unmeasured = _measure(seen, model_pos, measurements, where, distance)
     if not any(m.segments for m in made):
         raise HumanoidError(f"{where}: no measurement can be made: "
                             + "; ".join(unmeasured.values()))  # fmt: skip
@@ -478,29 +528,33 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
     ratios["pelvis"] = np.array([width, width, new["pelvis"] / dims["pelvis"]])
     carried = _carry(h, body, marker_set, ratios)
 
-    # placed: the scaled body fitted to the trial's mean pose, the markers moved onto it
-    cols = [static.names.index(n) for n in seen]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # (a marker missing in some frames)
-        mean = np.nanmean(static.positions[:, cols], axis=0)
-    still = MarkerTrajectories(np.array([float(np.mean(static.time))]), list(seen), mean[None],
-                               where)  # fmt: skip
-    pose = _fit(body, still, carried, seen)
+    if walk:  # placed on the walk's frames fitted (see scale_walk)
+        scaled_fit = _fit(body, some, carried, fitted, register=True)
+        free = [n for n in fitted if not carried[n].fixed]
+        placed = dict(carried) | register_markers(body, some, scaled_fit.q,
+                                                  scaled_fit.marker_set, free,
+                                                  scaled_fit.held)  # fmt: skip
+        pose = scaled_fit
+    else:  # placed: the scaled body fitted to the trial's mean pose, the markers moved onto it
+        cols = [static.names.index(n) for n in fitted]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # (a marker missing in some frames)
+            mean = np.nanmean(static.positions[:, cols], axis=0)
+        still = MarkerTrajectories(np.array([float(np.mean(static.time))]), list(fitted),
+                                   mean[None], where)  # fmt: skip
+        pose = _fit(body, still, carried, fitted)
+        free = [n for n in fitted if not carried[n].fixed]
+        placed = dict(carried) | register_markers(body, still, pose.q, carried, free)
     if pose.unconstrained:
-        warnings.warn(f"{where}: no marker sees {', '.join(pose.unconstrained)} in the static "
-                      "pose (held standing): the markers on them are placed as they stand",
-                      ScaleWarning, stacklevel=2)  # fmt: skip
-    free = [n for n in seen if not carried[n].fixed]
-    placed = dict(carried) | register_markers(body, still, pose.q, carried, free)
+        warnings.warn(f"{where}: no marker sees {', '.join(pose.unconstrained)} in the "
+                      f"{mode} trial's fit (held standing): the markers on them are placed as "
+                      "they stand", ScaleWarning, stacklevel=2)  # fmt: skip
     moved = {n: float(np.linalg.norm(np.subtract(placed[n].offset, carried[n].offset)))
              for n in free}  # fmt: skip
-    pick = np.unique(np.linspace(0, len(static.time) - 1, max(fit_frames, 1)).round().astype(int))
-    some = MarkerTrajectories(static.time[pick], list(static.names), static.positions[pick],
-                              where)  # fmt: skip
-    fits = {"unscaled": _fit(h, some, marker_set, seen),
-            "scaled": _fit(body, some, carried, seen, pose.q[0]),
-            "placed": _fit(body, some, placed, seen, pose.q[0])}  # fmt: skip
+    fits = {"unscaled": unscaled_fit or _fit(h, some, marker_set, fitted),
+            "scaled": scaled_fit if walk else _fit(body, some, carried, fitted, pose.q[0]),
+            "placed": _fit(body, some, placed, fitted, pose.q[0])}  # fmt: skip
     return ScaleResult(scaled, body, urdf, placed, made, unmeasured,
                        {s: (float(dims[s]), float(new[s])) for s in LENGTHS},
                        (params.height, float(height)), pose.q[0], moved, fits,
-                       where)  # fmt: skip
+                       where, mode, moves, centres)  # fmt: skip
