@@ -610,7 +610,7 @@ def run_track(args) -> int:
 
         given = loads
         d = derivatives(h.model, t, q)
-        share = _covered(h, d, loads) if loads else 0.0
+        share = _covered(h, d, loads, floor) if loads else 0.0
         if share < 0.95:  # (plates that miss steps: the reduction needs every stance's load)
             if loads:
                 reduced.append(f"the loads cover {share * 100:.0f} % of the stances: the "
@@ -691,13 +691,14 @@ def run_track(args) -> int:
     return 0 if res.completed else 3
 
 
-def _covered(h, d, loads) -> float:
-    """The share of the motion's stance samples (feet down by the motion) whose foot carries a
-    measured load (its vertical force over 20 N); ``d``: the motion's (time, q, v, a)."""
+def _covered(h, d, loads, floor=None) -> float:
+    """The share of the motion's stance samples (feet down by the motion, on ``floor``) whose
+    foot carries a measured load (its vertical force over 20 N); ``d``: the motion's (time, q,
+    v, a)."""
     from ..model import SIDES
     from .inverse_dynamics import contact_schedule
 
-    motion = contact_schedule(h, d[0], d[1], d[2])
+    motion = contact_schedule(h, d[0], d[1], d[2], floor=floor)
     measured = contact_schedule(h, d[0], d[1], d[2], loads)
     down = sum(int(motion[s][1].sum()) for s in SIDES)
     held = sum(int((motion[s][1] & measured[s][1]).sum()) for s in SIDES)

@@ -213,6 +213,15 @@ def _mass_step(model, q, v, a, W, trunk, sigma_f, sigma_m, com_limit):
     return scale, shift
 
 
+def _cost(model, q, v, a, W, changed, dt, sq, sr, sa) -> float:
+    """The reduction's objective (module docstring) at the motion ``q`` (its ``v``, ``a``),
+    ``changed`` from the motion before."""
+    data = model.createData()
+    r = np.array([_root_residual(model, data, *x) for x in zip(q, v, a, W, strict=True)])
+    smooth = (changed[:-2] - 2 * changed[1:-1] + changed[2:]) / dt**2 / sa
+    return float(np.sum((r / sr) ** 2) + np.sum((changed / sq) ** 2) + np.sum(smooth**2))
+
+
 def _sigmas(model, sigma_root, sigma_trunk, sigma_joint) -> np.ndarray:
     """Per generalised velocity, the change that costs as much as the residual's sigma."""
     s = np.full(model.nv, sigma_joint)
@@ -351,13 +360,23 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
     qk, vk, ak = q0, before.v, before.a
     done = 0
     changed = np.zeros((len(t), model.nv))
+    cost = _cost(model, qk, vk, ak, W, changed, dt, sq, sr, sigma_acceleration)
     for _ in range(iterations):
         dq = _kinematic_step(model, qk, vk, ak, W, dt, sq, sr, sigma_acceleration, changed)
-        total = np.array([pin.integrate(model, x, d) for x, d in zip(qk, dq, strict=True)])
-        _, qk, vk, ak = derivatives(model, t, total, cutoff=None)
-        changed = np.array([pin.difference(model, a_, b_) for a_, b_ in zip(q0, qk, strict=True)])
+        for step in (1.0, 0.5, 0.25, 0.125):  # backtracking: the linearisation can overshoot
+            total = np.array(
+                [pin.integrate(model, x, step * d) for x, d in zip(qk, dq, strict=True)]
+            )
+            _, q1, v1, a1 = derivatives(model, t, total, cutoff=None)
+            moved = np.array([pin.difference(model, a_, b_) for a_, b_ in zip(q0, q1, strict=True)])
+            new = _cost(model, q1, v1, a1, W, moved, dt, sq, sr, sigma_acceleration)
+            if new < cost:
+                break
+        else:
+            break  # no step lowers the cost: converged, or the linearisation is no guide
+        qk, vk, ak, changed, cost = q1, v1, a1, moved, new
         done += 1
-        if np.max(np.abs(dq) / sq) < 1e-3:
+        if np.max(np.abs(step * dq) / sq) < 1e-3:
             break
     res = _residuals(model, qk, vk, ak, W)
     diff = changed

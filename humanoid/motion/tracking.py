@@ -221,6 +221,10 @@ class MotionTracker(Effect):
         cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
+        off = float(np.linalg.norm(q[:2] - q_r[:2]))
+        if off > LOST_RUN:  # (a run so far from its motion tracks nothing any more)
+            raise RunFailed(f"the body lost the motion at t = {t:.2f} s (its pelvis {off:.2f} m "
+                            "from it)")  # fmt: skip
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
@@ -414,6 +418,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
 LOST_POSITION, LOST_ANGLE = 0.10, 15.0
+LOST_RUN = 0.5  # [m] ... and this far (horizontally) it is stopped as failed
 
 
 def _lost(times, err: np.ndarray, ctl: MotionTracker) -> str:
