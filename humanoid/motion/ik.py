@@ -75,6 +75,9 @@ SINGLE_VIEW_REGULARIZATION = 1e-4
 # root's depth jumped 59 mm RMS frame to frame; 1e-5: 16 mm, 49 and 45 mm off; 1e-4: drifts
 # to 170 mm)
 SINGLE_VIEW_ROOT = 1e-5
+# [s^2] ... and the joints' smoothing, ten times :data:`SPARSE_SMOOTHING` (seed 0, side: 4.4 ->
+# 3.6 deg, the root 49 -> 37 mm along the ray)
+SINGLE_VIEW_SMOOTHING = 1e-6
 AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
 ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
 REFIT_STEPS = 2  # Gauss-Newton steps of a frame at a bound, solved again with the ranges off
@@ -335,6 +338,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
     names = [n for n in markers.names if n in marker_set]
     if smoothing is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
+        smoothing = SINGLE_VIEW_SMOOTHING if single else smoothing
     technical = [n for n in names if not marker_set[n].anatomical]
     if register and technical and len(technical) < len(names):
         first = {n: (replace(m, weight=0.0, anatomical=False) if n in technical else m)
@@ -352,6 +356,10 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                     smoothing, unseen, hold, q0, progress, cameras, ball_ranges,
                     ground, root_smoothing)  # fmt: skip
     result.marker_set = marker_set
+    if result.depth is not None:
+        from .monocular import check_single_view
+
+        check_single_view(result.depth, cameras[0], ground)
     if result.at_limit:
         warnings.warn("inverse kinematics: " + "; ".join(
             r.describe(len(result.time)) for r in result.at_limit),

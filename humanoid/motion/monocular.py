@@ -29,10 +29,19 @@ import pinocchio as pin
 from ..errors import HumanoidError
 from ..model import SIDES
 
-__all__ = ["DepthReport", "HEADINGS", "SingleViewWarning", "floor_rows", "place_on_rays"]
+__all__ = [
+    "DepthReport",
+    "HEADINGS",
+    "SingleViewWarning",
+    "check_single_view",
+    "floor_rows",
+    "place_on_rays",
+]
 
 # the first frame's starting headings (about the vertical) tried from one view [rad]
 HEADINGS = tuple(k * math.pi / 4 for k in range(8))
+OFF = 10.0  # [px] a one-view fit reprojecting this far off (RMS) does not match its camera
+LOW_CAMERA = 0.3  # [m] a camera this close to the floor's height sees the floor edge-on
 
 
 class SingleViewWarning(UserWarning):
@@ -144,3 +153,21 @@ class DepthReport:
                 f"across) at the "
                 f"{self.pixels:.1f} px fit; {int(self.weak.sum())} of {len(self.sd)} frames "
                 f"over {self.threshold * 1e3:.0f} mm")  # fmt: skip
+
+
+def check_single_view(report: DepthReport, camera, ground: float) -> None:
+    """Warn (:class:`SingleViewWarning`) where one view's fit cannot be trusted: it reprojects
+    more than :data:`OFF` px off (the calibration is not the recording's: a wrong focal
+    length or axis cannot be fitted with the feet on the floor), or the floor was used and the
+    camera is within :data:`LOW_CAMERA` of its height (its rays meet the floor at a grazing
+    angle: the feet do not fix the depth)."""
+    import warnings
+
+    if report.pixels > OFF:
+        warnings.warn(f"one camera ({camera.name}): the fit reprojects {report.pixels:.0f} px "
+                      f"off (RMS): is the calibration this recording's (its focal length, its "
+                      f"axes, the floor at z = 0)?", SingleViewWarning, stacklevel=3)  # fmt: skip
+    if ground and abs(float(camera.centre[2])) < LOW_CAMERA:
+        warnings.warn(f"one camera ({camera.name}) {camera.centre[2]:.2f} m above the floor: "
+                      f"its rays graze the floor, the feet on it do not fix the depth",
+                      SingleViewWarning, stacklevel=3)  # fmt: skip
