@@ -474,8 +474,10 @@ def run_ik(args) -> int:
           + (" (from the cameras' rays)" if cameras else ""))  # fmt: skip
     if cameras:
         px = np.sqrt(np.nanmean(r.pixels**2, axis=1))
-        print(f"reprojected  {len(cameras)} cameras, RMS per frame: mean {np.nanmean(px):.1f} "
-              f"px, max {np.nanmax(px):.1f} px")  # fmt: skip
+        print(f"reprojected  {len(cameras)} camera{'s' if len(cameras) > 1 else ''}, RMS per "
+              f"frame: mean {np.nanmean(px):.1f} px, max {np.nanmax(px):.1f} px")  # fmt: skip
+    if r.depth is not None:
+        print(f"depth        {r.depth.summary()}; the feet held on the floor z = 0")
     _print_ik_hidden(r)
     if not r.converged.all():
         print(f"not converged in {int((~r.converged).sum())} frames (their best fit is kept)")
@@ -598,6 +600,10 @@ def run_track(args) -> int:
         recording = (markers, fit.marker_set or marker_set)
         print(f"ik           {len(fit.names)} markers, residual RMS per frame "
               f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
+        if fit.pixels is not None:
+            print(f"reprojected  RMS {np.sqrt(np.nanmean(fit.pixels**2)):.1f} px")
+        if fit.depth is not None:
+            print(f"depth        {fit.depth.summary()}")
     else:
         h, what, t, q, loads, _, _ = read_motion(args)
         recording = None

@@ -64,6 +64,20 @@ __all__ = [
 ]
 
 SPARSE_SMOOTHING = 1e-7  # [s^2]: 1e-3 per marker weight at 100 Hz
+SINGLE_VIEW_GROUND = 1.0  # the feet's pull onto the floor from one view, per marker weight
+# one view (measured on the 2-step walk at 30 Hz, 3 px, side and 45-deg views, seed 0; see
+# scripts/single_camera.py): the pull towards standing, per marker weight (1e-6: joints 6.3 and
+# 6.4 deg RMS off, the root 89 and 100 mm along the ray, a lateral S of the spine with the
+# pelvis shifted towards the camera; 1e-4: 4.4 and 4.7 deg, 59 and 52 mm; 1e-3: the knees 8-12
+# deg off), ...
+SINGLE_VIEW_REGULARIZATION = 1e-4
+# [s^2] ... and the root's pull along the ray towards its constant-velocity path (0: the
+# root's depth jumped 59 mm RMS frame to frame; 1e-5: 16 mm, 49 and 45 mm off; 1e-4: drifts
+# to 170 mm)
+SINGLE_VIEW_ROOT = 1e-5
+# [s^2] ... and the joints' smoothing, ten times :data:`SPARSE_SMOOTHING` (seed 0, side: 4.4 ->
+# 3.6 deg, the root 49 -> 37 mm along the ray)
+SINGLE_VIEW_SMOOTHING = 1e-6
 AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
 ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
 REFIT_STEPS = 2  # Gauss-Newton steps of a frame at a bound, solved again with the ranges off
@@ -136,6 +150,7 @@ class IKResult:
     coordinates: list[str] = field(default_factory=list)
     held: np.ndarray | None = None
     pixels: np.ndarray | None = None
+    depth: object = None
 
     @property
     def unconstrained(self) -> list[str]:
@@ -255,9 +270,10 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                        register: bool = False, static: MarkerTrajectories | None = None,
                        iterations: int = 50, tolerance: float = 1e-6,
                        damping: float = 1e-6,
-                       regularization: float = 1e-6, smoothing: float | None = None,
+                       regularization: float | None = None, smoothing: float | None = None,
                        unseen: float = 1e-3, hold: float = 1e-2,
                        q0: np.ndarray | None = None, cameras=None, ball_ranges: bool = False,
+                       ground: float | None = None, root_smoothing: float | None = None,
                        progress=None) -> IKResult:  # fmt: skip
     """Fit the body to measured markers, or to 2D keypoints seen by calibrated cameras (see
     the module docstring).
@@ -312,9 +328,17 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                             "need 2D keypoints")  # fmt: skip
     if cameras is not None and (register or static is not None):
         raise HumanoidError("registering technical markers needs 3D markers, not 2D keypoints")
+    single = cameras is not None and len(cameras) == 1  # (the defaults of one view)
+    if ground is None:
+        ground = SINGLE_VIEW_GROUND if single else 0.0
+    if root_smoothing is None:
+        root_smoothing = SINGLE_VIEW_ROOT if single else 0.0
+    if regularization is None:
+        regularization = SINGLE_VIEW_REGULARIZATION if single else 1e-6
     names = [n for n in markers.names if n in marker_set]
     if smoothing is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
+        smoothing = SINGLE_VIEW_SMOOTHING if single else smoothing
     technical = [n for n in names if not marker_set[n].anatomical]
     if register and technical and len(technical) < len(names):
         first = {n: (replace(m, weight=0.0, anatomical=False) if n in technical else m)
@@ -329,8 +353,13 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         if static is None:
             q0 = fit.q[0]
     result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
-                    smoothing, unseen, hold, q0, progress, cameras, ball_ranges)  # fmt: skip
+                    smoothing, unseen, hold, q0, progress, cameras, ball_ranges,
+                    ground, root_smoothing)  # fmt: skip
     result.marker_set = marker_set
+    if result.depth is not None:
+        from .monocular import check_single_view
+
+        check_single_view(result.depth, cameras[0], ground)
     if result.at_limit:
         warnings.warn("inverse kinematics: " + "; ".join(
             r.describe(len(result.time)) for r in result.at_limit),
@@ -378,6 +407,14 @@ def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: 
     return out
 
 
+def _centroid_shift(points, seen, P, i: int, time: float) -> np.ndarray:
+    """The mean of ``points - P`` over the seen, finite points (at least 3) of frame ``i``."""
+    ok = np.all(np.isfinite(points), axis=1) & seen
+    if ok.sum() < 3:
+        raise HumanoidError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
+    return (points[ok] - P[ok]).mean(axis=0)
+
+
 class _Points:
     """Measured 3D markers as the fit's observations: each seen marker gives three rows,
     ``measured - model`` [m], weighted by its set's weight."""
@@ -391,9 +428,10 @@ class _Points:
         """The markers seen in frame ``i``."""
         return np.all(np.isfinite(self.meas[i]), axis=1) & (self.weights > 0)
 
-    def anchor(self, i: int) -> np.ndarray:
-        """Frame ``i``'s markers in the world (NaN: unseen), to start the first frame on."""
-        return self.meas[i]
+    def place(self, i: int, seen, P, time: float) -> np.ndarray:
+        """The translation [m] that moves the model's markers ``P`` onto frame ``i``'s (their
+        centroids'), to start the first frame from."""
+        return _centroid_shift(self.meas[i], seen, P, i, time)
 
     def rows(self, i, seen, P, Jp):
         """The fit's rows at the model's markers ``P`` (m, 3) with their Jacobians ``Jp``
@@ -422,14 +460,50 @@ class _Views:
         self.uv = keypoints.uv[:, :, cols]
         self.conf = keypoints.confidence[:, :, cols]
         self.weights = weights
-        self.points = triangulate(keypoints, cameras).positions[:, cols]
+        self.single = len(self.cameras) == 1
+        if not self.single:
+            self.points = triangulate(keypoints, cameras).positions[:, cols]
         self.pixels = None  # (n, m) the last fit's reprojection errors [px]
 
     def seen(self, i: int) -> np.ndarray:
         return (self.conf[:, i] > 0).any(axis=0) & (self.weights > 0)
 
-    def anchor(self, i: int) -> np.ndarray:
-        return self.points[i]
+    def place(self, i: int, seen, P, time: float) -> np.ndarray:
+        """As :meth:`_Points.place`, on the triangulated points; from one view, the
+        translation that best reprojects ``P`` (:func:`~humanoid.motion.monocular.
+        place_on_rays`)."""
+        if not self.single:
+            return _centroid_shift(self.points[i], seen, P, i, time)
+        from .monocular import place_on_rays
+
+        ok = seen & (self.conf[0, i] > 0)
+        if ok.sum() < 3:
+            raise HumanoidError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
+        return place_on_rays(self.cameras[0], self.uv[0, i, ok], P[ok])
+
+    def ray(self, point) -> np.ndarray:
+        """The unit direction from the (first) camera to ``point`` [m]."""
+        d = np.asarray(point, dtype=float) - self.cameras[0].centre
+        return d / np.linalg.norm(d)
+
+    def root_depth(self, q, A, J, w) -> np.ndarray:
+        """From one view: the standard deviations of the root's position along the camera's
+        ray through it and across it (the largest) [m] for one pixel of noise on every row,
+        from the Gauss-Newton system ``A`` with the rows' Jacobian ``J`` [px] and weights
+        ``w``; and its distance from the camera [m]."""
+        Ai = np.linalg.inv(A)
+        JW = J.T * w
+        cov = (Ai @ JW @ JW.T @ Ai)[:3, :3]  # the root's translation, in its own frame
+        R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+        cov = R @ cov @ R.T
+        cam = self.cameras[0]
+        ray = q[:3] - cam.centre
+        distance = float(np.linalg.norm(ray))
+        u = ray / distance
+        along = float(u @ cov @ u)
+        P = np.eye(3) - np.outer(u, u)
+        across = float(np.linalg.eigvalsh(P @ cov @ P).max())
+        return np.array([math.sqrt(max(along, 0.0)), math.sqrt(max(across, 0.0)), distance])
 
     def rows(self, i, seen, P, Jp):
         share = 1.5 / np.maximum((self.conf[:, i] > 0).sum(axis=0), 1)
@@ -462,7 +536,8 @@ class _Views:
 
 
 def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, smoothing,
-           unseen, hold, q0, progress, cameras=None, ball_ranges=False) -> IKResult:  # fmt: skip
+           unseen, hold, q0, progress, cameras=None, ball_ranges=False,
+           ground=0.0, root_smoothing=0.0) -> IKResult:  # fmt: skip
     model = h.model
     data = model.createData()
     names = [n for n in markers.names if n in marker_set]
@@ -483,6 +558,12 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         obs = _Points(markers, names, weights)
     else:
         obs = _Views(markers, cameras, names, weights)
+    single = getattr(obs, "single", False)
+    soles = None
+    if ground:
+        from .monocular import SolePoints
+
+        soles = SolePoints(h)
     ranges = _ranges(model)
     balls = None
     if ball_ranges and h.fusion is not None and h.fusion.balls:
@@ -497,10 +578,11 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     residuals = np.full((n, m), np.nan)
     iters = np.zeros(n, dtype=int)
     converged = np.zeros(n, dtype=bool)
+    depth = np.full((n, 3), np.nan)  # one view: the root's depth sd, across sd, distance
     q = None if q0 is None else np.asarray(q0, dtype=float).copy()
     eye = np.eye(model.nv)
     joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
-    previous = None
+    previous = before = None
 
     def model_markers(q):
         """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv)."""
@@ -517,8 +599,9 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
 
     def system(q, frame, rows=None):
         """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``rows``: the
-        observations' Jacobian, residuals and weights at ``q``, if known)."""
-        i, seen, reg, keep, target, smooth, previous = frame
+        observations' Jacobian, residuals and weights at ``q``, if known: ``data`` is then at
+        ``q`` already)."""
+        i, seen, reg, keep, target, smooth, previous, total, root_pull = frame
         J, r, w = obs.rows(i, seen, *model_markers(q)) if rows is None else rows
         e = pin.difference(model, q, standing)
         A = J.T @ (w[:, None] * J) + (damping + reg) * eye + keep
@@ -526,21 +609,29 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         if smooth:  # the joints (not the root) held near the frame before
             A += smooth * joints
             b += smooth * (joints @ pin.difference(model, q, previous))
+        if root_pull is not None:  # one view: the root near its constant-velocity path
+            weight, predicted = root_pull
+            A += weight
+            b += weight @ pin.difference(model, q, predicted)
+        if soles is not None:  # the feet on the floor z = 0 (data is at q)
+            from .monocular import floor_rows
+
+            Jg, rg, wg = floor_rows(*soles(data), ground * total)
+            A += Jg.T @ (wg[:, None] * Jg)
+            b += Jg.T @ (wg * rg)
         return A, b
 
-    for i in range(n):
-        seen = obs.seen(i)
-        if q is None:
-            anchor = obs.anchor(i)
-            placed = np.all(np.isfinite(anchor), axis=1) & seen
-            if placed.sum() < 3:
-                raise HumanoidError(
-                    f"frame {i} ({markers.time[i]:.3f} s): fewer than 3 markers seen"
-                )
-            q = standing.copy()
-            pin.framesForwardKinematics(model, data, q)
-            model_pts = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
-            q[:3] += (anchor[placed] - model_pts[placed]).mean(axis=0)
+    def placed(i, seen, q):
+        """``q`` moved onto frame ``i``'s observations (the first frame's start)."""
+        pin.framesForwardKinematics(model, data, q)
+        P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
+        q = q.copy()
+        q[:3] += obs.place(i, seen, P, markers.time[i])
+        return q
+
+    def fit_frame(i, seen, q):
+        """Frame ``i`` fitted from ``q``: (q, iterations, converged, held, the frame's terms,
+        the cost at the end)."""
         total = max(float(np.where(seen, weights, 0.0).sum()), 1.0)
         reg = regularization * total
         smooth = 0.0
@@ -550,11 +641,20 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         # the coordinates no marker sees (at the frame's start): held where they were
         first = obs.rows(i, seen, *model_markers(q))  # (the first iteration's too)
         column = np.sqrt(first[2] @ first[0] ** 2)
-        held[i] = column < unseen * column.max()
-        keep = np.diag(np.where(held[i], hold * total, 0.0))
+        held_i = column < unseen * column.max()
+        keep = np.diag(np.where(held_i, hold * total, 0.0))
         target = previous if previous is not None else standing
-        frame = (i, seen, reg, keep, target, smooth, previous)
-
+        root_pull = None
+        if single and root_smoothing and before is not None:
+            dt = float(markers.time[i] - markers.time[i - 1])
+            predicted = pin.integrate(model, previous, pin.difference(model, before, previous))
+            weight = np.zeros((model.nv, model.nv))
+            R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
+            u = R.T @ obs.ray(q[:3])  # the ray through the root, in the root's frame
+            weight[:3, :3] = np.outer(u, u) * root_smoothing * total / dt**2
+            root_pull = (weight, predicted)
+        frame = (i, seen, reg, keep, target, smooth, previous, total, root_pull)
+        done, it = False, 0
         for it in range(iterations):
             A, b = system(q, frame, first if it == 0 else None)
             dq = _bounded_step(A, b, q, ranges, balls)
@@ -563,10 +663,27 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                 q_new[iq] = min(max(q_new[iq], lo), hi)
             step = float(np.abs(dq).max())
             q = q_new
-            iters[i] = it + 1
             if step < tolerance:
-                converged[i] = True
+                done = True
                 break
+        J, r, w = obs.rows(i, seen, *model_markers(q))
+        return q, it + 1, done, held_i, frame, float(r @ (w * r))
+
+    for i in range(n):
+        seen = obs.seen(i)
+        if q is None and single:  # one view: the heading that fits best (module monocular)
+            from .monocular import HEADINGS
+
+            tries = []
+            for yaw in HEADINGS:
+                start = standing.copy()
+                start[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
+                tries.append(fit_frame(i, seen, placed(i, seen, start)))
+            q, iters[i], converged[i], held[i], frame, _ = min(tries, key=lambda x: x[-1])
+        else:
+            if q is None:
+                q = placed(i, seen, standing)
+            q, iters[i], converged[i], held[i], frame, _ = fit_frame(i, seen, q)
         at_ball = balls is not None and bool(
             np.any(balls.rows(q, margin=BALL_AT_LIMIT, certified=False)[0][balls.hinge_count_near:]
                    < BALL_AT_LIMIT))  # fmt: skip
@@ -580,16 +697,27 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                 if float(np.abs(dq).max()) < tolerance:
                     break
             wanted[i] = free
+        if single:  # the root's depth: its sd for one pixel of noise, from the curvature
+            A, _ = system(q, frame)  # (data at q)
+            J, _, w = obs.rows(i, seen, *model_markers(q))
+            depth[i] = obs.root_depth(q, A, J, w)
         pin.framesForwardKinematics(model, data, q)
         P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
         residuals[i] = obs.error(i, seen, P)
         out_q[i] = q
-        previous = q.copy()
+        before, previous = previous, q.copy()
         if progress is not None:
             progress(i)
-    return IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
-                    at_limit=sorted(_limit_reports(model, markers.time, out_q, wanted)
-                                    + _ball_reports(balls, markers.time, out_q, wanted),
-                                    key=lambda r: -r.excess),
-                    coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held,
-                    pixels=getattr(obs, "pixels", None))  # fmt: skip
+    result = IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
+                      at_limit=sorted(_limit_reports(model, markers.time, out_q, wanted)
+                                      + _ball_reports(balls, markers.time, out_q, wanted),
+                                      key=lambda r: -r.excess),
+                      coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held,
+                      pixels=getattr(obs, "pixels", None))  # fmt: skip
+    if single:
+        from .monocular import DepthReport
+
+        px = float(np.sqrt(np.nanmean(result.pixels**2)))
+        result.depth = DepthReport(obs.cameras[0].name, depth[:, 0], depth[:, 1], depth[:, 2],
+                                   px)  # fmt: skip
+    return result
