@@ -705,7 +705,7 @@ def _covered(h, d, loads, floor=None) -> float:
     from .inverse_dynamics import contact_schedule
 
     motion = contact_schedule(h, d[0], d[1], d[2], floor=floor)
-    measured = contact_schedule(h, d[0], d[1], d[2], loads)
+    measured = contact_schedule(h, d[0], d[1], d[2], loads, fill=False)
     down = sum(int(motion[s][1].sum()) for s in SIDES)
     held = sum(int((motion[s][1] & measured[s][1]).sum()) for s in SIDES)
     return held / down if down else 1.0

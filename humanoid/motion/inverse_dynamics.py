@@ -301,7 +301,8 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
 
 
 def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float = 0.3,
-                     force: float = 20.0, floor=None, shortest: float = 0.1) -> dict:  # fmt: skip
+                     force: float = 20.0, floor=None, shortest: float = 0.1,
+                     fill: bool = True) -> dict:  # fmt: skip
     """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
     (vertical force over ``force`` [N]) if it has one, else from the motion: one of its sole
     points within ``height`` [m] of the motion's floor (its lowest sole point) and moving with
@@ -313,7 +314,9 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     are measured above it, along its normal, and within ``height`` of it is low (default
     None: the horizontal plane of the motion's lowest sole point). From the motion, gaps and
     then contacts shorter than ``shortest`` [s] are removed (a noisy motion's foot flickers;
-    a stance or a swing of a walk lasts 0.3 s or more)."""
+    a stance or a swing of a walk lasts 0.3 s or more). ``fill``: a stance the motion has for
+    a foot whose measured load reads nothing through all of it (a step beside the plates) is
+    a contact too (False: the measured loads alone)."""
     model = h.model
     data = model.createData()
     out = {}
@@ -338,12 +341,20 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     belt = np.median(near[:, :2], axis=0) if len(near) else np.zeros(2)
     fast = {s: np.linalg.norm(vel[s] - np.array([*belt, 0.0]), axis=2) for s in SIDES}
     for s in SIDES:
+        down = ((low[s] < base + height) & (fast[s] < speed)).any(axis=1)
+        down = _debounced(down, np.asarray(time), shortest)
         if s in measured:
             fz = np.interp(time, measured[s].time, measured[s].force[:, 2], left=0.0, right=0.0)
-            out[s] = (np.asarray(time), fz > force)
+            on = fz > force
+            if fill:  # the motion's stances that no plate saw (plates that miss steps)
+                from ..walking.gait import contact_runs
+
+                for a, b in contact_runs(down, np.asarray(time), 0.0):
+                    if not on[a:b].any():
+                        on[a:b] = True
+            out[s] = (np.asarray(time), on)
         else:
-            down = ((low[s] < base + height) & (fast[s] < speed)).any(axis=1)
-            out[s] = (np.asarray(time), _debounced(down, np.asarray(time), shortest))
+            out[s] = (np.asarray(time), down)
     return out
 
 
