@@ -347,7 +347,9 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     A motion past joint ranges (which the run keeps) is clamped into them first
     (:func:`inside_ranges`; a :class:`ReferenceRangeWarning` names what). The run starts in the
     reference's first state; it stops as failed if the body falls (its
-    centre of mass below half its starting height); what it recorded up to then is kept. A
+    centre of mass below half its starting height, or its pelvis tipped over 60 deg) or loses
+    the motion (its pelvis :data:`LOST_RUN` from the motion's), the message saying when and how
+    it lost the motion; what it recorded up to then is kept. A
     body with toes tracks with them locked (the tracker plans a rigid foot); the result's
     :attr:`Tracked.body` is the body that moved.
 
