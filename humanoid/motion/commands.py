@@ -660,6 +660,15 @@ def run_track(args) -> int:
           f"wall time for {sim_time:.2f} s)")  # fmt: skip
     print(f"root error   max {np.abs(err[:, :3]).max() * 1e3:.1f} mm, "
           f"{np.degrees(np.abs(err[:, 3:6]).max()):.2f} deg")  # fmt: skip
+    from .tracking import LOST_ANGLE, LOST_POSITION
+
+    off = (np.linalg.norm(err[:, :3], axis=1) > LOST_POSITION) | (
+        np.degrees(np.linalg.norm(err[:, 3:6], axis=1)) > LOST_ANGLE)  # fmt: skip
+    if res.completed and off.any():
+        print(f"lost         the run's pelvis went over {LOST_POSITION * 100:.0f} cm or "
+              f"{LOST_ANGLE:.0f} deg from the motion's at t = {traj.t[int(np.argmax(off))]:.2f} s"
+              f" and ended {np.linalg.norm(err[-1, :3]) * 100:.0f} cm from it: read the joints "
+              "with that in mind")  # fmt: skip
     print(f"joint error  RMS {np.degrees(np.sqrt(np.mean(err[:, 6:] ** 2))):.2f} deg, max "
           f"{np.degrees(np.abs(err[:, 6:]).max()):.2f} deg; worst: "
           + ", ".join(f"{labels[6 + i]} {np.degrees(rms[i]):.2f}" for i in worst))  # fmt: skip

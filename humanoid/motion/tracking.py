@@ -221,10 +221,6 @@ class MotionTracker(Effect):
         cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
-        off = float(np.linalg.norm(q[:2] - q_r[:2]))
-        if off > LOST_RUN:  # (a run so far from its motion tracks nothing any more)
-            raise RunFailed(f"the body lost the motion at t = {t:.2f} s (its pelvis {off:.2f} m "
-                            "from it)")  # fmt: skip
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
@@ -347,9 +343,8 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     A motion past joint ranges (which the run keeps) is clamped into them first
     (:func:`inside_ranges`; a :class:`ReferenceRangeWarning` names what). The run starts in the
     reference's first state; it stops as failed if the body falls (its
-    centre of mass below half its starting height, or its pelvis tipped over 60 deg) or loses
-    the motion (its pelvis :data:`LOST_RUN` from the motion's), the message saying when and how
-    it lost the motion; what it recorded up to then is kept. A
+    centre of mass below half its starting height, or its pelvis tipped over 60 deg), the
+    message saying when and how it lost the motion; what it recorded up to then is kept. A
     body with toes tracks with them locked (the tracker plans a rigid foot); the result's
     :attr:`Tracked.body` is the body that moved.
 
@@ -420,7 +415,6 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
 LOST_POSITION, LOST_ANGLE = 0.10, 15.0
-LOST_RUN = 0.5  # [m] ... and this far (horizontally) it is stopped as failed
 
 
 def _lost(times, err: np.ndarray, ctl: MotionTracker) -> str:
