@@ -113,7 +113,6 @@ class JointRanges:
         self._certificate = None
         self.skipped = False  # whether the last call to rows skipped the decomposition
         self._no_rows = (np.zeros(0), np.zeros((0, self.nv)))  # (read-only: shared)
-        self.hinge_count_near = 0  # how many of the last rows returned are the hinges'
         for a in self._no_rows:
             a.flags.writeable = False
 
@@ -204,8 +203,6 @@ class JointRanges:
         r, J = self.hinge_rows(q)
         keep = r < margin
         J = J[keep]
-        self.hinge_count_near = int(keep.sum())  # the rows returned that are the hinges'
-
         if self.skipped:
             return r[keep], J
         th = self._angles(q) if self.balls else None

@@ -569,7 +569,15 @@ def residual_figure(path, r, title: str = "") -> Path:
 def run_track(args) -> int:
     """``humanoid track``: a motion followed in forward simulation, by joint torques."""
     from .inverse_dynamics import joint_labels
-    from .tracking import describe_clamped, inside_ranges, track
+    from .tracking import (
+        LOST_ANGLE,
+        LOST_POSITION,
+        ReferenceRangeWarning,
+        describe_clamped,
+        inside_ranges,
+        lost_at,
+        track,
+    )
 
     suffix = Path(args.motion).suffix.lower()
     fitted = suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout)
@@ -627,8 +635,6 @@ def run_track(args) -> int:
         loads = given  # (measured loads tell the contacts; estimated ones are the motion's)
     import warnings
 
-    from .tracking import ReferenceRangeWarning
-
     with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
         warnings.simplefilter("always", ReferenceRangeWarning)
         res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
@@ -660,13 +666,10 @@ def run_track(args) -> int:
           f"wall time for {sim_time:.2f} s)")  # fmt: skip
     print(f"root error   max {np.abs(err[:, :3]).max() * 1e3:.1f} mm, "
           f"{np.degrees(np.abs(err[:, 3:6]).max()):.2f} deg")  # fmt: skip
-    from .tracking import LOST_ANGLE, LOST_POSITION
-
-    off = (np.linalg.norm(err[:, :3], axis=1) > LOST_POSITION) | (
-        np.degrees(np.linalg.norm(err[:, 3:6], axis=1)) > LOST_ANGLE)  # fmt: skip
-    if res.completed and off.any():
+    lost = lost_at(err)
+    if res.completed and lost is not None:
         print(f"lost         the run's pelvis went over {LOST_POSITION * 100:.0f} cm or "
-              f"{LOST_ANGLE:.0f} deg from the motion's at t = {traj.t[int(np.argmax(off))]:.2f} s"
+              f"{LOST_ANGLE:.0f} deg from the motion's at t = {traj.t[lost]:.2f} s"
               f" and ended {np.linalg.norm(err[-1, :3]) * 100:.0f} cm from it: read the joints "
               "with that in mind")  # fmt: skip
     print(f"joint error  RMS {np.degrees(np.sqrt(np.mean(err[:, 6:] ** 2))):.2f} deg, max "

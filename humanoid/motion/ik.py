@@ -81,13 +81,13 @@ SINGLE_VIEW_SMOOTHING = 1e-6
 AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
 ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
 REFIT_STEPS = 2  # Gauss-Newton steps of a frame at a bound, solved again with the ranges off
-PAST_LIMIT = math.radians(0.1)
+PAST_LIMIT = math.radians(0.1)  # a joint at its bound is held there if the markers want this more
 # [rad] a ball joint's rows nearer a bound than this enter the step's constraints (its angles
 # are not linear in the step: the rows are linearised where the step starts)
 BALL_MARGIN = 0.3
 # [rad] a ball joint's angle this close to its bound is at it (the linearised rows leave it a
 # little off the bound when the frame stops)
-BALL_AT_LIMIT = 1e-4  # a joint at its bound is held there if the markers want this more
+BALL_AT_LIMIT = 1e-4
 
 
 class RangeLimitWarning(UserWarning):
@@ -217,7 +217,7 @@ def _bounded_step(A, b, q, ranges, balls=None) -> np.ndarray:
     x = q[[r[1] for r in ranges]]
     lo = np.array([r[2] for r in ranges]) - x
     hi = np.array([r[3] for r in ranges]) - x
-    r_b, J_b = _ball_rows(balls, q, len(b))
+    r_b, J_b = _ball_rows(balls, q, len(b), BALL_MARGIN)
     inside = np.all(dq[iv] >= lo - 1e-12) and np.all(dq[iv] <= hi + 1e-12)
     if inside and np.all(r_b + J_b @ dq >= -1e-12):
         return dq
@@ -232,13 +232,13 @@ def _bounded_step(A, b, q, ranges, balls=None) -> np.ndarray:
     return np.asarray(res.x)
 
 
-def _ball_rows(balls, q, nv: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ball joints' range rows (r, J) within :data:`BALL_MARGIN` of a bound (none without
-    ``balls``)."""
+def _ball_rows(balls, q, nv: int, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """The ball joints' range rows (r, J) within ``margin`` [rad] of a bound (none without
+    ``balls``): :meth:`~humanoid.constraints.limits.JointRanges.rows` lists the hinges' first."""
     if balls is None:
         return np.zeros(0), np.zeros((0, nv))
-    r, J = balls.rows(q, margin=BALL_MARGIN, certified=False)
-    k = balls.hinge_count_near
+    r, J = balls.rows(q, margin=margin, certified=False)
+    k = int((balls.hinge_rows(q)[0] < margin).sum())
     return r[k:], J[k:]
 
 
@@ -630,8 +630,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         return q
 
     def fit_frame(i, seen, q):
-        """Frame ``i`` fitted from ``q``: (q, iterations, converged, held, the frame's terms,
-        the cost at the end)."""
+        """Frame ``i`` fitted from ``q``: (q, iterations, converged, held, the frame's terms)."""
         total = max(float(np.where(seen, weights, 0.0).sum()), 1.0)
         reg = regularization * total
         smooth = 0.0
@@ -666,8 +665,12 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             if step < tolerance:
                 done = True
                 break
-        J, r, w = obs.rows(i, seen, *model_markers(q))
-        return q, it + 1, done, held_i, frame, float(r @ (w * r))
+        return q, it + 1, done, held_i, frame
+
+    def cost(i, seen, q) -> float:
+        """The observations' weighted squared residual of frame ``i`` at ``q``."""
+        _, r, w = obs.rows(i, seen, *model_markers(q))
+        return float(r @ (w * r))
 
     for i in range(n):
         seen = obs.seen(i)
@@ -678,15 +681,14 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             for yaw in HEADINGS:
                 start = standing.copy()
                 start[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
-                tries.append(fit_frame(i, seen, placed(i, seen, start)))
-            q, iters[i], converged[i], held[i], frame, _ = min(tries, key=lambda x: x[-1])
+                fitted = fit_frame(i, seen, placed(i, seen, start))
+                tries.append((cost(i, seen, fitted[0]), fitted))
+            q, iters[i], converged[i], held[i], frame = min(tries, key=lambda x: x[0])[1]
         else:
             if q is None:
                 q = placed(i, seen, standing)
-            q, iters[i], converged[i], held[i], frame, _ = fit_frame(i, seen, q)
-        at_ball = balls is not None and bool(
-            np.any(balls.rows(q, margin=BALL_AT_LIMIT, certified=False)[0][balls.hinge_count_near:]
-                   < BALL_AT_LIMIT))  # fmt: skip
+            q, iters[i], converged[i], held[i], frame = fit_frame(i, seen, q)
+        at_ball = bool(np.any(_ball_rows(balls, q, model.nv, BALL_AT_LIMIT)[0] < BALL_AT_LIMIT))
         if at_ball or any(min(q[iq] - lo, hi - q[iq]) < AT_LIMIT for _, iq, lo, hi in ranges):
             free = q.copy()  # the frame solved again, from there, with every range off (two
             # Gauss-Newton steps: within 0.1 degree of converged on the tests' 5-degree excess,

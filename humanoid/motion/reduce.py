@@ -216,8 +216,7 @@ def _mass_step(model, q, v, a, W, trunk, sigma_f, sigma_m, com_limit):
 def _cost(model, q, v, a, W, changed, dt, sq, sr, sa) -> float:
     """The reduction's objective (module docstring) at the motion ``q`` (its ``v``, ``a``),
     ``changed`` from the motion before."""
-    data = model.createData()
-    r = np.array([_root_residual(model, data, *x) for x in zip(q, v, a, W, strict=True)])
+    r = _residuals(model, q, v, a, W)  # (world axes: the sigmas are the same on each axis)
     smooth = (changed[:-2] - 2 * changed[1:-1] + changed[2:]) / dt**2 / sa
     return float(np.sum((r / sr) ** 2) + np.sum((changed / sq) ** 2) + np.sum(smooth**2))
 

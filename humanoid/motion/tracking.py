@@ -417,14 +417,20 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
 LOST_POSITION, LOST_ANGLE = 0.10, 15.0
 
 
+def lost_at(err: np.ndarray) -> int | None:
+    """The first record at which a run's pelvis is over :data:`LOST_POSITION` or
+    :data:`LOST_ANGLE` from its motion's (``err``: :attr:`Tracked.joint_error`), or None."""
+    off = (np.linalg.norm(err[:, :3], axis=1) > LOST_POSITION) | (
+        np.degrees(np.linalg.norm(err[:, 3:6], axis=1)) > LOST_ANGLE)  # fmt: skip
+    return int(np.argmax(off)) if off.any() else None
+
+
 def _lost(times, err: np.ndarray, ctl: MotionTracker) -> str:
     """Why a run fell: when it lost the motion (its pelvis first over :data:`LOST_POSITION`
     or :data:`LOST_ANGLE` from the motion's) and how, and what the feet were doing then."""
-    off = (np.linalg.norm(err[:, :3], axis=1) > LOST_POSITION) | (
-        np.degrees(np.linalg.norm(err[:, 3:6], axis=1)) > LOST_ANGLE)  # fmt: skip
-    if not off.any():
+    i = lost_at(err)
+    if i is None:
         return ""
-    i = int(np.argmax(off))
     t = float(times[i])
     dx, dy = err[i, 0], err[i, 1]  # the motion's pelvis from the run's, in the run's axes
     where = [f"{abs(dx) * 100:.0f} cm {'behind' if dx > 0 else 'ahead of'} it",
