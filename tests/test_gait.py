@@ -255,6 +255,17 @@ def test_events_and_spatiotemporal_values_of_a_walk_drawn_by_hand(male):
     assert np.abs(fz[(PERCENT > 70) & (PERCENT < 90)]).max() < 1e-3
 
 
+def test_a_stance_the_record_ends_in_is_not_analysed(male):
+    """A record that stops mid-stance, its last 10 ms a rigid contact's zero-force samples (a
+    gap the hysteresis reads as a lift-off): that stance is not complete and is not judged (CI
+    once saw such a stance reported without its foot flat)."""
+    rec = _synthetic_record(male, duration=5.7)  # the right foot strikes at 5.6 s
+    assert rec.force["right"][-11, 2] > 0
+    rec.force["right"][-10:, 2] = 0.0
+    times = [f["time"] for f in analyse(male, rec, skip=0.5).feet["right"]]
+    assert times and max(times) < 5.0, times
+
+
 def test_the_gait_report_draws_the_curves_over_the_norms(male, tmp_path):
     """The report's figure is written; its table marks a value outside the adult norm."""
     a = analyse(male, _synthetic_record(male), skip=0.5)

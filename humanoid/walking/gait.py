@@ -816,7 +816,12 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     contacts = {}
     for s in SIDES:
         on = hysteresis(rec.force[s][:, 2], EVENT_ON * weight, EVENT_OFF * weight)
-        contacts[s] = contact_runs(on, t, MIN_CONTACT)
+        runs = contact_runs(on, t, MIN_CONTACT)
+        # a gap the record ends in, too short to tell a lift-off from a rigid contact's
+        # zero-force samples, does not end the contact: the record does
+        if runs and runs[-1][1] < len(t) and t[-1] - t[runs[-1][1]] < MIN_CONTACT:
+            runs[-1] = (runs[-1][0], len(t))
+        contacts[s] = runs
     strides = np.diff([t[a] for a, _ in contacts["right"] if a > 0])  # [s]
     stride = float(np.median(strides)) if len(strides) else 1.0
     kinematics = gait_kinematics(h, tk, rec.q[ks], stride, chains, arms)
