@@ -410,6 +410,34 @@ def marker_set_of(h, markers, choice, crop: bool = True):
     return chosen, markers
 
 
+def fit_input(args, path):
+    """What ``humanoid ik`` and ``track`` fit from ``path``: its markers (or keypoints and
+    their ``cameras``, else None), the body and how it was made, the marker set and whether
+    to register it, and ``--static``'s trial (None without; its labels without a subject's
+    prefix, as the trial's are)."""
+    from .markers import MarkerTrajectories, default_markers, read_markers
+
+    cameras = None
+    if getattr(args, "calibration", None):
+        markers, cameras = _camera_keypoints(args, path)
+    else:
+        markers = markers_file(path, args)
+    h, what = subject_body(args)
+    if cameras:  # (keypoints: their set is the layout's, nothing to register)
+        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
+        register = False
+    else:
+        chosen, markers = marker_set_of(h, markers, args.marker_set)
+        marker_set, register = chosen.markers, args.register or chosen.register
+    static = markers_file(args.static, args) if args.static else None
+    if static is not None:
+        from .marker_sets import strip_prefix
+
+        static = MarkerTrajectories(static.time, strip_prefix(static.names)[0],
+                                    static.positions, static.source)  # fmt: skip
+    return markers, cameras, h, what, marker_set, register, static
+
+
 def run_ik(args) -> int:
     """``humanoid ik``: inverse kinematics of markers or keypoints, written as coordinates."""
     import sys
@@ -419,33 +447,17 @@ def run_ik(args) -> int:
 
     from .coordinates import MAPS, coordinates_table
     from .ik import RangeLimitWarning, UnconstrainedWarning, inverse_kinematics
-    from .marker_sets import strip_prefix
-    from .markers import MarkerTrajectories, default_markers, read_markers, write_markers
+    from .markers import write_markers
     from .storage import write_csv, write_storage
 
-    cameras = None
-    if getattr(args, "calibration", None):
-        markers, cameras = _camera_keypoints(args, args.markers)
-    else:
-        markers = markers_file(args.markers, args)
-    h, what = subject_body(args)
     if args.map not in (None, *MAPS):
         raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)}")
-    if cameras:
-        marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
-        register = False
-    else:
-        chosen, markers = marker_set_of(h, markers, args.marker_set)
-        marker_set, register = chosen.markers, args.register or chosen.register
+    markers, cameras, h, what, marker_set, register, static = fit_input(args, args.markers)
     bar = tqdm(total=len(markers.time) * (2 if register and not args.static else 1),
                unit="frame",
                disable=args.quiet or not sys.stderr.isatty())  # fmt: skip
     start = clock.perf_counter()
     try:
-        static = markers_file(args.static, args) if args.static else None
-        if static is not None:  # (its labels without a subject's prefix, as the trial's)
-            static = MarkerTrajectories(static.time, strip_prefix(static.names)[0],
-                                        static.positions, static.source)  # fmt: skip
         with warnings.catch_warnings():  # (said below, one line each)
             warnings.simplefilter("ignore", RangeLimitWarning)
             warnings.simplefilter("ignore", UnconstrainedWarning)
@@ -583,21 +595,8 @@ def run_track(args) -> int:
     fitted = suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout)
     if fitted or args.calibration:
         from .ik import inverse_kinematics
-        from .markers import default_markers, read_markers
 
-        cameras = None
-        if args.calibration:
-            markers, cameras = _camera_keypoints(args, args.motion)
-        else:
-            markers = markers_file(args.motion, args)
-        h, what = subject_body(args)
-        register = args.register
-        if cameras:
-            marker_set = read_markers(args.marker_set) if args.marker_set else default_markers(h)
-        else:
-            chosen, markers = marker_set_of(h, markers, args.marker_set)
-            marker_set, register = chosen.markers, register or chosen.register
-        static = markers_file(args.static, args) if args.static else None
+        markers, cameras, h, what, marker_set, register, static = fit_input(args, args.motion)
         fit = inverse_kinematics(h, markers, marker_set, static=static, cameras=cameras,
                                  register=register or static is not None)  # fmt: skip
         t, q, loads = fit.time, fit.q, []
