@@ -309,7 +309,8 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     the floor, slower than ``speed`` [m/s] relative to it (a trailing foot rolls on its toes
     while its frame moves fast). The floor's own velocity is the median horizontal velocity of
     the sole points that are low: zero over ground, the belt's on a treadmill (where the body
-    stays put and the standing foot moves back at the walking speed). ``floor``: a
+    stays put and the standing foot moves back at the walking speed), or the ``floor``'s own
+    belt if given. ``floor``: a
     :class:`~humanoid.motion.floor.Floor` (:func:`~humanoid.motion.floor.fit_floor`): heights
     are measured above it, along its normal, and within ``height`` of it is low (default
     None: the horizontal plane of the motion's lowest sole point). From the motion, gaps and
@@ -337,9 +338,12 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
             low[s][i] = world[:, 2] if floor is None else floor.above(world)
             vel[s][i] = frame.linear + np.cross(frame.angular, arms)
     base = min(float(x.min()) for x in low.values()) if floor is None else 0.0
-    near = np.concatenate([vel[s][low[s] < base + height] for s in SIDES])
-    belt = np.median(near[:, :2], axis=0) if len(near) else np.zeros(2)
-    fast = {s: np.linalg.norm(vel[s] - np.array([*belt, 0.0]), axis=2) for s in SIDES}
+    if floor is not None:  # (its belt fitted with it: floor.belt_velocity)
+        belt = np.asarray(floor.belt, dtype=float)
+    else:
+        near = np.concatenate([vel[s][low[s] < base + height] for s in SIDES])
+        belt = np.array([*np.median(near[:, :2], axis=0), 0.0]) if len(near) else np.zeros(3)
+    fast = {s: np.linalg.norm(vel[s] - belt, axis=2) for s in SIDES}
     for s in SIDES:
         down = ((low[s] < base + height) & (fast[s] < speed)).any(axis=1)
         down = _debounced(down, np.asarray(time), shortest)
