@@ -243,6 +243,51 @@ def test_a_side_without_a_full_cycle_is_said(walk, files):
     assert len(t.analysis.curves["left"]["knee_power"]) == 1  # (the moments cover it)
 
 
+def test_plates_that_catch_one_step_per_foot_leave_the_others_to_the_motion(walk, files):
+    """A lab's two plates, one step on each: the other steps' events come from the motion,
+    moved by the plates' own edges where both saw a stance; every cycle has its angles, the
+    moments and forces only the cycles whose stance was on a plate (said)."""
+    from humanoid.motion.coordinates import configurations
+
+    w, ref = walk
+    time, q, _ = configurations(w.body, read_storage(files.motion))
+    loads = []
+    for s in SIDES:  # (each foot's load zero but for its first whole stance)
+        on = ref.events[s]["strike"][0]
+        off = min(x for x in ref.events[s]["off"] if x > on)
+        f = w.trajectory.forces[f"ground_{s}"].copy()
+        f[(w.trajectory.t < on - 0.01) | (w.trajectory.t > off + 0.01)] = 0.0
+        loads.append(Load.from_wrench(s, w.trajectory.t, f))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TrialWarning)
+        t = analyse_trial(w.body, time, q, read_storage(files.moments), loads, source="p.c3d")
+    said = " | ".join(str(x.message) for x in caught)
+    for s in SIDES:
+        assert t.events[s].startswith("loads (") and "from kinematics)" in t.events[s]
+        a = t.analysis
+        assert len(a.cycles[s]) == len(ref.cycles[s]) >= 1
+        for key in ("strike", "off"):
+            np.testing.assert_allclose(a.events[s][key], ref.events[s][key], atol=0.02 + 1e-9)
+        assert len(a.curves[s]["knee_flexion"]) == len(ref.cycles[s])
+        assert len(a.curves[s]["grf_vertical"]) == 1
+    assert "cycles without ground forces (the foot on no plate" in said
+
+
+def test_merged_contacts_move_the_motions_edges_by_the_plates():
+    """Where a plate and the motion both saw a stance, the motion's other stances are moved
+    by the mean difference of their edges; a stance the plate saw replaces the motion's."""
+    from humanoid.walking.trial import merged_contacts
+
+    loaded = [(1.00, 1.60)]
+    moving = [(-np.inf, 0.45), (0.96, 1.62), (2.06, 2.64)]
+    out, added = merged_contacts(loaded, moving)
+    assert added == 2
+    assert out[0][0] == -np.inf and out[0][1] == pytest.approx(0.43)
+    assert out[1] == (1.00, 1.60)
+    assert out[2] == pytest.approx((2.10, 2.62))
+    assert merged_contacts([], moving) == (moving, 3)
+
+
 def test_the_report_command_writes_the_figure_and_prints_the_table(files, capsys):
     """``humanoid report`` end to end, on the default body (its toes free, at zero)."""
     png = files.dir / "report.png"

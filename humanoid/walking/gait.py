@@ -731,7 +731,8 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
             return True
         if not covers(force, t0, off) or s not in force[1]:
             return False
-        return bool(np.interp(0.5 * (t0 + off), force[0], force[1][s][:, 2]) > 0.0)
+        # (over the contacts' threshold: a low-passed zero is 1e-44, not a load)
+        return bool(np.interp(0.5 * (t0 + off), force[0], force[1][s][:, 2]) > EVENT_ON * weight)
 
     for s in SIDES:
         other = OTHER[s]
