@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import HumanoidError
+from .errors import HumanoidError, ModelError
 from .variants import BALL_JOINTS, INTEGRATORS, MASSLESS, REGISTRIES
 
 __all__ = ["main"]
@@ -588,7 +588,12 @@ def load_any(args, ball_joints: str | None = None):
     example-robot-data robot's name), with the command's loading options."""
     from .model import load
 
-    name = getattr(args, "model", None) or args.target
+    name = getattr(args, "model", None)
+    if name is None:
+        name = getattr(args, "target", None)
+    if not isinstance(name, str) or not name.strip():
+        raise ModelError(f"no model named (got {name!r}): give a URDF file, a shipped body's "
+                         "name or an example-robot-data robot's")  # fmt: skip
     ball = ball_joints or getattr(args, "ball_joints", "quaternion")
     feet = tuple(args.feet) if args.feet else None
     return load(name, ball_joints=ball, feet=feet, massless=args.massless)

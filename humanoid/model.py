@@ -730,8 +730,14 @@ def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> dict
             raise ModelError(
                 f"{where}: inertia is not positive semi-definite (eigenvalues {eig.round(9)})"
             )
+        if eig[0] < 0.0:  # (within rounding, above: icub's r_hip_2 prints -5.4e-20)
+            w, V = np.linalg.eigh(M)
+            M = (V * np.maximum(w, 0.0)) @ V.T
         R = placement.rotation
-        declared[name] = pin.Inertia(mass, placement.translation, R @ M @ R.T)
+        try:
+            declared[name] = pin.Inertia(mass, placement.translation, R @ M @ R.T)
+        except RuntimeError as exc:  # (Pinocchio's own checks, should ours miss one)
+            raise ModelError(f"{where}: Pinocchio refuses its inertia: {exc}") from None
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "")
         if _resolve_mesh(filename, path, dirs) is None:

@@ -70,6 +70,29 @@ def test_load_from_text_and_from_path_agree(male_urdf):
     assert a.source == "<string>"
 
 
+def test_icub_loads_its_inertias_printed_a_rounding_below_zero():
+    """icub's r_hip_2 declares 0.526 kg with the inertia diagonal (-5.4e-20, -5.4e-20, 0),
+    which Pinocchio refuses (RuntimeError): a rounding below zero is read as zero; a clearly
+    negative one is a ModelError naming the link."""
+    h = hm.load("icub")
+    assert h.mass == pytest.approx(28.35, abs=0.01)
+    from humanoid.data import body_path
+
+    text = body_path("adult_male").read_text()
+    link = text.index("<inertia ", text.index("<inertial>"))
+    bad = text[:link] + text[link:].replace('ixx="', 'ixx="-1', 1)
+    with pytest.raises(hm.ModelError, match="link '.*': inertia is not positive semi-definite"):
+        hm.load(bad)
+
+
+def test_cli_info_without_a_name_is_an_error(capsys):
+    """``humanoid info ""``: the usage error, not an AttributeError."""
+    from humanoid.cli import main
+
+    assert main(["info", ""]) == 2
+    assert "no model named (got '')" in capsys.readouterr().err
+
+
 def test_load_example_shortcut():
     h = hm.load_example("talos")
     assert h.feet == ("left_sole_link", "right_sole_link")
