@@ -24,6 +24,7 @@ from .model import Humanoid, check_configuration
 __all__ = [
     "bias_forces",
     "centre_of_mass",
+    "centre_of_pressure",
     "centroidal_momentum",
     "gravity_forces",
     "kinetic_energy",
@@ -31,6 +32,24 @@ __all__ = [
     "potential_energy",
     "projected_newton_euler",
 ]
+
+
+# [N] a vertical force under this has no centre of pressure
+COP_FORCE = 1e-9
+
+
+def centre_of_pressure(wrench, height: float = 0.0) -> np.ndarray:
+    """Where on the plane z = ``height`` [m] a wrench about the origin (n, 6) [N, N m: force,
+    then moment, in one frame's axes] acts as a force and a moment about z alone: (n, 2) [m],
+    x and y, the solution of the moment's x and y rows of m = c x f + (0, 0, tz) with
+    c = (x, y, height); NaN where the vertical force is under :data:`COP_FORCE` (a pure
+    moment, or no load). The one formula of the toolkit's centres of pressure: a plate's, a
+    foot's in its sole's axes, the feet's together (the zero-moment point)."""
+    w = np.asarray(wrench, dtype=float).reshape(-1, 6)
+    f, m = w[:, :3], w[:, 3:]
+    ok = np.abs(f[:, 2]) > COP_FORCE
+    fz = np.where(ok, f[:, 2], np.nan)
+    return np.column_stack([(height * f[:, 0] - m[:, 1]) / fz, (m[:, 0] + height * f[:, 1]) / fz])
 
 
 def mass_matrix(h: Humanoid, q) -> np.ndarray:

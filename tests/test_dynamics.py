@@ -111,3 +111,20 @@ def test_pinocchio_returns_both_triangles_of_m_and_its_inverse(name):
         assert np.array_equal(M, M.T) and np.array_equal(Minv, Minv.T)
         assert np.abs(np.tril(M, -1)).max() > 0  # the lower triangle is there, not zero
         assert np.allclose(M @ Minv, np.eye(h.nv), atol=1e-8)
+
+
+def test_centre_of_pressure_finds_the_point_a_force_acts_at():
+    """A force applied at c = (x, y, h) with a free moment about z, as a wrench about the
+    origin: its centre of pressure on z = h is (x, y) (seeded, 20 wrenches; a planted sign in
+    either row moves it); a wrench without vertical force has none (NaN)."""
+    from humanoid.dynamics import centre_of_pressure
+
+    rng = np.random.default_rng(7)
+    for height in (0.0, 0.04):
+        c = np.column_stack([rng.uniform(-1, 1, (20, 2)), np.full(20, height)])
+        f = rng.normal(size=(20, 3)) * [80.0, 80.0, 300.0] + [0.0, 0.0, 700.0]
+        tz = rng.normal(size=20) * 5.0
+        m = np.cross(c, f) + np.column_stack([np.zeros((20, 2)), tz])
+        np.testing.assert_allclose(centre_of_pressure(np.hstack([f, m]), height), c[:, :2],
+                                   atol=1e-12)  # fmt: skip
+    assert np.isnan(centre_of_pressure([0.0, 0.0, 0.0, 1.0, 2.0, 3.0])).all()

@@ -107,14 +107,16 @@ class Floor:
         the free moment (along the normal) left there: (point (n, 3) [m], torque (n, 3) [N m]);
         where the force along the normal is under 1e-9 N, the point is the origin and the
         torque the whole moment."""
+        from ..dynamics import centre_of_pressure
+
         w = np.asarray(wrench, dtype=float).reshape(-1, 6)
         f, m = w[:, :3], w[:, 3:]
-        n = np.asarray(self.normal)
         p0 = np.array([0.0, 0.0, self.height])
-        fn = f @ n
-        ok = np.abs(fn) > 1e-9
-        m0 = m - np.cross(p0, f)  # about a point of the floor
-        point = np.where(ok[:, None], p0 + np.cross(n, m0) / np.where(ok, fn, 1.0)[:, None], 0.0)
+        R = self.rotation  # (the floor's axes, its normal the third)
+        m0 = m - np.cross(p0, f)  # about a point of the floor, then in the floor's axes
+        c = centre_of_pressure(np.hstack([f @ R, m0 @ R]))
+        ok = np.isfinite(c[:, 0])
+        point = np.where(ok[:, None], p0 + np.where(ok[:, None], c, 0.0) @ R[:, :2].T, 0.0)
         torque = m - np.cross(point, f)
         return point, torque
 

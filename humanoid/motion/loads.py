@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..dynamics import centre_of_pressure
 from .storage import MotionFileError, Table, read_storage, write_storage
 
 __all__ = ["Load", "OPENSIM_TO_OURS", "read_loads", "read_loads_xml", "write_loads"]
@@ -74,13 +75,9 @@ class Load:
         kept in ``torque``)."""
         wrench = np.asarray(wrench, dtype=float).reshape(-1, 6)
         f, m = wrench[:, :3], wrench[:, 3:]
-        fz = f[:, 2]
-        ok = np.abs(fz) > 1e-9
-        safe = np.where(ok, fz, 1.0)
-        # m = c x f + (0, 0, tz) with c = (cx, cy, h): solve the x and y rows for cx, cy
-        cx = np.where(ok, (height * f[:, 0] - m[:, 1]) / safe, 0.0)
-        cy = np.where(ok, (m[:, 0] + height * f[:, 1]) / safe, 0.0)
-        point = np.column_stack([cx, cy, np.where(ok, height, 0.0)])
+        c = centre_of_pressure(wrench, height)
+        ok = np.isfinite(c[:, 0])
+        point = np.column_stack([np.where(ok[:, None], c, 0.0), np.where(ok, height, 0.0)])
         torque = np.where(ok[:, None], m - np.cross(point, f), m)
         return cls(body, time, f, point, torque, name)
 

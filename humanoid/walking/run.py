@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
+from ..dynamics import centre_of_pressure
 from ..errors import HumanoidError, RunFailed
 from ..linalg import cross
 from ..model import SIDES, Humanoid
@@ -372,7 +373,7 @@ class WalkMonitor:
                 friction = np.maximum(friction, np.where(loaded, ratio, 0.0))
                 # the centre of pressure in the sole's own axes (the welds' forces are LOCAL);
                 # that of an (almost) unloaded foot is undefined
-                cop = np.stack([-w[:, 4], w[:, 3]], axis=1) / w[:, 2:3]
+                cop = centre_of_pressure(w)
                 lo, hi = c.cop_box
                 inside = np.minimum((cop - lo).min(axis=1), (hi - cop).min(axis=1))
                 margin = np.minimum(margin, np.where(f[:, 2] > COP_MIN_LOAD * weight, inside,
@@ -380,8 +381,7 @@ class WalkMonitor:
         s["friction"] = np.where(on, friction, np.nan)
         s["cop_margin"] = np.where(on & np.isfinite(margin), margin, np.nan)
         s["drift"] = np.where(on, drift, np.nan)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            zmp = np.stack([-total[:, 4] / total[:, 2], total[:, 3] / total[:, 2]], axis=1)
+        zmp = centre_of_pressure(total)
         up = on & (total[:, 2] > 1e-6)  # the zero-moment point: the feet's CoP on the floor
         s["zmp_x"], s["zmp_y"] = np.where(up, zmp[:, 0], np.nan), np.where(up, zmp[:, 1], np.nan)
         return s
