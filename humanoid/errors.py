@@ -39,6 +39,31 @@ class TrajectoryError(HumanoidError, ValueError):
     """A saved run (.npz) cannot be read: missing, truncated, corrupt or inconsistent."""
 
 
+class MissingExtra(HumanoidError, ImportError):
+    """An optional dependency is not installed: the message names the ``pip install`` that
+    brings it (:func:`require`)."""
+
+
+# the optional dependencies and the extra of humanoid-toolkit that installs each
+EXTRAS = {"ezc3d": "c3d", "dask": "studies", "distributed": "studies", "pyarrow": "studies",
+          "mujoco": "mujoco", "opensim": "opensim", "casadi": "optimal"}  # fmt: skip
+
+
+def require(module: str, what: str):
+    """The module ``module`` (a dotted name: ``"pyarrow.parquet"``) imported, or a
+    :class:`MissingExtra` saying that ``what`` needs it and which extra installs it."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        top = module.split(".")[0]
+        raise MissingExtra(
+            f"{what} needs {top}, which is not installed: pip install "
+            f"'humanoid-toolkit[{EXTRAS.get(top, top)}]'"
+        ) from exc
+
+
 class DivergenceError(HumanoidError):
     """A simulation diverged: non-finite or exploding state, or a step size that collapsed."""
 

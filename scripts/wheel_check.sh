@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The wheel works anywhere: build it, install it in a fresh venv outside the repo, and run the
-# command line and the README's snippets from another directory. CI runs this after `make test`.
+# The wheel works anywhere: build it, install it in a fresh venv outside the repo (the core
+# alone first: its size, and the one-line errors naming the extras; then the extras), and run
+# the command line and the README's snippets from another directory. CI runs this after
+# `make test`.
 # Usage: bash scripts/wheel_check.sh [PYTHON]   (default: python3)
 set -euo pipefail
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
@@ -43,6 +45,11 @@ m = default_markers(h)
 q = h.standing_configuration()[None].repeat(5, axis=0)
 write_bvh("stand.bvh", h, [0.0, 0.1, 0.2, 0.3, 0.4], q)
 print(f"markers: {len(m)} from the installed package data")'
+# the core alone: a C3D or a study says which extra to install, in one line
+"$BIN/humanoid" loads "$REPO/humanoid/data/trials/walking5.c3d" -o w.mot 2> c3d.txt \
+    && { echo "humanoid loads read a C3D without ezc3d" >&2; exit 1; }
+grep -q "pip install 'humanoid-toolkit\[c3d\]'" c3d.txt || { cat c3d.txt >&2; exit 1; }
+echo "core only: $(tail -1 c3d.txt)"
 "$BIN/humanoid" ik stand.bvh --model adult_male -o stand.mot --quiet > ik.txt
 "$BIN/humanoid" id stand.mot --model adult_male --cutoff 0 -o stand_id.sto > id.txt
 grep -q "root residual force" id.txt || { echo "humanoid id printed no residual" >&2; exit 1; }
@@ -51,9 +58,16 @@ echo "ik and id of a BVH: $(grep -c . stand_id.sto) lines of generalised forces"
 rows=$(($(wc -l < bench/step.csv) - 1))
 if [ "$rows" -lt 1 ]; then echo "bench step wrote no rows" >&2; exit 1; fi
 echo "bench step --quick: $rows scenes timed"
+printf '[study]\nname = "tiny"\nscene = "standing"\n[set]\n"scene.duration" = 0.2\n[grid]\n"scene.dt" = [0.001, 0.002]\n' > tiny.toml
+"$BIN/humanoid" sweep tiny.toml --workers 2 --quiet 2> studies.txt \
+    && { echo "humanoid sweep ran without dask" >&2; exit 1; }
+grep -q "pip install 'humanoid-toolkit\[studies\]'" studies.txt || { cat studies.txt >&2; exit 1; }
+echo "core only: $(tail -1 studies.txt)"
+echo "core venv: $(du -sm "$WORK/venv" | cut -f1) MB installed"
+"$BIN/pip" install --quiet "$WHEEL[c3d,studies]" 2> >(quiet)
+"$BIN/humanoid" loads "$REPO/humanoid/data/trials/walking5.c3d" -o w.mot | tail -1
 runs=$("$BIN/humanoid" sweep push_standing --list | wc -l)
 if [ "$runs" -ne 750 ]; then echo "the shipped push_standing study lists $runs runs" >&2; exit 1; fi
-printf '[study]\nname = "tiny"\nscene = "standing"\n[set]\n"scene.duration" = 0.2\n[grid]\n"scene.dt" = [0.001, 0.002]\n' > tiny.toml
 "$BIN/humanoid" sweep tiny.toml --workers 2 --quiet > sweep.txt
 grep -q "runs         2: 2 completed" sweep.txt || { cat sweep.txt >&2; exit 1; }
 echo "sweep: a 2-run study on a 2-worker Dask cluster; the shipped study lists $runs runs"

@@ -79,6 +79,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import require
 from .loads import OPENSIM_TO_OURS, Load
 from .storage import MotionFileError
 
@@ -150,7 +151,7 @@ class Plate:
 
 
 def _open(path: str | Path):
-    import ezc3d
+    ezc3d = require("ezc3d", "reading a C3D file")
 
     path = Path(path)
     if not path.exists():

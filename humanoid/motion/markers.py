@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import HumanoidError, require
 from .loads import OPENSIM_TO_OURS
 from .storage import MotionFileError, read_toml
 
@@ -402,7 +402,7 @@ def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
     Raises:
         MotionFileError: a missing or unreadable file, no points.
     """
-    import ezc3d
+    ezc3d = require("ezc3d", "reading a C3D file")
 
     path = Path(path)
     if not path.exists():

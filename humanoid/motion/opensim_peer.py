@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import HumanoidError, require
 from .loads import Load, write_loads
 from .storage import Table, read_storage, write_storage
 
@@ -85,7 +85,7 @@ def _xyz(R: np.ndarray) -> np.ndarray:
 def to_osim(h, path: str | Path | None = None, markers: dict | None = None):
     """The body as an ``opensim.Model`` (see the module docstring), with ``markers`` (a marker
     set, :mod:`~humanoid.motion.markers`) on its bodies; written to ``path`` if given."""
-    import opensim as osim
+    osim = require("opensim", "the OpenSim peer")
 
     osim.Logger.setLevelString("warn")  # (its tools print every step at "info")
     osim.Logger.removeFileSink()  # (else it writes opensim.log wherever it runs)
@@ -133,7 +133,7 @@ def to_osim(h, path: str | Path | None = None, markers: dict | None = None):
 
 def _names(om, model):
     """OpenSim's coordinate names per joint, in the toolkit's joint order."""
-    import opensim as osim
+    osim = require("opensim", "the OpenSim peer")
 
     out = {}
     for j in range(1, model.njoints):
@@ -197,7 +197,7 @@ def run_opensim_id(h, time, q, loads: list[Load], folder: str | Path) -> tuple[T
     """OpenSim 4's InverseDynamicsTool on the motion and loads (no filter: the motion is given
     as it is): (its generalised forces, its wall time [s] for the tool's run, model building
     and file writing excluded)."""
-    import opensim as osim
+    osim = require("opensim", "the OpenSim peer")
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -230,7 +230,7 @@ def run_opensim_ik(h, markers, marker_set: dict, folder: str | Path,
     """OpenSim 4's InverseKinematicsTool on the marker trajectories (every marker of the set
     at weight 1, as the toolkit weighs them): (its coordinates in radians, its wall time [s]
     for the tool's run)."""
-    import opensim as osim
+    osim = require("opensim", "the OpenSim peer")
 
     from .markers import MarkerTrajectories, write_trc
 
@@ -289,7 +289,7 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
     model before its markers moved: what OpenSim reports as its marker error)."""
     import xml.etree.ElementTree as ET
 
-    import opensim as osim
+    osim = require("opensim", "the OpenSim peer")
 
     from .markers import MarkerTrajectories, write_trc
 

@@ -14,7 +14,7 @@ import math
 import os
 from pathlib import Path
 
-from ..errors import StudyError
+from ..errors import StudyError, require
 
 __all__ = ["ResultStore", "read_table"]
 
@@ -67,8 +67,8 @@ class ResultStore:
 
     def write(self) -> Path:
         """The table, every row so far in run order, atomically replaced."""
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+        pa = require("pyarrow", "a study's results table")
+        pq = require("pyarrow.parquet", "a study's results table")
 
         rows = sorted(self.rows.values(), key=lambda r: r["index"])
         columns: dict[str, list] = {}
@@ -110,6 +110,5 @@ def read_table(path: str | Path) -> list[dict]:
         path = path / TABLE
     if not path.is_file():
         return []
-    import pyarrow.parquet as pq
-
+    pq = require("pyarrow.parquet", "a study's results table")
     return pq.read_table(path).to_pylist()

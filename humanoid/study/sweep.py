@@ -19,7 +19,7 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ..errors import StudyError
+from ..errors import StudyError, require
 from .runner import execute
 from .spec import Study
 from .store import ResultStore
@@ -125,7 +125,7 @@ def _tally(counts: dict) -> str:
 
 
 def _submit_all(client, study, payload, pending, folder: str, finished) -> None:
-    from distributed import as_completed
+    as_completed = require("distributed", "a study on Dask").as_completed
 
     shared = client.scatter(payload, broadcast=True)
     runs, futures = {}, []
@@ -161,7 +161,8 @@ def _cluster(scheduler: str | None, workers: int | None, client=None):
     import logging
     import os
 
-    from distributed import Client, LocalCluster
+    distributed = require("distributed", "a study on Dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     if scheduler is not None:
         try:
