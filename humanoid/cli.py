@@ -180,7 +180,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     x = command("export", help="export a model to another simulator's format")
     x.add_argument("model", help=BODY_HELP)
-    x.add_argument("--mjcf", required=True, help="MuJoCo MJCF file to write")
+    x.add_argument(
+        "--mjcf",
+        required=True,
+        help="MuJoCo MJCF file to write: a model to "
+        "simulate (a floor, collisions, joint ranges, a motor per degree of freedom)",
+    )
+    x.add_argument("--mu", type=float, default=0.8, help="the floor's friction (default 0.8)")
+    x.add_argument("--no-floor", action="store_true", help="no floor and no collisions")
+    x.add_argument("--dt", type=float, default=1e-3, help="MuJoCo's timestep [s] (default 1 ms)")
     _model_options(x)
 
     k = command("ik", help="inverse kinematics of markers (.trc, .c3d), a BVH's joints or "
@@ -516,8 +524,13 @@ def _dispatch(args) -> int:
     if args.command == "export":
         from .export import write_mjcf
 
-        path = write_mjcf(load_any(args), args.mjcf)
-        print(f"wrote {path}")
+        h = load_any(args)
+        path = write_mjcf(h, args.mjcf, mu=None if args.no_floor else args.mu, timestep=args.dt)
+        floor = "no floor" if args.no_floor else f"a floor (friction {args.mu:g})"
+        print(
+            f"wrote {path}: {h.model.nv - 6} joint degrees of freedom, each with a motor; "
+            f"joint ranges on; {floor}; MuJoCo's semi-implicit Euler at {args.dt:g} s"
+        )
         return 0
     if args.command == "variants":
         return _variants(args)

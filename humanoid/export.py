@@ -5,7 +5,16 @@ Every Pinocchio joint becomes a MuJoCo joint: the free flyer a ``freejoint``, sp
 without mass (URDF's massless intermediate links), so a joint whose body is massless is merged
 with its only child into one MuJoCo body with several joints (applied in order, as the hinge
 chain is), keeping every placement and inertia. Inertias are written explicitly (mass, CoM,
-full inertia tensor); geometry is visual only (no collisions, no mass from geometry).
+full inertia tensor), never from geometry.
+
+:func:`write_mjcf` (``humanoid export --mjcf``) writes a model to simulate, as ours is: a floor
+plane, the body's collision geometry colliding with it (boxes, spheres, cylinders: meshes are
+left out; a foot without any, spheres of :data:`SOLE_SPHERE` on its sole points, where ours
+touches the floor), MuJoCo's soft contacts with their parameters written out (:data:`SOLREF`,
+:data:`SOLIMP`, elliptic friction cones), every hinge's range on, a ball joint's as the cone its
+three angles' largest bound allows (MuJoCo's ball limit is one angle), and a motor per degree of
+freedom (a hinge's on its axis, a ball joint's three on its own x, y and z axes; torque in N m,
+unlimited). :func:`to_mjcf` with its defaults is the bare mechanics (no floor, no collisions).
 
 State maps: MuJoCo stores quaternions as (w, x, y, z) and the free joint's linear velocity in
 world axes; Pinocchio stores (x, y, z, w) and the linear velocity in the body frame.
@@ -13,6 +22,7 @@ world axes; Pinocchio stores (x, y, z, w) and the linear velocity in the body fr
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -22,11 +32,26 @@ import pinocchio as pin
 from .errors import ModelError
 from .fusion import joint_axis
 
-__all__ = ["StateMap", "mujoco_state", "pinocchio_state", "to_mjcf", "write_mjcf"]
+__all__ = ["SOLIMP", "SOLREF", "StateMap", "mujoco_state", "pinocchio_state", "to_mjcf",
+           "write_mjcf"]  # fmt: skip
+
+# MuJoCo's soft contact, its defaults written out: a constraint's reference acceleration is that
+# of a spring-damper of time constant 20 ms at critical damping, its impedance 0.9-0.95 over
+# 1 mm of penetration (MuJoCo's docs, "Solver parameters")
+SOLREF = (0.02, 1.0)
+SOLIMP = (0.9, 0.95, 0.001)
+# [m] a foot without collision geometry (example-robot-data's human) touches the floor at its
+# sole points: spheres this small resting on them
+SOLE_SPHERE = 0.005
 
 
 def _fmt(x) -> str:
     return " ".join(f"{float(v):.17g}" for v in np.ravel(x))
+
+
+def _short(x) -> str:
+    """Parameters as written by hand (0.9, not 0.90000000000000002)."""
+    return " ".join(f"{float(v):g}" for v in np.ravel(x))
 
 
 def _quat_wxyz(R) -> np.ndarray:
@@ -39,15 +64,18 @@ def _massless(inertia) -> bool:
 
 
 def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | None = None,
-            limits: bool = False, damping: float = 0.0) -> str:  # fmt: skip
+            limits: bool = False, damping: float = 0.0, motors: bool = False) -> str:  # fmt: skip
     """MJCF text of a Humanoid (see the module docstring).
 
     Args:
-        ground: A friction coefficient: the body's geometries then collide with a floor plane
-            at z = 0 (elliptic friction cones, MuJoCo's soft contacts with its default
-            parameters); None: no collisions.
-        limits: Hinges keep their position limits (MuJoCo's soft limit constraints).
+        ground: A friction coefficient: the body's collision geometries then collide with a
+            floor plane at z = 0 (elliptic friction cones, MuJoCo's soft contacts with
+            :data:`SOLREF` and :data:`SOLIMP`); None: no collisions, the visual geometry only.
+        limits: Joints keep their position limits (MuJoCo's soft limit constraints): a hinge
+            its range, a ball joint the cone of its three angles' largest bound.
         damping: Joint damping [N m s/rad] on every joint but the free flyer.
+        motors: A motor per degree of freedom but the free flyer's (torque [N m], unlimited):
+            one per hinge, three per ball joint (about its own x, y, z axes), in joint order.
 
     Raises:
         ModelError: a joint type that has no MuJoCo counterpart, or a massless body that cannot
@@ -61,12 +89,32 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
     for f in model.frames:
         if f.type == pin.FrameType.BODY and f.parentJoint not in names:
             names[f.parentJoint] = f.name
-    geoms = {}
-    for g in h.visual_model.geometryObjects:
-        geoms.setdefault(g.parentJoint, []).append(g)
+    geoms: dict[int, list[str]] = {}  # per joint, its body's geoms' XML
+    collide = ground is not None
+    for g in (h.collision_model if collide else h.visual_model).geometryObjects:
+        geoms.setdefault(g.parentJoint, []).extend(_geom_xml(g))
+    if collide:  # a foot without collision geometry touches the floor at its sole points
+        for side, points in h.contact_points.items():
+            sole = model.frames[h.sole_id(side)]
+            if geoms.get(sole.parentJoint):
+                continue
+            up = sole.placement.rotation[:, 2]  # (the sole's normal, in its joint's axes)
+            for name in points:
+                f = model.frames[h.frame_id(name)]
+                centre = f.placement.translation + SOLE_SPHERE * up
+                geoms.setdefault(f.parentJoint, []).append(
+                    f'<geom name={quoteattr(name)} type="sphere" size="{SOLE_SPHERE:g}" '
+                    f'pos="{_fmt(centre)}"/>')  # fmt: skip
+    cones = {}  # a ball joint's cone [rad]: its hinge triplet's largest bound
+    if limits and h.fusion is not None:
+        em = h.euler_model
+        for ball in h.fusion.balls:
+            iq = [em.joints[i].idx_q for i in ball.hinge_ids]
+            bounds = np.abs(np.r_[em.lowerPositionLimit[iq], em.upperPositionLimit[iq]])
+            if np.all(np.isfinite(bounds)):
+                cones[ball.joint_id] = float(bounds.max())
 
     extra = f' damping="{damping:.17g}"' if damping > 0 else ""
-    collide = ground is not None
 
     def joint_xml(j, placement: pin.SE3) -> str:
         jm = model.joints[j]
@@ -75,8 +123,9 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
         if kind == "JointModelFreeFlyer":
             return f"<freejoint name={name}/>"
         if kind == "JointModelSpherical":
+            cone = f' range="0 {cones[j]:.17g}" limited="true"' if j in cones else ""
             return (f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"'
-                    f"{extra}/>")  # fmt: skip
+                    f"{cone}{extra}/>")  # fmt: skip
         if jm.nq == 1 and jm.nv == 1:
             axis = placement.rotation @ joint_axis(jm)
             lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
@@ -117,8 +166,7 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
             full = [M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]]
             lines.append(f'{pad}  <inertial pos="{_fmt(I.lever)}" mass="{I.mass:.17g}" '
                          f'fullinertia="{_fmt(full)}"/>')  # fmt: skip
-        for g in geoms.get(last, []):
-            lines += [pad + "  " + x for x in _geom_xml(g)]
+        lines += [pad + "  " + x for x in geoms.get(last, [])]
         for child in children[last]:
             lines += body(child, depth + 1)
         lines.append(f"{pad}</body>")
@@ -133,7 +181,12 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
         f'  <option timestep="{timestep:g}" integrator="{integrator}" gravity="{_fmt(g)}"'
         + (' cone="elliptic"/>' if collide else "/>"),
         f'  <default><geom contype="{int(collide)}" conaffinity="0" rgba="0.7 0.7 0.8 1"'
-        + (f' friction="{ground:.17g} 0 0"/></default>' if collide else "/></default>"),
+        + (
+            f' friction="{ground:.17g} 0 0" solref="{_short(SOLREF)}" solimp="{_short(SOLIMP)}"/>'
+            "</default>"
+            if collide
+            else "/></default>"
+        ),
         "  <worldbody>",
         *(
             [
@@ -145,9 +198,25 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
         ),  # fmt: skip
         *body(1, 2),
         "  </worldbody>",
+        *(_motors(model) if motors else []),
         "</mujoco>",
     ]
     return "\n".join(lines) + "\n"
+
+
+def _motors(model) -> list[str]:
+    """The ``<actuator>`` block: a motor per hinge, three per ball joint (gear on its x, y, z
+    axes), named after the joint (a ball joint's ``_x``, ``_y``, ``_z``)."""
+    lines = ["  <actuator>"]
+    for j in range(2, model.njoints):
+        name = model.names[j]
+        if model.joints[j].shortname() == "JointModelSpherical":
+            for axis, gear in (("x", "1 0 0"), ("y", "0 1 0"), ("z", "0 0 1")):
+                lines.append(f"    <motor name={quoteattr(f'{name}_{axis}')} "
+                             f'joint={quoteattr(name)} gear="{gear}"/>')  # fmt: skip
+        elif model.joints[j].nv == 1:
+            lines.append(f"    <motor name={quoteattr(name)} joint={quoteattr(name)}/>")
+    return [*lines, "  </actuator>"]
 
 
 def _geom_xml(g) -> list[str]:
@@ -166,11 +235,25 @@ def _geom_xml(g) -> list[str]:
     return []  # meshes are left out: MuJoCo only needs them for looks here
 
 
-def write_mjcf(h, path) -> Path:
-    """Write :func:`to_mjcf` to a file."""
+def write_mjcf(h, path, mu: float | None = 0.8, timestep: float = 1e-3,
+               integrator: str = "Euler", damping: float = 0.0) -> Path:  # fmt: skip
+    """Write the body as a MuJoCo model to simulate (see the module docstring): a floor with
+    friction ``mu`` (None: none), limits on, a motor per degree of freedom, MuJoCo's
+    semi-implicit Euler (``integrator``) at ``timestep`` [s], joint ``damping`` [N m s/rad].
+
+    Raises:
+        ModelError: a friction, timestep or damping that is not a finite number in range."""
+    if mu is not None and not (math.isfinite(mu) and mu >= 0.0):
+        raise ModelError(f"the floor's friction must be a number >= 0, got {mu}")
+    if not (math.isfinite(timestep) and 0.0 < timestep <= 0.1):
+        raise ModelError(f"MuJoCo's timestep must be in (0, 0.1] s, got {timestep}")
+    if not (math.isfinite(damping) and damping >= 0.0):
+        raise ModelError(f"joint damping must be a number >= 0, got {damping}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(to_mjcf(h), encoding="utf-8")
+    text = to_mjcf(h, timestep=timestep, integrator=integrator, ground=mu, limits=True,
+                   damping=damping, motors=True)  # fmt: skip
+    path.write_text(text, encoding="utf-8")
     return path
 
 
