@@ -39,9 +39,37 @@ class TrajectoryError(HumanoidError, ValueError):
     """A saved run (.npz) cannot be read: missing, truncated, corrupt or inconsistent."""
 
 
+class WalkError(HumanoidError, ValueError):
+    """A walk that cannot be set up: its parameters (steps, speed, radius, direction, a plan's
+    lengths) out of range, or a body without what walking needs (an ankle below the knee)."""
+
+
+class ControlError(HumanoidError, ValueError):
+    """A controller's task or gain that is not one it knows or can use."""
+
+
+class OptimalControlError(HumanoidError, ValueError):
+    """An optimal-control problem that cannot be posed with these inputs (an objective or a
+    transition it does not know, a body without the contact frames a gait needs), or a saved
+    cycle that is not one of this body's."""
+
+
+class ConvergenceError(HumanoidError):
+    """A solver (IPOPT) that did not converge: its status and iterations in the message."""
+
+
+class BenchError(HumanoidError):
+    """A benchmark that has nothing to measure (no scenes found)."""
+
+
 class MissingExtra(HumanoidError, ImportError):
     """An optional dependency is not installed: the message names the ``pip install`` that
     brings it (:func:`require`)."""
+
+
+class ExtraConflict(HumanoidError, ImportError):
+    """Two optional dependencies that cannot share a process (OpenSim's wheel bundles its own
+    casadi libraries)."""
 
 
 # the optional dependencies and the extra of humanoid-toolkit that installs each

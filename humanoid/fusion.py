@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .errors import ConfigurationError, finite_vector
+from .errors import ConfigurationError, ModelError, finite_vector
 
 __all__ = ["BallJoint", "Fusion", "fuse_ball_joints"]
 
@@ -348,6 +348,6 @@ def _parents_first(model: pin.Model) -> list[int]:
             else:
                 left.append(f)
         if len(left) == len(pending):
-            raise ValueError("the frames' parents form a cycle")
+            raise ModelError("the frames' parents form a cycle")
         pending = left
     return order

@@ -430,7 +430,7 @@ class _Reader:
                 is_number = isinstance(value, int | float) and not isinstance(value, bool)
                 out[f.name] = self.number(value, key) if is_number else self.numbers(value, key)
             else:  # pragma: no cover - every field type is listed above
-                raise TypeError(f"no reader for {t}")
+                raise SceneError(f"no reader for {t}")
         try:
             return cls(**out)
         except TypeError as exc:

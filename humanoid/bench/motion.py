@@ -18,17 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
-
-__all__ = ["run_motion_benchmark"]
+from ..errors import require
 
 
 def run_motion_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time ID and IK, ours against OpenSim's; print a table and write ``motion.csv``."""
-    try:
-        import opensim  # noqa: F401
-    except ImportError:
-        raise HumanoidError("humanoid bench motion needs OpenSim: pip install opensim") from None
+    require("opensim", "humanoid bench motion")
 
     from ..motion.ik import inverse_kinematics
     from ..motion.inverse_dynamics import derivatives, inverse_dynamics

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ModelError
 from ..model import child_link
 from .common import MALE, load_male
 
@@ -250,7 +251,7 @@ def _mujoco_frame(h, m, frame_id: int) -> tuple[int, np.ndarray]:
     name = child_link(h.model, frame.parentJoint)
     body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
     if body < 0:
-        raise ValueError(f"frame {frame.name} is on a body MuJoCo does not have ({name})")
+        raise ModelError(f"frame {frame.name} is on a body MuJoCo does not have ({name})")
     return body, np.array(frame.placement.translation)
 
 
@@ -321,7 +322,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
     error is inf if the walk failed."""
     import mujoco
 
-    from ..errors import HumanoidError
+    from ..errors import HumanoidError, RunFailed
     from ..export import StateMap
     from ..walking import GaitParameters
     from ..walking.run import prepare
@@ -363,7 +364,7 @@ def _mujoco_walk(h, reference, integrator, dt, weld):
             for _ in range(substeps):
                 mujoco.mj_step(m, d)
             if _unstable(d) or not drift <= LOST or d.qpos[2] < 0.8 * setup.q0[2]:
-                raise HumanoidError(f"MuJoCo's walk is lost at t = {t:.3f} s")
+                raise RunFailed(f"MuJoCo's walk is lost at t = {t:.3f} s")
     except HumanoidError:
         return time.perf_counter() - start, float("inf"), drift
     wall = time.perf_counter() - start

@@ -23,7 +23,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..data import SCENES
-from ..errors import HumanoidError
+from ..errors import BenchError
 from .common import MALE, best_times, load_male, pinocchio_contacts, write_rows
 
 __all__ = ["STEP_COLUMNS", "run_step_benchmark"]
@@ -108,7 +108,7 @@ def run_step_benchmark(quick: bool = False, out: str | Path = "results/bench") -
             f"{r['as shipped'] / p:>6.2f}"
         )
     if not rows and not ground:
-        raise HumanoidError(f"no scenes to time: none found in {SCENES}")
+        raise BenchError(f"no scenes to time: none found in {SCENES}")
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     write_rows(folder / "step.csv", rows, header)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ModelError
 from .base import Constraint
 
 __all__ = ["JointLock", "PointContact", "Weld", "foot_hinges"]
@@ -101,7 +102,7 @@ class JointLock(Constraint):
     def __init__(self, name: str, model: pin.Model, joint_id: int, angle: float) -> None:
         joint = model.joints[joint_id]
         if joint.nq != 1 or joint.nv != 1:
-            raise ValueError(f"a joint lock holds a one-degree-of-freedom joint, and "
+            raise ModelError(f"a joint lock holds a one-degree-of-freedom joint, and "
                              f"{model.names[joint_id]} has nq = {joint.nq}")  # fmt: skip
         self.name = name
         self.joint_id = joint_id

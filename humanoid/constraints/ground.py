@@ -36,6 +36,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..errors import ModelError
+
 __all__ = ["ContactSolver", "Ground", "GroundSettings"]
 
 # ADMM tolerances: contact impulses of a 1 ms step are O(1e-3 .. 1) N s, so Pinocchio's 1e-6
@@ -108,7 +110,7 @@ class _Shape:
                 self.rims.append((centre, R[:, 2].copy(), float(shape.radius)))
                 self.fixed = np.vstack([self.fixed, ring @ R.T + centre])
         else:
-            raise ValueError(f"no contact points for a {type(shape).__name__} ({g.name})")
+            raise ModelError(f"no contact points for a {type(shape).__name__} ({g.name})")
 
     def placed(self, oMi: pin.SE3, rows=slice(None)) -> np.ndarray:
         """World positions of (some of) the fixed points, the joint at ``oMi``."""

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..errors import SceneError
 from ..linalg import cholesky_lapack
 from .base import Constraint, update_kinematics
 
@@ -54,7 +55,7 @@ class Baumgarte:
     def from_time_constant(cls, tau: float) -> Baumgarte:
         """Critically damped error dynamics e'' + (2/tau) e' + e / tau^2 = 0, ``tau`` [s]."""
         if not tau > 0:
-            raise ValueError(f"Baumgarte time constant must be > 0 s, got {tau}")
+            raise SceneError(f"Baumgarte time constant must be > 0 s, got {tau}")
         return cls(alpha=1.0 / tau, beta=1.0 / tau)
 
     @property

@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial import ConvexHull, QhullError
 
-from ..errors import HumanoidError
+from ..errors import ControlError
 
 __all__ = [
     "CentreOfMassTask",
@@ -83,7 +83,7 @@ class PostureTask(Task):
 
     def __post_init__(self) -> None:
         if self.dofs not in DOFS:
-            raise HumanoidError(f"dofs must be one of {sorted(DOFS)}, got {self.dofs!r}")
+            raise ControlError(f"dofs must be one of {sorted(DOFS)}, got {self.dofs!r}")
 
     def compute(self, model, data, q, v):
         nv, dofs = model.nv, DOFS[self.dofs]

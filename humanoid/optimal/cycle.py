@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import HumanoidError, OptimalControlError
 from .coordinates import OcpModel, build_ocp_model
 
 __all__ = [
@@ -105,7 +105,7 @@ def contact_points(om: OcpModel, side: str) -> dict:
 
     heel, meta, toe = pair("heel"), pair("meta"), pair("toe")
     if heel is None or toe is None:
-        raise HumanoidError(
+        raise OptimalControlError(
             f"the gait needs {side}_heel_inner|outer and {side}_toe_inner|outer contact frames"
         )
     return {"heel": heel, "meta": meta, "toe": toe}
@@ -227,7 +227,7 @@ class Transition:
 def transition_phases(gait: GaitSolution, kind: str) -> list[Phase]:
     """A start's or a stop's phases (:mod:`humanoid.optimal.transitions` says which)."""
     if kind not in KINDS:
-        raise HumanoidError(f"a transition is one of {KINDS}, got {kind!r}")
+        raise OptimalControlError(f"a transition is one of {KINDS}, got {kind!r}")
     om = gait.om
     d1, d2, d3 = (float(d) for d in gait.solution.durations)
     r, l = contact_points(om, "right"), contact_points(om, "left")
@@ -346,14 +346,14 @@ def check_radius(radius) -> float:
     :data:`MIN_RADIUS` either way).
 
     Raises:
-        HumanoidError: it cannot.
+        OptimalControlError: it cannot.
     """
     try:
         r = float(radius)
     except (TypeError, ValueError):
         r = math.nan
     if not (math.isfinite(r) and abs(r) >= MIN_RADIUS):
-        raise HumanoidError(
+        raise OptimalControlError(
             f"a circle's radius must be finite and at least {MIN_RADIUS} m, got {radius}"
         )
     return r
@@ -425,7 +425,7 @@ def load_gait(path, h) -> GaitSolution:
     """Read a gait :func:`save_gait` wrote, for the body ``h`` it was optimised for.
 
     Raises:
-        HumanoidError: the file is not such a gait, or it belongs to another body.
+        OptimalControlError: the file is not such a gait, or it belongs to another body.
     """
     om = build_ocp_model(h)
     sol, meta = _read(path, body_key(om), "gait")
@@ -462,13 +462,13 @@ def _read(path, body: str, what: str, cycle: str | None = None) -> tuple[Solutio
             arrays = {k: z[k] for k in z.files}
         meta = json.loads(str(arrays.pop("meta")))
     except (OSError, ValueError, KeyError) as exc:
-        raise HumanoidError(f"{path}: not a saved {what} ({exc})") from exc
+        raise OptimalControlError(f"{path}: not a saved {what} ({exc})") from exc
     if meta.get("format") != FORMAT:
-        raise HumanoidError(f"{path}: {what} format {meta.get('format')}, expected {FORMAT}")
+        raise OptimalControlError(f"{path}: {what} format {meta.get('format')}, expected {FORMAT}")
     if meta["body"] != body:
-        raise HumanoidError(f"{path}: the {what} of another body ({meta['body']})")
+        raise OptimalControlError(f"{path}: the {what} of another body ({meta['body']})")
     if cycle is not None and meta.get("cycle") != cycle:
-        raise HumanoidError(f"{path}: a {what} of another gait cycle")
+        raise OptimalControlError(f"{path}: a {what} of another gait cycle")
     forces = dict(zip(meta["points"], arrays["forces"], strict=True))
     sol = Solution(
         arrays["t"], arrays["x"], arrays["v"], arrays["a"], arrays["tau"], forces,
@@ -499,7 +499,7 @@ def load_transition(path, gait: GaitSolution) -> Transition:
     """Read a transition :func:`save_transition` wrote, into or out of ``gait``.
 
     Raises:
-        HumanoidError: the file is not such a transition, or it meets another cycle.
+        OptimalControlError: the file is not such a transition, or it meets another cycle.
     """
     sol, meta = _read(path, body_key(gait.om), "transition", _digest(gait))
     kind = meta["kind"]
@@ -510,7 +510,7 @@ def stored_transition(gait: GaitSolution, kind: str) -> Transition | None:
     """The start or stop of ``gait`` from the user's cache or the package's data, or None if
     neither has one for this very cycle."""
     if kind not in KINDS:
-        raise HumanoidError(f"a transition is one of {KINDS}, got {kind!r}")
+        raise OptimalControlError(f"a transition is one of {KINDS}, got {kind!r}")
     return _found(transition_file(gait, kind), lambda path: load_transition(path, gait))
 
 
@@ -544,7 +544,7 @@ def load_turn(path, gait: GaitSolution) -> TurnSolution:
     """Read a turn :func:`save_turn` wrote, of the straight ``gait``.
 
     Raises:
-        HumanoidError: the file is not such a turn, or it bends another cycle.
+        OptimalControlError: the file is not such a turn, or it bends another cycle.
     """
     sol, meta = _read(path, body_key(gait.om), "turn", _digest(gait))
     return TurnSolution(sol, gait, float(meta["radius"]), tuple(meta["nodes"]))
@@ -587,7 +587,7 @@ def stored_gait(h, speed=None, objective: str = "tracking") -> GaitSolution | No
     """The body's gait at ``speed`` (default its free speed, to the cm/s) from the user's cache
     or the package's data, or None if neither has it."""
     if objective not in OBJECTIVES:
-        raise HumanoidError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+        raise OptimalControlError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
     speed = round(default_speed(h) if speed is None else float(speed), 2)
     path = stored(build_ocp_model(h), objective).get(speed)
     return None if path is None else load_gait(path, h)

@@ -45,7 +45,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import ConvergenceError, OptimalControlError
 from ._casadi import ca
 from .coordinates import OcpModel, build_ocp_model
 from .cycle import (
@@ -238,7 +238,7 @@ def optimise_gait(h, speed=None, objective: str = "tracking", warm=None, nodes=N
     from ..walking.reference import fit_cycle, leg_length
 
     if objective not in OBJECTIVES:
-        raise HumanoidError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+        raise OptimalControlError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
     om = build_ocp_model(h) if warm is None or warm.om.body is not h else warm.om
     ell = leg_length(h)
     speed = default_speed(h) if speed is None else float(speed)
@@ -446,7 +446,7 @@ def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True
     ``cache``, stored.
 
     Raises:
-        HumanoidError: IPOPT did not converge (the message names its status).
+        ConvergenceError: IPOPT did not converge (the message names its status).
     """
     om = build_ocp_model(h)
     speed = round(default_speed(h) if speed is None else float(speed), 2)
@@ -463,7 +463,7 @@ def gait_cycle(h, speed=None, objective: str = "tracking", *, cache: bool = True
             warm = load_gait(tracking[min(tracking, key=lambda s: abs(s - speed))], h)
     g = optimise_gait(h, speed, objective, warm=warm, verbose=verbose)
     if not g.solution.success:
-        raise HumanoidError(
+        raise ConvergenceError(
             f"the {objective} gait at {speed} m/s did not converge: IPOPT {g.solution.status} "
             f"after {g.solution.iterations} iterations"
         )

@@ -29,7 +29,7 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import OptimalControlError
 from ._casadi import ca
 from .cycle import Phase, Solution
 from .dynamics import SymbolicModel
@@ -65,7 +65,7 @@ class Collocation:
     def __init__(self, om, phases, mu: float = 0.8, clearance=None, periodic=False,
                  range_margin: float = 0.0) -> None:  # fmt: skip
         if not phases:
-            raise HumanoidError("a collocation needs at least one phase")
+            raise OptimalControlError("a collocation needs at least one phase")
         self.om, self.phases, self.mu = om, tuple(phases), float(mu)
         self.periodic = bool(periodic)
         self.range_margin = float(range_margin)

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import ConvergenceError
 from ._casadi import ca
 from .cycle import (
     GaitSolution,
@@ -57,7 +57,7 @@ def transition(gait: GaitSolution, kind: str, *, cache: bool = True,
     if one was made for this very cycle, else optimised and, with ``cache``, stored.
 
     Raises:
-        HumanoidError: IPOPT did not converge (the message names its status).
+        ConvergenceError: IPOPT did not converge (the message names its status).
     """
     found = stored_transition(gait, kind)
     if found is not None:
@@ -65,7 +65,7 @@ def transition(gait: GaitSolution, kind: str, *, cache: bool = True,
     tr = _optimise(gait, kind, verbose, 2000)
     s = tr.solution
     if not s.success:
-        raise HumanoidError(f"the {kind} of the {gait.speed:.2f} m/s gait did not converge: "
+        raise ConvergenceError(f"the {kind} of the {gait.speed:.2f} m/s gait did not converge: "
                             f"IPOPT {s.status} after {s.iterations} iterations")  # fmt: skip
     if cache:
         save_transition(tr, cache_dir() / transition_file(gait, kind))

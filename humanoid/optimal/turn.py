@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import ConvergenceError, OptimalControlError
 from .cycle import (
     GaitSolution,
     Solution,
@@ -69,7 +69,8 @@ def turn(gait: GaitSolution, radius: float, *, cache: bool = True,
     (:func:`optimise_turn`) and, with ``cache``, stored.
 
     Raises:
-        HumanoidError: the radius is out of range, or IPOPT did not converge.
+        OptimalControlError: the radius is out of range. ConvergenceError: IPOPT did not
+            converge.
     """
     radius = check_radius(radius)
     found = stored_turn(gait, radius)
@@ -78,7 +79,7 @@ def turn(gait: GaitSolution, radius: float, *, cache: bool = True,
     out = optimise_turn(gait, radius, verbose=verbose)
     s = out.solution
     if not s.success:
-        raise HumanoidError(f"the {gait.speed:.2f} m/s gait along a {radius:g} m circle did "
+        raise ConvergenceError(f"the {gait.speed:.2f} m/s gait along a {radius:g} m circle did "
                             f"not converge: IPOPT {s.status} after {s.iterations} "
                             "iterations")  # fmt: skip
     if cache:
@@ -95,7 +96,7 @@ def optimise_turn(gait: GaitSolution, radius: float, verbose: bool = False,
 
     radius = check_radius(radius)
     if gait.objective != "tracking":
-        raise HumanoidError(f"a turn bends a tracking cycle, not a {gait.objective} one")
+        raise OptimalControlError(f"a turn bends a tracking cycle, not a {gait.objective} one")
     om = gait.om
     durations = np.tile(gait.solution.durations, 2)
     nodes = tuple(gait.nodes)

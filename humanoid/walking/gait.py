@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, RunFailed
+from ..errors import RunFailed, WalkError
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
 from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
@@ -92,10 +92,10 @@ EVERY = 10  # kinematic samples (angles, centre of mass) every this many steps
 
 def ankle_joint(h, chain) -> int:
     """The ankle of a leg's :class:`~humanoid.walking.clinical.LegChain`: the first joint below
-    its knee (HumanoidError if there is none)."""
+    its knee (WalkError if there is none)."""
     below = chain.joints[chain.joints.index(chain.knee) + 1 :]
     if not below:
-        raise HumanoidError(f"{h.source}: the {chain.side} leg has no ankle below its knee")
+        raise WalkError(f"{h.source}: the {chain.side} leg has no ankle below its knee")
     return below[0]
 
 
@@ -320,11 +320,11 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
     body = h
     h = lock_foot_hinges(h)
     if steps < 1:
-        raise HumanoidError(f"steps must be at least 1, got {steps}")
+        raise WalkError(f"steps must be at least 1, got {steps}")
     if radius is not None and not (math.isfinite(radius) and abs(radius) >= 0.5):
-        raise HumanoidError(f"a curve's radius must be finite and at least 0.5 m, got {radius}")
+        raise WalkError(f"a curve's radius must be finite and at least 0.5 m, got {radius}")
     if radius is not None and from_standing:
-        raise HumanoidError("a walk from standing along a curve is not supported yet")
+        raise WalkError("a walk from standing along a curve is not supported yet")
     cycle = cycle if cycle is not None else fit_cycle(h, speed)
     if cycle.q.shape[1] != h.model.nq:  # fitted to the body with its toes free
         cycle = replace(cycle, q=restrict_configurations(cycle.q, body, h))
@@ -363,9 +363,9 @@ def pelvis_push(h, cycle, fraction: float, direction: str = "forward",
     fitted :class:`GaitCycle`, or an optimised gait that ``walk_cycle`` walks: they start at
     the same phase)."""
     if direction not in DIRECTIONS:
-        raise HumanoidError(f"push direction must be one of {sorted(DIRECTIONS)}: {direction!r}")
+        raise WalkError(f"push direction must be one of {sorted(DIRECTIONS)}: {direction!r}")
     if fraction < 0 or duration <= 0 or step < 1:
-        raise HumanoidError(
+        raise WalkError(
             f"a push needs fraction >= 0, duration > 0 and step >= 1, got {fraction}, "
             f"{duration}, {step}"
         )

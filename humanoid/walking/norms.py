@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import WalkError
+
 __all__ = ["ADULT", "Norms", "choose_gait", "free_speed", "norms"]
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "norms" / "schwartz2008.json"
@@ -88,9 +90,9 @@ class Norms:
         pelvic tilt and the hip flexion (the thigh against the pelvis) less the mean tilt over
         the cycle, keeping the tilt's motion and the thigh's angle to the room."""
         if name not in self.units:
-            raise KeyError(f"no normative curve {name!r}; there are {sorted(self.units)}")
+            raise WalkError(f"no normative curve {name!r}; there are {sorted(self.units)}")
         if pelvis not in ("lab", "level"):
-            raise ValueError(f"pelvis must be 'lab' or 'level', got {pelvis!r}")
+            raise WalkError(f"pelvis must be 'lab' or 'level', got {pelvis!r}")
         i, j, w = self._weights(speed)
 
         def mean_sd(key):

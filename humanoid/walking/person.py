@@ -58,7 +58,7 @@ from ..control.tasks import (
     TaskStack,
 )
 from ..effects import Effect
-from ..errors import HumanoidError
+from ..errors import WalkError
 from ..model import SIDES
 from ..optimal.cycle import (
     KINDS,
@@ -144,9 +144,9 @@ class CycleReference:
         strides of ``gait`` and a stop, one after the other: each segment's first node is the
         previous one's last (where a transition meets the cycle, its own state)."""
         if strides < 1:
-            raise HumanoidError(f"a walk from standing needs a whole stride, got {strides}")
+            raise WalkError(f"a walk from standing needs a whole stride, got {strides}")
         if isinstance(gait, TurnSolution):
-            raise HumanoidError("a walk from standing starts and stops a straight cycle")
+            raise WalkError("a walk from standing starts and stops a straight cycle")
         ref = cls(gait)
         cycle = (ref.t, ref.x, ref.v, ref.forces, ref.sets)
         steady_from = float(start.solution.t[-1])
@@ -499,7 +499,7 @@ def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, g
     circle of ``radius`` [m], positive turning left, or straight on); returns a
     :class:`~humanoid.walking.gait.GroundWalk`."""
     if steps < 1:
-        raise HumanoidError(f"steps must be at least 1, got {steps}")
+        raise WalkError(f"steps must be at least 1, got {steps}")
     if radius is not None:
         gait = _turned(gait, check_radius(radius), quiet)
     ref = CycleReference(gait)
@@ -557,7 +557,7 @@ def _optimised(what: str, quiet: bool, solve):
     try:
         return solve()
     except ImportError as exc:
-        raise HumanoidError(
+        raise WalkError(
             f"{what} is not shipped or cached, and optimising it needs the optimal-control "
             f"extra ({exc})"
         ) from exc

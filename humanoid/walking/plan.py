@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import WalkError
 
 MAX_STEPS = 1000
 
@@ -51,15 +51,15 @@ class GaitParameters:
 
     def __post_init__(self) -> None:
         if not (isinstance(self.steps, int) and 2 <= self.steps <= MAX_STEPS):
-            raise HumanoidError(f"steps must be an integer in [2, {MAX_STEPS}], got {self.steps!r}")
+            raise WalkError(f"steps must be an integer in [2, {MAX_STEPS}], got {self.steps!r}")
         for name in ("step_length", "t_single", "t_double", "step_height", "t_start", "t_end"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float):
-                raise HumanoidError(f"{name} must be a number, got {value!r}")
+                raise WalkError(f"{name} must be a number, got {value!r}")
             if not (math.isfinite(value) and 0 < value <= 100):
-                raise HumanoidError(f"{name} must be in (0, 100], got {value!r}")
+                raise WalkError(f"{name} must be in (0, 100], got {value!r}")
         if self.step_length > 1.0:
-            raise HumanoidError(f"step_length must be at most 1 m, got {self.step_length}")
+            raise WalkError(f"step_length must be at most 1 m, got {self.step_length}")
 
     @property
     def period(self) -> float:

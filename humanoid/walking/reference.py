@@ -40,7 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..constraints.limits import JointRanges
-from ..errors import HumanoidError
+from ..errors import WalkError
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .norms import FREE_DIMENSIONLESS_SPEED, choose_gait, free_speed, norms
@@ -348,7 +348,7 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
     ell = leg_length(h)
     speed = free_speed(ell) if speed is None else float(speed)
     if not 0.3 <= speed <= 2.5:
-        raise HumanoidError(f"speed must be in [0.3, 2.5] m/s, got {speed}")
+        raise WalkError(f"speed must be in [0.3, 2.5] m/s, got {speed}")
     gait = choose_gait(speed, ell)
     fitter = _Fitter(h, gait)
     data, model = fitter.data, h.model

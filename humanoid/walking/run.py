@@ -22,7 +22,7 @@ import pinocchio as pin
 
 from ..constraints.limits import JointRanges
 from ..dynamics import centre_of_pressure
-from ..errors import HumanoidError, RunFailed
+from ..errors import RunFailed, WalkError
 from ..linalg import cross
 from ..model import SIDES, Humanoid
 from ..scene import Contact, Effects, Initial, Scene, Stabilisation
@@ -117,12 +117,12 @@ def crouch(h: Humanoid, drop: float, forward: float = 0.0) -> np.ndarray:
         dq = -J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(len(e)), e)  # damped least squares
         q = pin.integrate(model, q, dq)
     else:
-        raise HumanoidError(f"cannot lower the pelvis by {drop} m with the soles flat")
+        raise WalkError(f"cannot lower the pelvis by {drop} m with the soles flat")
     for jm in model.joints[2:]:
         if jm.nq == 1:
             lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
             if not lo - 1e-9 <= q[jm.idx_q] <= hi + 1e-9:
-                raise HumanoidError(
+                raise WalkError(
                     f"lowering the pelvis by {drop} m puts {model.names[jm.id]} out of its limits"
                 )
     return q
@@ -214,7 +214,7 @@ def walk(
             accuracy benchmark compares integrators under).
     """
     if hold not in ("forces", "torques"):
-        raise HumanoidError(f"hold must be 'forces' or 'torques', got {hold!r}")
+        raise WalkError(f"hold must be 'forces' or 'torques', got {hold!r}")
     gait = gait or GaitParameters()
     setup = prepare(h, gait, dt, mu, drop, gains, integrator, record_rate, rtol, atol)
     plan, sim, ctl, soles = setup.plan, setup.sim, setup.ctl, setup.soles

@@ -43,7 +43,7 @@ import pinocchio as pin
 from scipy.linalg import solve_banded
 
 from ..control.qp import WarmQP
-from ..errors import HumanoidError
+from ..errors import WalkError
 from ..model import SIDES
 from .plan import smooth_step
 from .tracking import contact_kind, footstep_phase
@@ -75,7 +75,7 @@ def pendulum_path(p: np.ndarray, omega2: float, dt: float, start: tuple, end: tu
     p = np.asarray(p, dtype=float)
     n = len(p)
     if n < 6:
-        raise HumanoidError(f"a pendulum path needs at least 6 samples, got {n}")
+        raise WalkError(f"a pendulum path needs at least 6 samples, got {n}")
     # zero-moment point rows for the inner samples 1..n-2
     A = np.zeros((n - 2, n))
     k = 1.0 / (omega2 * dt * dt)
@@ -130,7 +130,7 @@ def pendulum_path(p: np.ndarray, omega2: float, dt: float, start: tuple, end: tu
         qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-6)
         P = qp.solve(H, g, E, f, G, h)
         if P is None:
-            raise HumanoidError(
+            raise WalkError(
                 f"no centre-of-mass path keeps its zero-moment point in the support ({qp.why})"
             )
         out[:, j] = np.concatenate([c[:2], solve_banded((1, 1), band, P[1:-1] + b), c[2:]])
@@ -237,7 +237,7 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     module docstring): the left foot steps first; the ``steps``-th heel strike is the closing
     foot's, beside the braking one."""
     if steps < 3:
-        raise HumanoidError(f"a walk from standing to standing needs at least 3 steps, got {steps}")
+        raise WalkError(f"a walk from standing to standing needs at least 3 steps, got {steps}")
     model = h.model
     data = model.createData()
     g = cycle.gait
