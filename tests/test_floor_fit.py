@@ -103,25 +103,29 @@ def _residual_rms(h, t, q, floor):
 def test_loads_estimated_on_the_fitted_floor(walk_100hz):
     """On the tilted, raised walk, loads estimated on its fitted floor leave a root residual
     no larger than the level walk's + 2 % of body weight, their centres of pressure on that
-    floor; on the plane of the lowest sole point (floor=None) it is clearly worse, and the
-    residual check says when and why."""
+    floor. On floor=None (the horizontal plane of the median of the lowest sole points) the
+    contacts are found too, and the residual is as small (1.8 % BW; 4.0 on the fitted floor;
+    on the plane of the lowest sole point, the default before, 89 %: no stance found). Without
+    loads
+    the residual check says when and why."""
     h, t, q = walk_100hz
     W = h.mass * 9.81
     level, _, _ = _residual_rms(h, t, q, None)
     qt = moved(q, about("y", 2.0), 0.012)
     floor = fit_floor(h, t, qt)
     fitted, loads, r = _residual_rms(h, t, qt, floor)
-    flat, _, rf = _residual_rms(h, t, qt, None)
+    flat, _, _ = _residual_rms(h, t, qt, None)
     print(f"residual RMS [% BW]: level {level / W * 100:.2f}, tilted on the fitted floor "
           f"{fitted / W * 100:.2f}, tilted on floor=None {flat / W * 100:.2f}")  # fmt: skip
     assert fitted <= level + 0.02 * W
-    assert flat > fitted + 0.05 * W
+    assert flat <= level + 0.02 * W
     for x in loads:
         on = x.force[:, 2] > 20.0
         assert on.mean() > 0.3
         assert np.abs(floor.above(x.point[on])).max() < 1e-9
     assert residual_check(r.time, r.residual_force, W, loads, floor) is None
-    text = residual_check(rf.time, rf.residual_force, W, [], floor)
+    bare = inverse_dynamics(h, t, qt)  # (no loads at all)
+    text = residual_check(bare.time, bare.residual_force, W, [], floor)
     assert text is not None and "no foot on the floor" in text and " s (" in text
 
 

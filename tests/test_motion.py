@@ -848,6 +848,25 @@ def test_contact_schedule_on_a_treadmill(walk_1khz):
         assert 0.4 < np.mean(tread[s][1]) < 0.8  # (stance: about 60 % of the cycle)
 
 
+def test_contact_schedule_is_not_fooled_by_a_foot_through_the_floor(walk_1khz):
+    """One sample whose foot goes 4 cm through the floor (a rigid foot's tip at push-off in a
+    recorded walk, walking5.c3d's toes 4-5 cm under its stances): the motion's floor is the
+    median of its lowest sole points, not their lowest, and the stances are found as before
+    (on the lowest, no stance at all was found on walking5)."""
+    from humanoid.motion.inverse_dynamics import contact_schedule, derivatives
+
+    h, tr = walk_1khz
+    t, q = tr.t[::10], tr.q[::10].copy()
+    tf, qf, vf = derivatives(h.model, t, q)[:3]
+    before = contact_schedule(h, tf, qf, vf)
+    dipped = qf.copy()
+    dipped[len(tf) // 2, 2] -= 0.04  # (the whole body 4 cm down at one sample)
+    after = contact_schedule(h, tf, dipped, vf)
+    for s in ("left", "right"):
+        assert 0.4 < np.mean(before[s][1]) < 0.8
+        assert np.mean(before[s][1] == after[s][1]) >= 0.97
+
+
 def test_contact_schedule_fills_the_steps_the_plates_missed(walk_1khz):
     """The walk's own ground forces with the left foot's first stance taken out (a step beside
     the plates): that stance is in the schedule all the same, from the motion (within 50 ms of

@@ -305,7 +305,8 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
                      fill: bool = True) -> dict:  # fmt: skip
     """When each foot is on the ground: {side: (time, bool array)}. From a foot's measured load
     (vertical force over ``force`` [N]) if it has one, else from the motion: one of its sole
-    points within ``height`` [m] of the motion's floor (its lowest sole point) and moving with
+    points within ``height`` [m] of the motion's floor (the median over its samples of the
+    lowest sole point) and moving with
     the floor, slower than ``speed`` [m/s] relative to it (a trailing foot rolls on its toes
     while its frame moves fast). The floor's own velocity is the median horizontal velocity of
     the sole points that are low: zero over ground, the belt's on a treadmill (where the body
@@ -313,7 +314,7 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     belt if given. ``floor``: a
     :class:`~humanoid.motion.floor.Floor` (:func:`~humanoid.motion.floor.fit_floor`): heights
     are measured above it, along its normal, and within ``height`` of it is low (default
-    None: the horizontal plane of the motion's lowest sole point). From the motion, gaps and
+    None: the horizontal plane of the motion's floor, as above). From the motion, gaps and
     then contacts shorter than ``shortest`` [s] are removed (a noisy motion's foot flickers;
     a stance or a swing of a walk lasts 0.3 s or more). ``fill``: a stance the motion has for
     a foot whose measured load reads nothing through all of it (a step beside the plates) is
@@ -337,7 +338,11 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
             world = arms + M.translation
             low[s][i] = world[:, 2] if floor is None else floor.above(world)
             vel[s][i] = frame.linear + np.cross(frame.angular, arms)
-    base = min(float(x.min()) for x in low.values()) if floor is None else 0.0
+    # the motion's floor: the median over samples of the lowest sole point (in a walk a foot
+    # always stands; the lowest of all is a rigid foot's tip through the floor at push-off,
+    # 4-5 cm under walking5's stances, under which no stance was found)
+    lowest = np.minimum(*(x.min(axis=1) for x in low.values()))
+    base = float(np.median(lowest)) if floor is None else 0.0
     if floor is not None:  # (its belt fitted with it: floor.belt_velocity)
         belt = np.asarray(floor.belt, dtype=float)
     else:
