@@ -588,7 +588,12 @@ def load_any(args, ball_joints: str | None = None):
     example-robot-data robot's name), with the command's loading options."""
     from .model import load
 
-    name = getattr(args, "model", None) or args.target
+    name = getattr(args, "model", None)
+    if name is None:
+        name = getattr(args, "target", None)
+    if not name or not str(name).strip():
+        raise HumanoidError("no model given: a URDF file, a shipped body's name (adult_male, "
+                            "adult_female) or an example-robot-data robot's name")  # fmt: skip
     ball = ball_joints or getattr(args, "ball_joints", "quaternion")
     feet = tuple(args.feet) if args.feet else None
     return load(name, ball_joints=ball, feet=feet, massless=args.massless)
@@ -845,8 +850,11 @@ def person_gait(h, speed=None, quiet: bool = False):
 
 
 def _view(args) -> int:
-    from .viewer import LiveViewer, Overlays, SceneView, export_html, humanoid_for
+    from .viewer import LiveViewer, Overlays, SceneView, check_playback, export_html, humanoid_for
 
+    check_playback(args.speed, args.fps)
+    if not 0.0 <= args.force_scale < math.inf:
+        raise HumanoidError(f"--force-scale {args.force_scale}: a length per body weight >= 0")
     overlays = Overlays(
         forces=not args.no_forces,
         com=not args.no_com,
