@@ -267,10 +267,10 @@ def read_map(path: str | Path) -> CoordinateMap:
         if key not in root:
             raise HumanoidError(f"{path}: [root] needs {key!r}")
     root_map = RootMap(
-        _texts(path, "root.rotation", root["rotation"], 3),
-        _texts(path, "root.rotation_axes", root["rotation_axes"], 3),
-        _texts(path, "root.translation", root["translation"], 3),
-        _texts(path, "root.translation_axes", root["translation_axes"], 3),
+        _texts(path, "root.rotation", root["rotation"]),
+        _texts(path, "root.rotation_axes", root["rotation_axes"]),
+        _texts(path, "root.translation", root["translation"]),
+        _texts(path, "root.translation_axes", root["translation_axes"]),
         _numbers(path, "root.offset", root.get("offset", (0.0, 0.0, 0.0)), 3),
     )
     joints = []
@@ -295,6 +295,8 @@ def read_map(path: str | Path) -> CoordinateMap:
                 "joint) or 'signs' (a one-axis joint)"
             )
         joints.append(jm)
+    for key in ("rotation", "rotation_axes", "translation", "translation_axes"):
+        _texts(path, f"root.{key}", root[key], 3)  # three each (checked after the joints')
     for jm in [*joints, JointMap(("root",), root_map.rotation, root_map.rotation_axes)]:
         for a in jm.axes:
             try:
