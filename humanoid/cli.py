@@ -863,8 +863,11 @@ def person_gait(h, speed=None, quiet: bool = False):
 
 
 def _view(args) -> int:
-    from .viewer import LiveViewer, Overlays, SceneView, export_html, humanoid_for
+    from .viewer import LiveViewer, Overlays, SceneView, check_playback, export_html, humanoid_for
 
+    check_playback(args.speed, args.fps)
+    if not 0.0 <= args.force_scale < math.inf:
+        raise HumanoidError(f"--force-scale {args.force_scale}: a length per body weight >= 0")
     overlays = Overlays(
         forces=not args.no_forces,
         com=not args.no_com,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -677,6 +678,32 @@ def _origin(element, where: str) -> pin.SE3:
     return pin.SE3(pin.rpy.rpyToMatrix(*rpy), xyz)
 
 
+LINK_TAGS = ("inertial", "visual", "collision")  # a <link>'s children (the URDF spec)
+
+
+class UnknownTagWarning(UserWarning):
+    """A URDF element the toolkit does not read (a simulator's extension), left out."""
+
+
+def _check_link_tags(link, where: str) -> None:
+    """Refuse a <link> child that is a misspelt :data:`LINK_TAGS` (``<intertial>``: urdfdom
+    skips it, and the link loses its mass without a word) with ModelError naming the link and
+    the tag; warn (:class:`UnknownTagWarning`) about any other unknown child."""
+    import difflib
+
+    for child in link:
+        if not isinstance(child.tag, str) or child.tag in LINK_TAGS:
+            continue  # (comments)
+        near = difflib.get_close_matches(child.tag.lower(), LINK_TAGS, n=1, cutoff=0.75)
+        if near:
+            raise ModelError(
+                f"{where}: unknown element <{child.tag}>: did you mean <{near[0]}>? (a URDF "
+                "reader skips it: the link would lose it)"
+            )
+        warnings.warn(f"{where}: element <{child.tag}> is not URDF's (inertial, visual, "
+                      "collision): left out", UnknownTagWarning, stacklevel=4)  # fmt: skip
+
+
 def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> dict:
     """Check a URDF before Pinocchio sees it (its parser crashes on cycles, and urdfdom
     drops what it cannot read without a word). Returns each link's declared inertia
@@ -699,6 +726,7 @@ def _validate(text: str, label: str, path: Path | None, dirs: list[str]) -> dict
     for link in root.iter("link"):
         name = link.get("name", "?")
         where = f"{label}: link {name!r}"
+        _check_link_tags(link, where)
         for kind in ("visual", "collision"):
             for g in link.iter(kind):
                 _origin(g, f"{where} <{kind}>")

@@ -581,12 +581,16 @@ class SceneView:
             The number of animation frames.
         """
         mc = _meshcat()
-        if speed <= 0 or fps <= 0:
-            raise HumanoidError(f"speed and fps must be > 0, got speed {speed}, fps {fps}")
+        check_playback(speed, fps)
         t = np.asarray(traj.t)
         if len(t) < 2:
             raise HumanoidError("a trajectory needs at least two records to animate")
         n = int(math.floor((t[-1] - t[0]) / speed * fps)) + 1
+        if n > MAX_ANIMATION_FRAMES:
+            raise HumanoidError(
+                f"{t[-1] - t[0]:.4g} s at speed {speed:g} and {fps:g} fps is {n:,} animation "
+                f"frames, more than {MAX_ANIMATION_FRAMES:,}: lower --fps or raise --speed"
+            )
         self.set_pushes(_pushes(self.model, traj.metadata))
         anim = mc.animation.Animation(default_framerate=fps)
         for k in range(n):
@@ -892,6 +896,22 @@ def export_html(
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(html, encoding="utf-8")
     return path
+
+
+MAX_FPS = 240.0  # [frames/s] a screen shows at most 60-240: more frames only cost time
+MAX_SPEED = 1000.0  # [x real time] faster, a run of minutes plays in a frame
+# the most frames of one animation: each is a full set of poses sent to the browser; an hour
+# at 30 fps is 108,000 (a rate of 1e9 fps never finished building its frames)
+MAX_ANIMATION_FRAMES = 200_000
+
+
+def check_playback(speed: float, fps: float) -> None:
+    """Raise HumanoidError unless 0 < ``speed`` <= :data:`MAX_SPEED` (times real time) and
+    0 < ``fps`` <= :data:`MAX_FPS` (frames per second)."""
+    if not 0.0 < speed <= MAX_SPEED:
+        raise HumanoidError(f"--speed {speed}: give a playback speed in (0, {MAX_SPEED:g}]")
+    if not 0.0 < fps <= MAX_FPS:
+        raise HumanoidError(f"--fps {fps}: give an animation rate in (0, {MAX_FPS:g}] frames/s")
 
 
 class LiveViewer:

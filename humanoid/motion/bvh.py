@@ -33,10 +33,11 @@ import pinocchio as pin
 
 from .loads import OPENSIM_TO_OURS
 from .markers import MarkerTrajectories
-from .storage import MotionFileError
+from .storage import MAX_RATE, MAX_VALUE, MotionFileError, _is_number
 
 __all__ = ["BvhJoint", "read_bvh", "write_bvh"]
 
+_CHANNELS = {f"{a}{kind}" for a in "xyz" for kind in ("position", "rotation")}
 _AXIS = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
 
 # joint names -> the default marker set's joint centres (lower case, separators dropped)
@@ -114,6 +115,9 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
     while i < len(tokens):
         line, tok = tokens[i]
         if tok in ("ROOT", "JOINT"):
+            if (tok == "ROOT") != (not joints):
+                raise MotionFileError(f"{path}:{line}: {tok} {expect(i + 1)[1]}: the hierarchy "
+                                      "has one ROOT, first, and JOINTs inside it")  # fmt: skip
             name = expect(i + 1)[1]
             joints.append(BvhJoint(name, stack[-1] if stack else -1, np.zeros(3)))
             i += 2
@@ -130,6 +134,8 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
             if popped == -2:
                 pending_end = False
             i += 1
+        elif tok in ("OFFSET", "CHANNELS") and not joints:
+            raise MotionFileError(f"{path}:{line}: {tok} before any ROOT")
         elif tok == "OFFSET":
             values = numbers(i + 1, 3)
             if stack and stack[-1] == -2:
@@ -142,7 +148,15 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
                 n = int(expect(i + 1)[1])
             except ValueError:
                 raise MotionFileError(f"{path}:{line}: CHANNELS needs a count") from None
+            if not 0 <= n <= 6:
+                raise MotionFileError(f"{path}:{line}: CHANNELS {n}: a joint has 0 to 6")
             joints[-1].channels = [expect(i + 2 + j)[1].lower() for j in range(n)]
+            unknown = [c for c in joints[-1].channels if c not in _CHANNELS]
+            if unknown:
+                raise MotionFileError(
+                    f"{path}:{line}: {joints[-1].name}: unknown channel {unknown[0]!r} "
+                    "(Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrotation)"
+                )
             i += 2 + n
         else:
             i += 1  # HIERARCHY and anything unknown
@@ -151,14 +165,22 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
     lines = motion.strip().splitlines()
     frames, frame_time, start = None, None, 0
     for k, line in enumerate(lines):
-        if line.lower().startswith("frames:"):
-            frames = int(line.split(":")[1])
-        elif line.lower().startswith("frame time:"):
-            frame_time = float(line.split(":")[1])
-            start = k + 1
-            break
-    if frames is None or frame_time is None or frame_time <= 0:
-        raise MotionFileError(f"{path}: MOTION needs 'Frames:' and a positive 'Frame Time:'")
+        try:
+            if line.lower().startswith("frames:"):
+                frames = int(line.split(":")[1])
+            elif line.lower().startswith("frame time:"):
+                frame_time = float(line.split(":")[1])
+                start = k + 1
+                break
+        except ValueError:
+            raise MotionFileError(f"{path}: MOTION: {line.strip()!r} is not a number") from None
+    if frames is None or frame_time is None:
+        raise MotionFileError(f"{path}: MOTION needs 'Frames:' and 'Frame Time:'")
+    if not 1.0 / MAX_RATE <= frame_time < math.inf:
+        raise MotionFileError(
+            f"{path}: 'Frame Time: {frame_time}' [s]: a positive, finite time of at least "
+            f"{1.0 / MAX_RATE:g} s (a rate of at most {MAX_RATE:g} Hz)"
+        )
     width = sum(len(j.channels) for j in joints)
     rows = []
     for line in lines[start:]:
@@ -168,10 +190,19 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
         if len(cells) != width:
             raise MotionFileError(f"{path}: frame {len(rows) + 1}: {len(cells)} values for "
                                   f"{width} channels")  # fmt: skip
-        rows.append([float(c) for c in cells])
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise MotionFileError(f"{path}: frame {len(rows) + 1}: not a number: {bad!r}") from None
+    values = np.array(rows, dtype=float).reshape(len(rows), width)
+    if not np.all(np.abs(values) <= MAX_VALUE):  # (also NaN and inf)
+        i, c = np.argwhere(~(np.abs(values) <= MAX_VALUE))[0]
+        raise MotionFileError(f"{path}: frame {i + 1}, channel {c + 1}: {values[i, c]} is not a "
+                              f"finite number of at most {MAX_VALUE:g}")  # fmt: skip
     if len(rows) != frames:
         raise MotionFileError(f"{path}: 'Frames: {frames}' but {len(rows)} rows")
-    return joints, frame_time, np.array(rows).reshape(len(rows), width)
+    return joints, frame_time, values
 
 
 def _positions(joints, values) -> np.ndarray:

@@ -355,9 +355,13 @@ def markers_file(path, args):
     """Marker trajectories: a TRC or C3D file, or keypoints (.npy (frames, k, 3) or .npz with
     ``points`` and optional ``time``) in ``--layout`` at ``--rate``."""
     from .markers import KEYPOINT_LAYOUTS, keypoints, read_c3d, read_trc
+    from .storage import MAX_RATE
 
     path = Path(path)
     suffix = path.suffix.lower()
+    rate = getattr(args, "rate", None)
+    if rate is not None and not 0.0 < rate <= MAX_RATE:
+        raise HumanoidError(f"--rate {rate}: a frame rate in (0, {MAX_RATE:g}] Hz")
     if suffix == ".trc":
         return read_trc(path)
     if suffix == ".c3d":

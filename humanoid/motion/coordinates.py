@@ -263,19 +263,31 @@ def read_map(path: str | Path) -> CoordinateMap:
     root = spec.get("root")
     if not isinstance(root, dict):
         raise HumanoidError(f"{path}: a [root] table is required (rotation, translation ...)")
-    try:
-        root_map = RootMap(
-            tuple(root["rotation"]), tuple(root["rotation_axes"]), tuple(root["translation"]),
-            tuple(root["translation_axes"]), tuple(float(x) for x in root.get("offset", (0, 0, 0))),
-        )  # fmt: skip
-    except KeyError as exc:
-        raise HumanoidError(f"{path}: [root] needs {exc.args[0]!r}") from None
+    for key in ("rotation", "rotation_axes", "translation", "translation_axes"):
+        if key not in root:
+            raise HumanoidError(f"{path}: [root] needs {key!r}")
+    root_map = RootMap(
+        _texts(path, "root.rotation", root["rotation"]),
+        _texts(path, "root.rotation_axes", root["rotation_axes"]),
+        _texts(path, "root.translation", root["translation"]),
+        _texts(path, "root.translation_axes", root["translation_axes"]),
+        _numbers(path, "root.offset", root.get("offset", (0.0, 0.0, 0.0)), 3),
+    )
     joints = []
-    for name, j in (spec.get("joints") or {}).items():
-        cols = tuple(j.get("columns", ()))
-        names = tuple(j["joints"]) if "joints" in j else (name,)
+    table = spec.get("joints") or {}
+    if not isinstance(table, dict):
+        raise HumanoidError(f"{path}: joints must be tables [joints.NAME]")
+    for name, j in table.items():
+        where = f"joints.{name}"
+        if not isinstance(j, dict):
+            raise HumanoidError(f"{path}: {where} must be a table (columns, axes or signs)")
+        cols = _texts(path, f"{where}.columns", j.get("columns", ()))
+        names = _texts(path, f"{where}.joints", j["joints"]) if "joints" in j else (name,)
         jm = JointMap(
-            names, cols, tuple(j.get("axes", ())), tuple(float(s) for s in j.get("signs", ()))
+            names,
+            cols,
+            _texts(path, f"{where}.axes", j.get("axes", ())),
+            _numbers(path, f"{where}.signs", j.get("signs", ())),
         )
         if not cols or len(jm.axes or jm.signs) != len(cols) or (jm.axes and jm.signs):
             raise HumanoidError(
@@ -283,11 +295,41 @@ def read_map(path: str | Path) -> CoordinateMap:
                 "joint) or 'signs' (a one-axis joint)"
             )
         joints.append(jm)
+    for key in ("rotation", "rotation_axes", "translation", "translation_axes"):
+        _texts(path, f"root.{key}", root[key], 3)  # three each (checked after the joints')
     for jm in [*joints, JointMap(("root",), root_map.rotation, root_map.rotation_axes)]:
         for a in jm.axes:
-            _axis(a)
-    return CoordinateMap(str(spec.get("name", path.stem)), root_map, tuple(joints),
-                         tuple(spec.get("ignored", ())))  # fmt: skip
+            try:
+                _axis(a)
+            except HumanoidError as exc:
+                raise HumanoidError(f"{path}: {jm.joints[0]}: {exc}") from None
+    name = spec.get("name", path.stem)
+    if not isinstance(name, str):
+        raise HumanoidError(f"{path}: name must be a string, got {name!r}")
+    return CoordinateMap(name, root_map, tuple(joints),
+                         _texts(path, "ignored", spec.get("ignored", ())))  # fmt: skip
+
+
+def _texts(path, key: str, value, n: int | None = None) -> tuple[str, ...]:
+    """``value`` as a tuple of strings (of ``n``, if given); HumanoidError naming the file and
+    ``key`` if it is not a list of strings."""
+    if not isinstance(value, list | tuple) or not all(isinstance(x, str) for x in value):
+        raise HumanoidError(f"{path}: {key} must be a list of strings, got {value!r}")
+    if n is not None and len(value) != n:
+        raise HumanoidError(f"{path}: {key} must have {n} entries, got {len(value)}")
+    return tuple(value)
+
+
+def _numbers(path, key: str, value, n: int | None = None) -> tuple[float, ...]:
+    """``value`` as a tuple of finite floats (of ``n``, if given); HumanoidError naming the file
+    and ``key`` otherwise (booleans are not numbers)."""
+    ok = isinstance(value, list | tuple) and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) for x in value
+    )
+    if not ok or (n is not None and len(value) != n):
+        size = f"{n} " if n is not None else "a list of "
+        raise HumanoidError(f"{path}: {key} must be {size}finite numbers, got {value!r}")
+    return tuple(float(x) for x in value)
 
 
 def _sequence(values: np.ndarray, axes) -> np.ndarray:
@@ -380,6 +422,8 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
             missing = [c for c, p in zip(jm.columns, present, strict=True) if not p]
             raise MotionFileError(f"{table.source}: {jm.joints} needs {missing} too")
         used |= set(jm.columns)
+        for c in jm.columns:
+            _check_angle(table, c, cols[c] * scale, in_degrees)
         ids = [_joint(model, name) for name in jm.joints]
         if "thoracic" in extras and len(ids) > 1 and "thoracic" in jm.joints:
             ids = ids[:1]  # the file has the thoracic's own: lumbar_* is the lumbar's alone
@@ -407,6 +451,30 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
             stacklevel=2,
         )
     return table.time.copy(), q, skipped + unmapped
+
+
+# [rad] the largest angle a joint's coordinate may have: no joint of a person turns a full
+# turn (the root's heading, which may wind over a turn, is not checked); an elbow at 140 "rad"
+# is a file in degrees whose header says inDegrees=no
+MAX_JOINT_ANGLE = 2.0 * math.pi
+
+
+def _check_angle(table: Table, column: str, radians: np.ndarray, in_degrees: bool) -> None:
+    """Raise MotionFileError naming the file and ``column`` if its angles [rad] reach
+    :data:`MAX_JOINT_ANGLE`, saying which unit the numbers look like."""
+    largest = float(np.nanmax(np.abs(radians), initial=0.0))
+    if largest < MAX_JOINT_ANGLE:
+        return
+    as_read = f"{math.degrees(largest):.0f} deg" if not in_degrees else f"{largest:.3g} rad"
+    hint = (
+        "the numbers look like degrees: set inDegrees=yes in its header"
+        if not in_degrees
+        else "more than a full turn: the column is not a joint angle"
+    )
+    raise MotionFileError(
+        f"{table.source or 'the motion'}: column {column!r} reaches {as_read} (read as "
+        f"{'degrees' if in_degrees else 'radians'}): {hint}"
+    )
 
 
 def _set_root(q: np.ndarray, cols: dict, root: RootMap, scale: float) -> None:

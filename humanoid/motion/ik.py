@@ -51,7 +51,7 @@ import pinocchio as pin
 
 from ..errors import HumanoidError
 from .inverse_dynamics import joint_labels
-from .markers import Marker, MarkerTrajectories
+from .markers import MAX_WEIGHT, Marker, MarkerTrajectories
 
 __all__ = [
     "IKResult",
@@ -335,7 +335,14 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         root_smoothing = SINGLE_VIEW_ROOT if single else 0.0
     if regularization is None:
         regularization = SINGLE_VIEW_REGULARIZATION if single else 1e-6
+    _check_settings(iterations=iterations, tolerance=tolerance, damping=damping,
+                    regularization=regularization, smoothing=smoothing, unseen=unseen, hold=hold,
+                    ground=ground, root_smoothing=root_smoothing)  # fmt: skip
     names = [n for n in markers.names if n in marker_set]
+    heavy = [n for n in names if not 0.0 <= marker_set[n].weight <= MAX_WEIGHT]
+    if heavy:
+        raise HumanoidError(f"marker {heavy[0]!r}: weight {marker_set[heavy[0]].weight} must be "
+                            f"in [0, {MAX_WEIGHT:g}]")  # fmt: skip
     if smoothing is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
         smoothing = SINGLE_VIEW_SMOOTHING if single else smoothing
@@ -372,6 +379,29 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                       + "; held at the frame before (the standing posture at first)",
                       UnconstrainedWarning, stacklevel=2)  # fmt: skip
     return result
+
+
+# the largest value of an IK setting (a weight or pull per unit of marker weight, a tolerance):
+# the defaults are 1e-6 to 1e2; nan or inf made the fit never return
+MAX_SETTING = 1e12
+
+
+def _check_settings(**settings) -> None:
+    """Raise HumanoidError naming the setting if one (None: its default) is not a number in
+    [0, :data:`MAX_SETTING`]."""
+    for key, value in settings.items():
+        if value is None:
+            continue
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float | np.number)
+            or not (0.0 <= float(value) <= MAX_SETTING)
+        ):
+            raise HumanoidError(f"inverse kinematics: {key} must be a number in "
+                                f"[0, {MAX_SETTING:g}], got {value!r}")  # fmt: skip
+    if settings.get("iterations") is not None and int(settings["iterations"]) < 1:
+        raise HumanoidError(f"inverse kinematics: iterations must be at least 1, got "
+                            f"{settings['iterations']!r}")  # fmt: skip
 
 
 def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: dict,

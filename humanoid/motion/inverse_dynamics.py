@@ -36,6 +36,7 @@ from ..errors import ConfigurationError, HumanoidError
 from ..model import SIDES
 from .coordinates import lowest_sole_point
 from .loads import Load
+from .storage import MAX_RATE, MotionFileError, check_rate
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -195,6 +196,15 @@ def residual_cutoff(model, time, q) -> float:
     return float(np.median(found))
 
 
+# [s] the longest gap between two samples of a motion to differentiate: motion capture loses
+# a few frames at most; across a longer gap the resampled motion (and its accelerations) is
+# invented, and a gap of 1e9 s asked for a 74.5 GiB grid
+MAX_GAP = 1.0
+# the most samples of a resampled motion: an hour at 250 Hz; (n, nv) arrays of more take
+# gigabytes
+MAX_SAMPLES = 1_000_000
+
+
 def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
     time = np.asarray(time, dtype=float).reshape(-1)
     q = np.asarray(q, dtype=float)
@@ -208,6 +218,14 @@ def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
         raise HumanoidError(f"a motion needs at least 3 samples, got {len(time)}")
     if not np.all(np.diff(time) > 0):
         raise HumanoidError("the motion's time must increase")
+    check_rate(time, "the motion")
+    gap = int(np.argmax(np.diff(time)))
+    if time[gap + 1] - time[gap] > MAX_GAP:
+        raise MotionFileError(
+            f"the motion has a gap of {time[gap + 1] - time[gap]:.3g} s (from {time[gap]:.6g} "
+            f"to {time[gap + 1]:.6g} s), more than {MAX_GAP:g} s: differentiating across it "
+            "would invent the motion; split the record there"
+        )
     slots = quaternion_slots(model)
     return time, _normalise(_continuous(q, slots), slots)
 
@@ -223,6 +241,13 @@ def derivatives(model, time, q, *, cutoff: float | str | None = 6.0,
     time, q = _checked(model, time, q)
     slots = quaternion_slots(model)
     rate = float(rate) if rate is not None else (len(time) - 1) / (time[-1] - time[0])
+    if not 0.0 < rate <= MAX_RATE:
+        raise HumanoidError(f"the rate must be in (0, {MAX_RATE:g}] Hz, got {rate:g}")
+    if (time[-1] - time[0]) * rate + 1 > MAX_SAMPLES:
+        raise HumanoidError(
+            f"{time[-1] - time[0]:.6g} s at {rate:g} Hz is more than {MAX_SAMPLES:g} samples: "
+            "give a lower rate or a shorter record"
+        )
     n = int(math.floor((time[-1] - time[0]) * rate + 1e-9)) + 1
     uniform = time[0] + np.arange(n) / rate
     if n != len(time) or not np.allclose(uniform, time, rtol=0.0, atol=1e-9 / rate):

@@ -39,6 +39,7 @@ millimetres or metres by ``Units``.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,7 +48,7 @@ import pinocchio as pin
 
 from ..errors import HumanoidError, require
 from .loads import OPENSIM_TO_OURS
-from .storage import MotionFileError, read_toml
+from .storage import MAX_RATE, MotionFileError, check_rate, read_toml
 
 __all__ = [
     "KEYPOINT_LAYOUTS",
@@ -64,6 +65,12 @@ __all__ = [
     "write_markers",
     "write_trc",
 ]
+
+
+# [m] the farthest a measured point may be from the lab's origin: no capture volume is a
+# kilometre across; a coordinate beyond is corrupt (a TRC value of 1e300 made inverse
+# kinematics never return)
+MAX_POSITION = 1e3
 
 
 @dataclass(frozen=True)
@@ -97,10 +104,43 @@ class MarkerTrajectories:
     source: str = ""
 
     def __post_init__(self) -> None:
-        self.time = np.asarray(self.time, dtype=float).reshape(-1)
-        self.positions = np.asarray(self.positions, dtype=float).reshape(
-            len(self.time), len(self.names), 3
-        )
+        """Raises MotionFileError naming the source: times not finite, not increasing or
+        closer than 1 / :data:`~humanoid.motion.storage.MAX_RATE`; positions not (n, m, 3);
+        a coordinate infinite or beyond :data:`MAX_POSITION` (NaN is a missing marker)."""
+        where = self.source or "markers"
+        try:
+            self.time = np.asarray(self.time, dtype=float).reshape(-1)
+            positions = np.asarray(self.positions, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise MotionFileError(f"{where}: times and positions must be numbers: {exc}") from None
+        self.names = list(self.names)
+        shape = (len(self.time), len(self.names), 3)
+        if positions.size != np.prod(shape):
+            raise MotionFileError(
+                f"{where}: {len(self.time)} times and {len(self.names)} markers need positions "
+                f"of shape {shape}, got {positions.shape}"
+            )
+        self.positions = positions.reshape(shape)
+        bad = ~np.isfinite(self.time)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise MotionFileError(f"{where}: time of frame {i + 1} is {self.time[i]}")
+        step = np.diff(self.time)
+        if (step <= 0.0).any():
+            i = int(np.flatnonzero(step <= 0.0)[0])
+            raise MotionFileError(
+                f"{where}: time does not increase at frame {i + 2} ({self.time[i]:g} then "
+                f"{self.time[i + 1]:g} s)"
+            )
+        check_rate(self.time, where)
+        far = np.isinf(self.positions) | (np.abs(np.nan_to_num(self.positions)) > MAX_POSITION)
+        if far.any():
+            i, k, _ = np.argwhere(far)[0]
+            raise MotionFileError(
+                f"{where}: marker {self.names[k]!r} at frame {i + 1} is at "
+                f"{self.positions[i, k].tolist()} m: beyond {MAX_POSITION:g} m, not a place in "
+                "a lab (a corrupt value, or the wrong unit)"
+            )
 
     @property
     def rate(self) -> float:
@@ -147,9 +187,14 @@ def _landmarks(path: Path) -> tuple[str, dict]:
         try:
             ok = (isinstance(m["frame"], str) and isinstance(m["from"], str)
                   and len([float(x) for x in m["offset"]]) == 3
-                  and m.get("sides", False) in (True, False, "left", "right"))  # fmt: skip
-        except (KeyError, TypeError, ValueError):
+                  and all(math.isfinite(float(x)) for x in m["offset"])
+                  and isinstance(m.get("name", ""), str)
+                  and (isinstance(m.get("sides", False), bool)
+                       or m.get("sides") in ("left", "right")))  # fmt: skip
+        except (KeyError, TypeError, ValueError, AttributeError):
             ok = False
+        if ok:
+            flag(path, f"landmarks.{key}", m, "anatomical", True)
         if not ok:
             raise HumanoidError(
                 f"{path}: landmarks.{key} needs a frame, a from, an offset of 3 "
@@ -297,17 +342,36 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
             offset = tuple(float(x) for x in m.get("offset", (0.0, 0.0, 0.0)))
             weight = float(m.get("weight", 1.0))
             frame = str(m["frame"])
-            anatomical = bool(m.get("anatomical", True))
-            fixed = bool(m.get("fixed", False))
         except (KeyError, TypeError, ValueError, AttributeError):
             raise HumanoidError(
                 f"{path}: markers.{name} needs a frame, an offset of 3 numbers and a weight"
             ) from None
-        if len(offset) != 3 or not all(math.isfinite(x) for x in offset) or not weight >= 0.0:
-            raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers, "
-                                "weight at least 0")  # fmt: skip
-        out[name] = Marker(frame, offset, weight, anatomical, fixed)
+        if len(offset) != 3 or not all(math.isfinite(x) for x in offset):
+            raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers")
+        if not 0.0 <= weight <= MAX_WEIGHT:
+            raise HumanoidError(f"{path}: markers.{name}: weight {weight:g} must be in "
+                                f"[0, {MAX_WEIGHT:g}]")  # fmt: skip
+        flags = [flag(path, f"markers.{name}", m, k, d) for k, d in (("anatomical", True),
+                                                                    ("fixed", False))]  # fmt: skip
+        out[name] = Marker(frame, offset, weight, *flags)
     return out
+
+
+# a marker's largest IK weight: the weights are relative (1 the default); a weight of inf made
+# inverse kinematics never return, and above 1e6 one marker's residual swamps every other's
+# to rounding
+MAX_WEIGHT = 1e6
+
+
+def flag(path, where: str, table: dict, key: str, default: bool) -> bool:
+    """``table[key]`` if it is a TOML boolean (``default`` if absent); else HumanoidError
+    naming the file and ``where.key`` (a string "false" is not false)."""
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise HumanoidError(
+            f"{path}: {where}.{key} must be true or false (no quotes), got {value!r}"
+        )
+    return value
 
 
 def write_markers(path: str | Path, markers: dict[str, Marker]) -> Path:
@@ -417,13 +481,21 @@ def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
     if data.shape[1] == 0 or data.shape[2] == 0:
         raise MotionFileError(f"{path}: no marker points")
     names = names[: data.shape[1]]
-    units = str(point["UNITS"]["value"][0]).strip().lower() if "UNITS" in point else "mm"
+    said = list(point["UNITS"]["value"]) if "UNITS" in point else ["mm"]
+    units = str(said[0]).strip().lower() if said else ""
     scale = {"mm": 1e-3, "m": 1.0, "cm": 1e-2}.get(units)
     if scale is None:
         raise MotionFileError(f"{path}: unknown POINT:UNITS {units!r} (mm, cm or m)")
-    rate = float(np.ravel(point["RATE"]["value"])[0])
+    try:
+        rate = float(np.ravel(point["RATE"]["value"])[0])
+    except (KeyError, IndexError, TypeError, ValueError):
+        raise MotionFileError(f"{path}: no POINT:RATE (the frame rate [Hz])") from None
+    if not 0.0 < rate <= MAX_RATE:
+        raise MotionFileError(f"{path}: POINT:RATE {rate} Hz: give a rate in (0, {MAX_RATE:g}]")
     first = int(c["header"]["points"]["first_frame"])
-    pos = np.transpose(data[:3], (2, 1, 0)) * scale  # (n, m, 3)
+    pos = np.transpose(data[:3], (2, 1, 0))  # (n, m, 3)
+    check_units(path, pos, units, "POINT:UNITS")
+    pos = pos * scale
     if y_up is None:
         screen = point.get("Y_SCREEN", {}).get("value", [""])
         y_up = str(screen[0]).strip().upper() == "+Y"
@@ -431,6 +503,39 @@ def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
         pos = pos @ OPENSIM_TO_OURS.T
     time = (first + np.arange(pos.shape[0])) / rate
     return MarkerTrajectories(time, names, pos, str(path))
+
+
+_UNITS = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}
+# [m] the spread of a person's markers in one frame (the largest side of their bounding box,
+# median over the frames): a standing or walking person's markers span about 1-2 m (2.5 m arms
+# raised); a unit mistaken for another (mm, cm, m) moves it by 10x at least, out of these
+# bounds (a TRC in millimetres labelled metres put the body 694 m up)
+BODY_SPAN = (0.25, 10.0)
+MIN_SPAN_MARKERS = 4  # a frame's spread is judged from at least this many markers seen
+
+
+def check_units(path, positions: np.ndarray, units: str, key: str) -> None:
+    """Raise MotionFileError naming the file and its unit ``key`` if ``positions`` (n, m, 3)
+    in the file's ``units`` (mm, cm, m) do not span a person (:data:`BODY_SPAN`), saying which
+    unit would; not judged with fewer than :data:`MIN_SPAN_MARKERS` markers in every frame."""
+    seen = np.isfinite(positions).all(axis=2)
+    frames = seen.sum(axis=1) >= MIN_SPAN_MARKERS
+    if not frames.any():
+        return
+    p = positions[frames]
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        sides = np.nanmax(p, axis=1) - np.nanmin(p, axis=1)
+    span = float(np.median(sides.max(axis=1))) * _UNITS[units]
+    low, high = BODY_SPAN
+    if low <= span <= high:
+        return
+    fits = [u for u, s in _UNITS.items() if low <= span / _UNITS[units] * s <= high]
+    hint = f"the numbers look like {fits[0]}: set {key} to {fits[0]}" if fits else "check it"
+    raise MotionFileError(
+        f"{path}: {key} says {units}, which spreads the markers over {span:.3g} m in a frame; a "
+        f"person's span {low:g}-{high:g} m: {hint}"
+    )
 
 
 # -- TRC -----------------------------------------------------------------------------------
@@ -456,14 +561,19 @@ def read_trc(path: str | Path, y_up: bool = True) -> MarkerTrajectories:
         raise MotionFileError(f"{path}:3: {len(values)} values for {len(keys)} header keys")
     header = dict(zip([k.strip() for k in keys], values, strict=True))
     units = header.get("Units", "mm").lower()
-    scale = {"mm": 1e-3, "m": 1.0, "cm": 1e-2}.get(units)
+    scale = _UNITS.get(units)
     if scale is None:
         raise MotionFileError(f"{path}: unknown Units {header.get('Units')!r} (mm, cm or m)")
     names = [x.strip() for x in lines[3].split("\t") if x.strip()][2:]
-    if "NumMarkers" in header and int(float(header["NumMarkers"])) != len(names):
-        raise MotionFileError(
-            f"{path}:4: {len(names)} marker names for NumMarkers={header['NumMarkers']}"
-        )
+    if "NumMarkers" in header:
+        try:
+            count = int(header["NumMarkers"])
+        except ValueError:
+            raise MotionFileError(
+                f"{path}:3: NumMarkers={header['NumMarkers']!r} is not a whole number"
+            ) from None
+        if count != len(names):
+            raise MotionFileError(f"{path}:4: {len(names)} marker names for NumMarkers={count}")
     times, rows = [], []
     for number, line in enumerate(lines[5:], start=6):
         if not line.strip():
@@ -484,9 +594,14 @@ def read_trc(path: str | Path, y_up: bool = True) -> MarkerTrajectories:
             rows.append([float(c) if c else math.nan for c in cells[2:]])
         except ValueError:
             raise MotionFileError(f"{path}:{number}: not a number in {line[:60]!r}") from None
+        if not math.isfinite(times[-1]) or np.isinf(rows[-1]).any():
+            raise MotionFileError(f"{path}:{number}: time or a coordinate is not finite (a "
+                                  "missing marker's fields are empty or nan)")  # fmt: skip
     if not rows:
         raise MotionFileError(f"{path}: no frames")
-    pos = np.array(rows).reshape(len(rows), len(names), 3) * scale
+    pos = np.array(rows).reshape(len(rows), len(names), 3)
+    check_units(path, pos, units, "Units")
+    pos = pos * scale
     if y_up:
         pos = pos @ OPENSIM_TO_OURS.T
     return MarkerTrajectories(np.array(times), names, pos, str(path))

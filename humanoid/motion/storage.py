@@ -28,7 +28,27 @@ import numpy as np
 
 from ..errors import HumanoidError
 
-__all__ = ["MotionFileError", "Table", "read_storage", "read_toml", "write_csv", "write_storage"]
+__all__ = [
+    "MAX_RATE",
+    "MAX_VALUE",
+    "MotionFileError",
+    "Table",
+    "check_rate",
+    "read_storage",
+    "read_toml",
+    "write_csv",
+    "write_storage",
+]
+
+# [Hz] the highest sampling rate a motion file may have: motion capture runs at 50-2000 Hz,
+# force plates at up to 10 kHz; a rate of 1e9 (or a step of 1e-12 s) is a corrupt header or
+# time column, and every per-sample loop (resampling, filtering, inverse dynamics) would run
+# for hours on it
+MAX_RATE = 1e5
+# [any unit] the largest magnitude of a value in a time table: no quantity of human motion
+# comes near it in any unit a file uses (N, N mm, mm, degrees); beyond it a value is corrupt
+# (a coordinate of 1e300 made the load estimation never return)
+MAX_VALUE = 1e9
 
 
 class MotionFileError(HumanoidError, ValueError):
@@ -67,12 +87,24 @@ class Table:
         if len(set(self.labels)) != len(self.labels):
             twice = sorted({x for x in self.labels if self.labels.count(x) > 1})
             raise MotionFileError(f"{self.source or 'table'}: repeated column labels {twice}")
+        where = self.source or "table"
+        if not np.all(np.isfinite(self.time)):
+            i = int(np.flatnonzero(~np.isfinite(self.time))[0])
+            raise MotionFileError(f"{where}: time is {self.time[i]} at sample {i + 1}")
+        if np.any(np.isinf(self.data)) or np.nanmax(np.abs(self.data), initial=0.0) > MAX_VALUE:
+            i, j = np.argwhere(~(np.abs(self.data) <= MAX_VALUE) & ~np.isnan(self.data))[0]
+            raise MotionFileError(
+                f"{where}: column {self.labels[j]!r} is {self.data[i, j]:g} at time "
+                f"{self.time[i]:g} s: beyond {MAX_VALUE:g}, not a value of a motion"
+            )
         if len(self.time) > 1 and not np.all(np.diff(self.time) > 0):
             i = int(np.flatnonzero(np.diff(self.time) <= 0)[0])
             raise MotionFileError(
                 f"{self.source or 'table'}: time does not increase at row {i + 2} "
                 f"({self.time[i]:g} then {self.time[i + 1]:g})"
             )
+
+        check_rate(self.time, where)
 
     def __contains__(self, label: str) -> bool:
         return label in self.labels
@@ -93,6 +125,20 @@ class Table:
         if len(self.time) < 2:
             return math.nan
         return (len(self.time) - 1) / float(self.time[-1] - self.time[0])
+
+
+def check_rate(time: np.ndarray, where: str) -> None:
+    """Raise MotionFileError naming ``where`` if two samples of ``time`` [s] (increasing) are
+    closer than 1 / :data:`MAX_RATE`."""
+    if len(time) > 1:
+        step = np.diff(time)
+        i = int(np.argmin(step))
+        if step[i] < 1.0 / MAX_RATE:
+            raise MotionFileError(
+                f"{where}: samples {i + 1} and {i + 2} are {step[i]:.3g} s apart (times "
+                f"{time[i]:.9g}, {time[i + 1]:.9g}): a rate above {MAX_RATE:g} Hz, not a "
+                "motion's; check the time column or the frame rate"
+            )
 
 
 def read_storage(path: str | Path) -> Table:

@@ -108,6 +108,12 @@ OUTPUTS = {
 }
 
 
+# the most runs one study may have: its run list, its results table and every run's id are
+# built before the first run starts; 100,000 runs of a second each is a day on 2 cores, and a
+# grid of 1.6 million runs was accepted and never finished listing
+MAX_RUNS = 100_000
+
+
 @dataclass(frozen=True)
 class Run:
     """One run of a study: its position, a stable id (a hash of the study's fixed part and
@@ -281,6 +287,11 @@ def parse_study(doc: dict, source: str = "<study>", base: Path | None = None,
     push = {k for k in given if k.startswith("push.")}
     if push and not push & {"push.force", "push.fraction"}:
         bad(sorted(push)[0], "a push needs push.force [N] or push.fraction [body weights]")
+    count = max(n or 1, 1) * math.prod(len(v) for v in grid.values())
+    if count > MAX_RUNS:
+        sizes = " x ".join([*(str(len(v)) for v in grid.values()), *([str(n)] if n else [])])
+        bad("grid" if grid else "sample.n", f"{sizes} = {count:,} runs, more than {MAX_RUNS:,}: "
+            "split the study or sample it (sample.n)")  # fmt: skip
     columns = given | set(OUTPUTS[run]) | {"status", "wall_time", "sample"}
     figure = _figure(_table(doc.get("figure", {}), "figure", bad), columns, bad)
     return Study(name, run, scene, keep, seed, fixed, grid, n or 0, sample, figure, source,
