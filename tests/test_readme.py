@@ -68,7 +68,7 @@ def test_the_readme_is_short_and_opens_with_the_two_commands():
 def test_the_readme_links_every_guide_and_every_guide_is_in_the_site():
     index = _guide("index.md")
     toctree = index.split("```{toctree}", 1)[1].split("```", 1)[0]
-    listed = {line.strip() for line in toctree.splitlines()[1:] if line.strip()}
+    listed = {x.strip() for x in toctree.splitlines() if x.strip() and not x.startswith(":")}
     for page in GUIDES:
         if page.name != "index.md":
             assert f"(docs/{page.name})" in README, f"README.md does not link docs/{page.name}"
