@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format models gaits walk-tables bench bench-accuracy studies wheel-check clean
+.PHONY: demo test docs lint format models gaits walk-tables bench bench-accuracy studies wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,11 @@ demo: $(STAMP)
 test: $(STAMP) lint
 	$(PY) -m pytest -q
 
+# The documentation site (docs/*.md, MyST, and the API reference from the docstrings), warnings
+# as errors: docs/_build/html/index.html
+docs: $(STAMP)
+	$(VENV)/bin/sphinx-build -W --keep-going -b html docs docs/_build/html
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check humanoid tests scripts
 	$(VENV)/bin/ruff format --check humanoid tests scripts
@@ -39,7 +44,7 @@ format: $(STAMP)
 gaits: $(STAMP)
 	$(PY) scripts/make_gaits.py
 
-# The README's tables of the person's walks (about 10 minutes on 2 cores).
+# The walking guide's tables of the person's walks (docs/walking.md) (about 10 minutes on 2 cores).
 walk-tables: $(STAMP)
 	$(PY) scripts/walk_tables.py
 	$(PY) scripts/readme_tables.py
@@ -70,4 +75,4 @@ models: $(STAMP)
 	$(PY) scripts/make_models.py
 
 clean:
-	rm -rf $(VENV) results .pytest_cache
+	rm -rf $(VENV) results .pytest_cache docs/_build

@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
-"""Put the tables that the benchmarks and the studies wrote into the README, between its
-``<!-- NAME: begin -->`` / ``<!-- NAME: end -->`` markers: the speed tables of ``humanoid bench
-step|walk -o docs/bench`` (docs/bench/speed.md, walk.md) and the results of ``humanoid sweep
-push_standing|walk_speed`` (copied to docs/studies/*.md), and the person's walks' tables of
-``scripts/walk_tables.py`` (docs/walks/*.md).
+"""Put the tables that the benchmarks and the studies wrote into the docs' guides, between
+their ``<!-- NAME: begin -->`` / ``<!-- NAME: end -->`` markers: the speed tables of
+``humanoid bench step|walk -o docs/bench`` (docs/bench/speed.md, walk.md) into
+docs/benchmarks.md, the results of ``humanoid sweep push_standing|walk_speed`` (copied to
+docs/studies/*.md) into docs/studies.md, and the person's walks' tables of
+``scripts/walk_tables.py`` (docs/walks/*.md) into docs/walking.md.
 
-``make bench`` and ``make studies`` run it. tests/test_readme.py checks that the README carries
-the files' text and that the speed tables' columns are the benchmarks' CSV columns.
+``make bench``, ``make studies`` and ``make walk-tables`` run it. tests/test_readme.py checks
+that the guides carry the files' text and that the speed tables' columns are the benchmarks'
+CSV columns.
 """
 
 from __future__ import annotations
@@ -14,15 +16,15 @@ from __future__ import annotations
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+WALKS = ("cycles", "straight", "speeds", "predictive", "standing", "circle", "sizes")
+# the block's name -> (the guide it is in, the file it holds), under docs/
 BLOCKS = {
-    "speed": "bench/speed.md",
-    "walk-speed": "bench/walk.md",
-    "study-push": "studies/push_standing.md",
-    "study-walk": "studies/walk_speed.md",
-    **{
-        f"walk-{name}": f"walks/{name}.md"
-        for name in ("cycles", "straight", "speeds", "predictive", "standing", "circle", "sizes")
-    },
+    "speed": ("benchmarks.md", "bench/speed.md"),
+    "walk-speed": ("benchmarks.md", "bench/walk.md"),
+    "study-push": ("studies.md", "studies/push_standing.md"),
+    "study-walk": ("studies.md", "studies/walk_speed.md"),
+    **{f"walk-{name}": ("walking.md", f"walks/{name}.md") for name in WALKS},
 }
 
 
@@ -35,14 +37,16 @@ def paste(text: str, name: str, tables: str) -> str:
 
 
 def main() -> None:
-    readme = ROOT / "README.md"
-    text = readme.read_text()
-    for name, file in BLOCKS.items():
-        path = ROOT / "docs" / file
-        if path.is_file() and f"<!-- {name}: begin -->" in text:
-            text = paste(text, name, path.read_text())
-    readme.write_text(text)
-    print(f"updated {readme} from docs/{', docs/'.join(BLOCKS.values())}")
+    for page in sorted({page for page, _ in BLOCKS.values()}):
+        guide = DOCS / page
+        text = guide.read_text()
+        for name, (where, file) in BLOCKS.items():
+            path = DOCS / file
+            if where == page and path.is_file() and f"<!-- {name}: begin -->" in text:
+                text = paste(text, name, path.read_text())
+        guide.write_text(text)
+        files = [f"docs/{file}" for where, file in BLOCKS.values() if where == page]
+        print(f"updated docs/{page} from {', '.join(files)}")
 
 
 if __name__ == "__main__":

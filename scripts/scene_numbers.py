@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""The numbers of the README's ground-contact table, measured on the shipped scenes (records
-at 1 kHz): for the falls (``collapse``, ``drop``), the deepest point below the floor, whether
-the energy ever rises, the kinetic energy at the end, the joint ranges' worst violation and
+"""The numbers of the ground-contact table (docs/simulation.md), measured on the shipped scenes
+(records at 1 kHz): for the falls (``collapse``, ``drop``), the deepest point below the floor,
+whether the energy ever rises, the kinetic energy at the end, the joint ranges' worst violation and
 the contact solves at ADMM's iteration cap; and each shipped scene's cost (wall seconds per
 simulated second, this machine, one thread).
 

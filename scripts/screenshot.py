@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Screenshot of the viewer for the README: the pushed body, exported as HTML, in chromium.
+"""Screenshot of the viewer for the docs: the pushed body, exported as HTML, in chromium.
 
 Needs Debian's chromium and Playwright (the test extras). Writes docs/viewer.png.
 Usage: python scripts/screenshot.py [--out docs/viewer.png] [--time 0.7]

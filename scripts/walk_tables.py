@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
-"""Measure the person's walks and write the README's tables of them (``make walk-tables``).
+"""Measure the person's walks and write the walking guide's tables of them (``make
+walk-tables``).
 
-Walks the shipped cycles on the rigid ground as the README describes them (1 ms steps, one
-BLAS thread a walk, two walks at a time) and writes one Markdown table per README block to
-``docs/walks/NAME.md``; ``python scripts/readme_tables.py`` then pastes them into the README
-between its ``<!-- walk-NAME: begin -->`` / ``<!-- walk-NAME: end -->`` markers. The tables:
+Walks the shipped cycles on the rigid ground as docs/walking.md describes them (1 ms steps, one
+BLAS thread a walk, two walks at a time) and writes one Markdown table per block of the guide
+to ``docs/walks/NAME.md``; ``python scripts/readme_tables.py`` then pastes them into
+docs/walking.md between its ``<!-- walk-NAME: begin -->`` / ``<!-- walk-NAME: end -->``
+markers. The tables:
 
 - ``cycles``: the shipped tracking and predictive cycles themselves (no walk);
 - ``straight``: 20 steps of each default body at its free speed, with toes and one-piece feet;
@@ -33,7 +35,7 @@ SIZES = {
     "1.50 m, 45 kg female": (1.50, 45.0, "female"),
     "1.95 m, 100 kg male": (1.95, 100.0, "male"),
 }
-# the adults' bands (the README's last rows; tests/casadi_gait_checks.py asserts them)
+# the adults' bands (the tables' last rows; tests/casadi_gait_checks.py asserts them)
 BANDS = {
     "speed": (1.27, 1.46), "cadence": (100, 120), "step_length": (0.66, 0.79),
     "stance": (0.58, 0.62), "double_support": (0.18, 0.26), "grf_first_peak": (1.05, 1.30),

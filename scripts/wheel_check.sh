@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The wheel works anywhere: build it, install it in a fresh venv outside the repo (the core
 # alone first: its size, and the one-line errors naming the extras; then the extras), and run
-# the command line and the README's snippets from another directory. CI runs this after
-# `make test`.
+# the command line and the snippets of the README and the docs from another directory. CI runs
+# this after `make test`.
 # Usage: bash scripts/wheel_check.sh [PYTHON]   (default: python3)
 set -euo pipefail
 REPO="$(cd "$(dirname "$0")/.." && pwd)"
@@ -72,9 +72,10 @@ if [ "$runs" -ne 750 ]; then echo "the shipped push_standing study lists $runs r
 grep -q "runs         2: 2 completed" sweep.txt || { cat sweep.txt >&2; exit 1; }
 echo "sweep: a 2-run study on a 2-worker Dask cluster; the shipped study lists $runs runs"
 # without the optimal extra, humanoid.optimal.gait says which pip install to run; with it, the
-# README's snippets (the optimal-control one among them) run as a user following it would
+# Python snippets of the README and of the docs' guides (the optimal-control ones among them)
+# run as a user following them would
 "$BIN/python" -c 'import humanoid.optimal.gait' 2> optimal.txt && { echo "humanoid.optimal.gait imported without casadi" >&2; exit 1; }
 grep -q "pip install 'humanoid-toolkit\[optimal\]'" optimal.txt || { cat optimal.txt >&2; exit 1; }
 "$BIN/pip" install --quiet "$WHEEL[optimal]" 2> >(quiet)
-"$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md"
+"$BIN/python" "$REPO/scripts/readme_snippets.py" "$REPO/README.md" "$REPO"/docs/*.md
 echo "== wheel check passed"

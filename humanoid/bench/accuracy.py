@@ -9,6 +9,7 @@ scenes), constraint drift in position and velocity (|e| and |J v|, welded stance
 quaternion norm drift (coordinate formulation).
 
 Scenes:
+
 - ``tumble``: the body spinning in zero gravity, its joints moving (energy and momentum exact);
 - ``swing``: one leg swinging freely from the floating body in zero gravity (a pendulum-like
   limb motion, energy exact);

@@ -5,7 +5,7 @@ stride of a gait (:class:`GaitSolution`), its start from standing and stop to st
 :func:`stored_gait`, :func:`stored_transition`, :func:`stored_turn`).
 
 Needs numpy and Pinocchio only, not casadi: a walk reads a shipped or cached cycle without the
-optimal-control extra (:mod:`.gait` optimises one, with casadi).
+optimal-control extra (:mod:`humanoid.optimal.gait` optimises one, with casadi).
 """
 
 from __future__ import annotations
@@ -202,8 +202,8 @@ class Transition:
 
     Attributes:
         kind: ``"start"`` or ``"stop"``. solution: the collocation's
-        :class:`~humanoid.optimal.problem.Solution` (the OCP model's coordinates; a start's
-        last node is at the cycle's left heel strike, a stop's first node at a right one).
+            :class:`~humanoid.optimal.problem.Solution` (the OCP model's coordinates; a start's
+            last node is at the cycle's left heel strike, a stop's first node at a right one).
         gait: the cycle it joins. phases: its phases.
     """
 

@@ -305,12 +305,12 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
         steps: Heel strikes to make. cycle: A fitted :class:`GaitCycle` (default: fitted here).
         gains: :class:`~humanoid.walking.tracking.TrackingGains`. dt: The step [s].
         mu: The floor's friction coefficient. pushes: :class:`~humanoid.scene.PushSpec` s
-        (:func:`pelvis_push` makes one at a mid-stance). quiet: No progress bar.
+            (:func:`pelvis_push` makes one at a mid-stance). quiet: No progress bar.
         from_standing: Start standing still in the reference posture and stop standing
-        (:mod:`~humanoid.walking.transitions`; the last of ``steps`` brings the feet together).
+            (:mod:`~humanoid.walking.transitions`; the last of ``steps`` brings the feet together).
         radius: Walk along a circle of this radius [m] (positive turns left; default straight
-        ahead). record_rate: The trajectory's samples per second (``1 / dt``: every step, as
-        inverse dynamics needs to give back the controller's torques exactly).
+            ahead). record_rate: The trajectory's samples per second (``1 / dt``: every step, as
+            inverse dynamics needs to give back the controller's torques exactly).
 
     The walk starts from the cycle's own state at 20 % (the right foot in stance, the left in
     swing), unless ``from_standing``, and stops as failed at a fall; what it recorded up to

@@ -266,13 +266,13 @@ class GaitController(Effect):
 
     Args:
         h: The humanoid. model: the plant's model (with its gravity). cycle: the fitted
-        :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
-        :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
+            :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
+            :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
         phase0: the cycle's phase at t = 0. transitions: a
-        :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
-        stops standing (its phase0 then replaces ``phase0``).
+            :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
+            stops standing (its phase0 then replaces ``phase0``).
         radius: the walk follows a circle of this radius [m] (positive: turning left; None: a
-        straight line).
+            straight line).
     """
 
     name = "gait"
