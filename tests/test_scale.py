@@ -208,10 +208,12 @@ def test_bad_input_is_refused_by_name(unscaled, subject):
     _, _, static = subject
     with pytest.raises(BodyParameterError, match="mass"):
         scale_body(unscaled, static, None, 500.0)
-    mm = MarkerTrajectories(static.time, static.names, static.positions * 1000.0, "mm.trc")
-    with pytest.warns(ScaleWarning, match=r"mm\.trc: markers that moved .* and \d+ more"):
-        with pytest.raises(HumanoidError, match=r"mm\.trc: thigh: right_hip-right_knee .*units"):
-            scale_body(unscaled, mm, None, MASS, mode="static")  # (auto: a walk, 3 m of noise)
+    with pytest.raises(HumanoidError, match=r"mm\.trc: marker .* beyond 1000 m.*wrong unit"):
+        MarkerTrajectories(static.time, static.names, static.positions * 1000.0, "mm.trc")
+    cm = MarkerTrajectories(static.time, static.names, static.positions * 100.0, "cm.trc")
+    with pytest.warns(ScaleWarning, match=r"cm\.trc: markers that moved .* and \d+ more"):
+        with pytest.raises(HumanoidError, match=r"cm\.trc: thigh: right_hip-right_knee .*units"):
+            scale_body(unscaled, cm, None, MASS, mode="static")  # (auto: a walk, 3 m of noise)
     other = MarkerTrajectories(static.time, ["A", "B", "C"], static.positions[:, :3], "x.trc")
     with pytest.raises(HumanoidError, match=r"x\.trc: no marker of the trial is in the marker"):
         scale_body(unscaled, other, None, MASS)

@@ -33,7 +33,7 @@ import pinocchio as pin
 
 from .loads import OPENSIM_TO_OURS
 from .markers import MarkerTrajectories
-from .storage import MAX_RATE, MAX_VALUE, MotionFileError, _is_number
+from .storage import MAX_RATE, MAX_VALUE, MotionFileError, is_number
 
 __all__ = ["BvhJoint", "read_bvh", "write_bvh"]
 
@@ -193,7 +193,7 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
         try:
             rows.append([float(c) for c in cells])
         except ValueError:
-            bad = next(c for c in cells if not _is_number(c))
+            bad = next(c for c in cells if not is_number(c))
             raise MotionFileError(f"{path}: frame {len(rows) + 1}: not a number: {bad!r}") from None
     values = np.array(rows, dtype=float).reshape(len(rows), width)
     if not np.all(np.abs(values) <= MAX_VALUE):  # (also NaN and inf)

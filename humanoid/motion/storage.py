@@ -184,7 +184,7 @@ def read_storage(path: str | Path) -> Table:
         try:
             rows.append([float(c) for c in cells])
         except ValueError:
-            bad = next(c for c in cells if not _is_number(c))
+            bad = next(c for c in cells if not is_number(c))
             raise MotionFileError(f"{path}:{number}: not a number: {bad!r}") from None
     data = np.array(rows, dtype=float).reshape(len(rows), len(labels))
     # (nRows and nColumns are not checked: OpenSim's own files are not always right about
@@ -200,7 +200,8 @@ def _split(line: str) -> list[str]:
     return [c.strip() for c in cells if c.strip() != ""]
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str) -> bool:
+    """Whether ``text`` reads as a float (the cell a parser names when a row fails)."""
     try:
         float(text)
     except ValueError:
