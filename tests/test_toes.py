@@ -276,5 +276,5 @@ def test_a_welded_foot_locks_its_toes_and_the_lock_is_internal():
     # 0.03 % under it)
     fz = traj.forces["left"][0, 2] + traj.forces["right"][0, 2]
     assert fz == pytest.approx(h.mass * 9.81, rel=1e-3)
-    with pytest.raises(ValueError, match="one-degree-of-freedom"):
+    with pytest.raises(hm.ModelError, match="one-degree-of-freedom"):
         JointLock("x", h.model, h.model.getJointId("left_hip"), 0.0)
