@@ -111,6 +111,8 @@ def main(argv=None) -> int:
     p.add_argument("--ground", type=float, default=None, help="IK's floor weight (0: none)")
     p.add_argument("--smoothing", type=float, default=None, help="IK's joint smoothing [s^2]")
     p.add_argument("--root", type=float, default=None, help="IK's root depth smoothing [s^2]")
+    p.add_argument("--no-stances", action="store_true",
+                   help="IK without its second pass holding the planted feet still")  # fmt: skip
     p.add_argument("--no-track", action="store_true", help="inverse kinematics only")
     p.add_argument("--walk", help="a cached walk (.npz with t, q) instead of simulating it")
     p.add_argument("--out", default="results/single_camera")
@@ -145,6 +147,7 @@ def main(argv=None) -> int:
                 kw = {} if args.smoothing is None else {"smoothing": args.smoothing}
                 fit = inverse_kinematics(h, kp, default_markers(h), cameras=[cam],
                                          ground=args.ground, root_smoothing=args.root,
+                                         stances=False if args.no_stances else None,
                                          **kw)  # fmt: skip
             wall = time.perf_counter() - start
             e = errors(h, fit.q, q, cam)
@@ -156,6 +159,10 @@ def main(argv=None) -> int:
             if fit.depth is not None:
                 row["flagged"] = int(fit.depth.weak.sum())
                 row["depth_sd_mm"] = round(float(np.median(fit.depth.sd)) * row["px"] * 1e3, 1)
+                if fit.depth.stances is not None:
+                    row["stances"] = len(fit.depth.stances)
+                    row["slid_mm"] = round(max((x.slide for x in fit.depth.stances),
+                                               default=0.0) * 1e3)  # fmt: skip
             if not args.no_track:
                 from humanoid.motion.tracking import track
 

@@ -274,7 +274,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                        unseen: float = 1e-3, hold: float = 1e-2,
                        q0: np.ndarray | None = None, cameras=None, ball_ranges: bool = False,
                        ground: float | None = None, root_smoothing: float | None = None,
-                       progress=None) -> IKResult:  # fmt: skip
+                       stances: bool | None = None, progress=None) -> IKResult:  # fmt: skip
     """Fit the body to measured markers, or to 2D keypoints seen by calibrated cameras (see
     the module docstring).
 
@@ -311,7 +311,21 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             arms raised, the acromia 8 cm higher) want the thoracic joint flexed 72-84 deg: held
             at its 45, the pelvis tilts instead and the thighs' markers go from 4-14 to 18-20
             mm, the root residual from 4.6 to 8.9 % BW.
-        progress: Called with the frame index after each frame (a progress bar).
+        ground: One view: the feet's pull onto the floor z = 0, per marker weight (default
+            :data:`SINGLE_VIEW_GROUND` from one view, 0 otherwise: none).
+        root_smoothing: One view: the root's pull along the ray towards its constant-velocity
+            path [s^2] (default :data:`SINGLE_VIEW_ROOT` from one view, 0 otherwise).
+        stances: One view with the floor: fit twice, the second time backwards in time from
+            the first fit's last frame, with each foot that the first fit has planted on the
+            floor held still over its stance (its sole points on the floor pinned to their mean
+            horizontal places: :func:`~humanoid.motion.monocular.find_stances`), so that the
+            planted foot, not the pixels' noise, fixes the depth along the ray, and the first
+            frames, whose depth the forward fit has no past to hold, are reached with one
+            (module :mod:`~humanoid.motion.monocular`); said in the
+            :class:`~humanoid.motion.monocular.DepthReport`. Default: on from one view with
+            ``ground``, off otherwise (several views or markers see the depth).
+        progress: Called with the frame index after each frame (a progress bar; the first
+            pass's only).
 
     Warns:
         RangeLimitWarning: joints held at their range's bounds (:attr:`IKResult.at_limit`).
@@ -362,6 +376,17 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
     result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
                     smoothing, unseen, hold, q0, progress, cameras, ball_ranges,
                     ground, root_smoothing)  # fmt: skip
+    if stances is None:
+        stances = bool(single and ground)
+    if stances and single:  # one view: solved again, backwards, the planted feet held still
+        from .monocular import StancePins, find_stances
+
+        found = find_stances(h, result.time, result.q)
+        pins = StancePins(h, found, len(result.time)) if found else None
+        result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
+                        smoothing, unseen, hold, result.q[-1], None, cameras, ball_ranges,
+                        ground, root_smoothing, pins, backward=True)  # fmt: skip
+        result.depth = replace(result.depth, stances=tuple(found))
     result.marker_set = marker_set
     if result.depth is not None:
         from .monocular import check_single_view
@@ -567,7 +592,8 @@ class _Views:
 
 def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, smoothing,
            unseen, hold, q0, progress, cameras=None, ball_ranges=False,
-           ground=0.0, root_smoothing=0.0) -> IKResult:  # fmt: skip
+           ground=0.0, root_smoothing=0.0, pins=None,
+           backward=False) -> IKResult:  # fmt: skip
     model = h.model
     data = model.createData()
     names = [n for n in markers.names if n in marker_set]
@@ -649,6 +675,14 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             Jg, rg, wg = floor_rows(*soles(data), ground * total)
             A += Jg.T @ (wg[:, None] * Jg)
             b += Jg.T @ (wg * rg)
+        if pins is not None:  # one view's second pass: the planted feet held still
+            from .monocular import STANCE_WEIGHT
+
+            held_rows = pins.rows(data, i, STANCE_WEIGHT * total)
+            if held_rows is not None:
+                Jh, rh, wh = held_rows
+                A += Jh.T @ (wh[:, None] * Jh)
+                b += Jh.T @ (wh * rh)
         return A, b
 
     def placed(i, seen, q):
@@ -665,7 +699,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         reg = regularization * total
         smooth = 0.0
         if previous is not None and smoothing:  # a pull on the joints' velocity: per 1/dt^2
-            dt = float(markers.time[i] - markers.time[i - 1])
+            dt = abs(float(markers.time[i] - markers.time[last]))
             smooth = smoothing * total / dt**2
         # the coordinates no marker sees (at the frame's start): held where they were
         first = obs.rows(i, seen, *model_markers(q))  # (the first iteration's too)
@@ -675,7 +709,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         target = previous if previous is not None else standing
         root_pull = None
         if single and root_smoothing and before is not None:
-            dt = float(markers.time[i] - markers.time[i - 1])
+            dt = abs(float(markers.time[i] - markers.time[last]))
             predicted = pin.integrate(model, previous, pin.difference(model, before, previous))
             weight = np.zeros((model.nv, model.nv))
             R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
@@ -702,7 +736,8 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         _, r, w = obs.rows(i, seen, *model_markers(q))
         return float(r @ (w * r))
 
-    for i in range(n):
+    last = 0  # the frame solved before (``previous``'s)
+    for i in range(n - 1, -1, -1) if backward else range(n):
         seen = obs.seen(i)
         if q is None and single:  # one view: the heading that fits best (module monocular)
             from .monocular import HEADINGS
@@ -737,7 +772,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
         residuals[i] = obs.error(i, seen, P)
         out_q[i] = q
-        before, previous = previous, q.copy()
+        before, previous, last = previous, q.copy(), i
         if progress is not None:
             progress(i)
     result = IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
