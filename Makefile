@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test docs lint format models gaits walk-tables bench bench-accuracy studies wheel-check clean
+.PHONY: demo test docs lint format models gaits cycles walk-tables bench bench-accuracy studies wheel-check clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -43,6 +43,11 @@ format: $(STAMP)
 # The optimised gait cycles shipped as package data (a few minutes per body and objective).
 gaits: $(STAMP)
 	$(PY) scripts/make_gaits.py
+
+# The fitted walking cycles shipped as package data (about 3 minutes; tests/test_cache.py says
+# when the fitting code changed and they must be fitted again).
+cycles: $(STAMP)
+	$(PY) scripts/make_cycles.py
 
 # The walking guide's tables of the person's walks (docs/walking.md) (about 10 minutes on 2 cores).
 walk-tables: $(STAMP)

@@ -13,12 +13,13 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..cache import cache_dir as user_cache
+from ..cache import model_key
 from ..errors import HumanoidError, OptimalControlError
 from .coordinates import OcpModel, build_ocp_model
 
@@ -391,21 +392,7 @@ DATA = Path(__file__).resolve().parent.parent / "data" / "gaits"
 def body_key(om: OcpModel) -> str:
     """A digest of the model's numbers (joints, placements, inertias, limits, frames): two
     bodies with one key have one optimal gait."""
-    m = om.model
-    parts = []
-    for j in range(1, m.njoints):
-        M, inertia = m.jointPlacements[j], m.inertias[j]
-        parts += [m.names[j], m.joints[j].shortname(), M.homogeneous.ravel(), inertia.mass,
-                  inertia.lever, inertia.inertia.ravel()]  # fmt: skip
-    parts += [m.lowerPositionLimit, m.upperPositionLimit, m.effortLimit, m.damping]
-    for f in m.frames:
-        parts += [f.name, f.parentJoint, f.placement.homogeneous.ravel()]
-    text = "|".join(
-        np.array2string(np.round(np.asarray(p, dtype=float), 9), threshold=10**6)
-        if not isinstance(p, str) else p
-        for p in parts
-    )  # fmt: skip
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    return model_key(om.model)
 
 
 def gait_file(om: OcpModel, speed: float, objective: str) -> str:
@@ -558,8 +545,7 @@ def stored_turn(gait: GaitSolution, radius: float) -> TurnSolution | None:
 
 def cache_dir() -> Path:
     """Where optimised gaits are kept: ``$HUMANOID_CACHE/gaits``, or ``~/.cache/humanoid/gaits``."""
-    root = os.environ.get("HUMANOID_CACHE")
-    return (Path(root) if root else Path.home() / ".cache" / "humanoid") / "gaits"
+    return user_cache("gaits")
 
 
 def stored(om: OcpModel, objective: str) -> dict:

@@ -33,12 +33,18 @@ The cycle starts at the right heel strike; one cycle is a stride (two steps).
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
+import warnings
+import zipfile
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from ..cache import CacheWarning, cache_dir, model_key, sources_key, write_atomic
 from ..constraints.limits import JointRanges
 from ..errors import WalkError
 from ..model import SIDES
@@ -335,7 +341,7 @@ def plan_com(gait: dict, feet: dict, z_mean: float, g: float = 9.81,
 
 
 def fit_cycle(h, speed: float | None = None, width: float | None = None,
-              frames: int = FRAMES) -> GaitCycle:  # fmt: skip
+              frames: int = FRAMES, cache: bool = True) -> GaitCycle:  # fmt: skip
     """Fit one stride of a person's gait to ``h`` (see the module docstring).
 
     Args:
@@ -344,11 +350,77 @@ def fit_cycle(h, speed: float | None = None, width: float | None = None,
         width: Distance between the feet's centre lines [m]; default the foot's width plus 3 %
             of the leg length (a person's walking base), at most the standing stance.
         frames: Instants per cycle.
+        cache: Read the cycle from the user's cache or the package's data when a fit of the
+            same body, numbers and fitting code is kept there (about 30 s saved), and keep a
+            new fit in the user's cache (:mod:`humanoid.cache`); False: fit, keep nothing.
     """
     ell = leg_length(h)
     speed = free_speed(ell) if speed is None else float(speed)
     if not 0.3 <= speed <= 2.5:
         raise WalkError(f"speed must be in [0.3, 2.5] m/s, got {speed}")
+    if not cache:
+        return _fit(h, speed, width, frames)
+    name = cycle_file(h, speed, width, frames)
+    for folder in (cache_dir("cycles"), CYCLES):
+        path = folder / name
+        if path.is_file():
+            try:
+                return read_cycle(path)
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+                continue  # (a file another version wrote, or damaged: fitted again)
+    cycle = _fit(h, speed, width, frames)
+    try:
+        write_cycle(cycle, cache_dir("cycles") / name)
+    except OSError as e:  # a read-only home: the fit is only not kept
+        warnings.warn(f"the fitted cycle was not cached: {e}", CacheWarning, stacklevel=2)
+    return cycle
+
+
+# the files whose code and data compute a fitted cycle: a cycle kept under another version of
+# any of them is not found again
+CYCLE_SOURCES = (
+    "walking/reference.py", "walking/clinical.py", "walking/norms.py", "walking/plan.py",
+    "constraints/limits.py", "data/norms/schwartz2008.json",
+)  # fmt: skip
+CYCLES = Path(__file__).resolve().parent.parent / "data" / "cycles"
+
+
+def cycle_file(h, speed: float, width: float | None, frames: int) -> str:
+    """The cache's file name of ``h``'s cycle at these numbers: the body's digest, then one of
+    the numbers (exact), the fitting code and Pinocchio's version."""
+    numbers = f"{float(speed)!r}|{None if width is None else float(width)!r}|{int(frames)}"
+    numbers += f"|{sources_key(*CYCLE_SOURCES)}|{pin.__version__}"
+    return f"{model_key(h.model)}-{hashlib.sha256(numbers.encode()).hexdigest()[:12]}.npz"
+
+
+def write_cycle(cycle: GaitCycle, path) -> Path:
+    """Write ``cycle`` to ``path`` (npz, whole or not at all); :func:`read_cycle` reads it."""
+    c = cycle.com
+    arrays = {"phase": cycle.phase, "q": cycle.q, "residual": np.float64(cycle.residual),
+              "gait": np.array(json.dumps(cycle.gait)), "com_phase": c.phase, "com_c": c.c,
+              "com_dc": c.dc, "com_ddc": c.ddc, "com_zmp": c.zmp,
+              "com_stride": np.float64(c.stride), "com_period": np.float64(c.period)}  # fmt: skip
+    for s in SIDES:
+        arrays[f"feet_{s}"], arrays[f"contact_{s}"] = cycle.feet[s], cycle.contact[s]
+    return write_atomic(Path(path), **arrays)
+
+
+def read_cycle(path) -> GaitCycle:
+    """Read a cycle :func:`write_cycle` wrote."""
+    with np.load(path) as f:
+        a = {k: f[k] for k in f.files}
+    com = CenterOfMassPlan(a["com_phase"], a["com_c"], a["com_dc"], a["com_ddc"], a["com_zmp"],
+                           float(a["com_stride"]), float(a["com_period"]))  # fmt: skip
+    return GaitCycle(
+        phase=a["phase"], q=a["q"], gait=json.loads(str(a["gait"])),
+        feet={s: a[f"feet_{s}"] for s in SIDES}, contact={s: a[f"contact_{s}"] for s in SIDES},
+        residual=float(a["residual"]), com=com,
+    )  # fmt: skip
+
+
+def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
+    """:func:`fit_cycle`'s fit itself."""
+    ell = leg_length(h)
     gait = choose_gait(speed, ell)
     fitter = _Fitter(h, gait)
     data, model = fitter.data, h.model
