@@ -41,19 +41,20 @@ def run_simulate(args) -> int:
 
 def run_summary(traj) -> str:
     """Duration, steps, wall time, real-time factor, residual and energy drift of a run."""
-    m = traj.metadata
+    from ..run_metadata import RunMetadata
+
+    m = RunMetadata.from_dict(traj.metadata)
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
-    wall = m["wall_time"]
+    wall = m.wall_time
     drift = float(traj.energy[-1] - traj.energy[0]) if len(traj.energy) else float("nan")
     scale = max(abs(float(traj.energy[0])), 1.0) if len(traj.energy) else 1.0
     lines = [
-        f"scene        {m['scene'].get('name', '?')} ({m['status']})",
-        f"simulated    {sim_time:.3f} s in {m['steps']} steps of {m['dt']} s",
+        f"scene        {m.scene.get('name', '?')} ({m.status})",
+        f"simulated    {sim_time:.3f} s in {m.steps} steps of {m.dt} s",
         f"wall time    {wall:.2f} s (real-time factor {sim_time / max(wall, 1e-9):.2f})",
-        f"residual     {m['max_residual']:.2e} (largest constraint position error, m or rad)",
-        f"energy       {_energy_word(m.get('scene', {}))} {drift:+.3e} J "
-        f"({drift / scale:+.2e} relative)",
-        f"events       {len(m['events'])} contact events, violations {m['violations'] or 'none'}",
+        f"residual     {m.max_residual:.2e} (largest constraint position error, m or rad)",
+        f"energy       {_energy_word(m.scene)} {drift:+.3e} J ({drift / scale:+.2e} relative)",
+        f"events       {len(m.events)} contact events, violations {m.violations or 'none'}",
     ]
     return "\n".join(lines)
 
