@@ -62,6 +62,11 @@ class BenchError(HumanoidError):
     """A benchmark that has nothing to measure (no scenes found)."""
 
 
+class UsageError(HumanoidError, ValueError):
+    """A command line that cannot run: an option out of its range, options that do not go
+    together, an output path that cannot be written."""
+
+
 class MissingExtra(HumanoidError, ImportError):
     """An optional dependency is not installed: the message names the ``pip install`` that
     brings it (:func:`require`)."""

@@ -3,7 +3,6 @@ progress bar of long runs."""
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from dataclasses import dataclass, field
@@ -13,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import TrajectoryError
+from .run_metadata import RunMetadata
 
 __all__ = ["Trajectory"]
 
@@ -63,13 +63,14 @@ class Trajectory:
         return self.metadata.get("status", "completed")
 
     def save(self, path: str | Path) -> Path:
-        """Write an .npz file (arrays, and the metadata as JSON)."""
+        """Write an .npz file (arrays, and the metadata as JSON: :meth:`RunMetadata.to_npz`)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {"t": self.t, "q": self.q, "v": self.v, "tau": self.tau}
         arrays |= {"energy": self.energy, "residual": self.residual}
         arrays |= {f"force/{k}": a for k, a in self.forces.items()}
-        np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
+        meta = RunMetadata.from_dict(self.metadata, f"trajectory {path}").to_npz()
+        np.savez_compressed(path, **meta, **arrays)
         return path
 
     @classmethod
@@ -84,7 +85,9 @@ class Trajectory:
             with np.load(path, allow_pickle=False) as z:
                 forces = {k[6:]: z[k] for k in z.files if k.startswith("force/")}
                 arrays = [z[k] for k in ("t", "q", "v", "tau", "energy", "residual")]
-                meta = json.loads(str(z["metadata"]))
+                meta = RunMetadata.from_npz(z, f"trajectory {path}").as_dict()
+        except TrajectoryError:
+            raise
         except FileNotFoundError:
             raise TrajectoryError(f"trajectory file not found: {path}") from None
         except Exception as exc:  # noqa: BLE001 - numpy's parser of a corrupt header raises

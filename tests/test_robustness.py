@@ -16,7 +16,7 @@ from conftest import get_model
 import humanoid as hm
 from humanoid.cli import main
 from humanoid.integrators import DormandPrince, LieGroupSpace
-from humanoid.model import _check_built, _validate
+from humanoid.model.checks import check_built, validate_urdf
 
 PELVIS, HIP = '<parent link="pelvis"/>', '    <child link="left_hip_flexion_link"/>'
 FIRST_ORIGIN = re.compile(r'(<inertial>\s*<origin xyz=")[^"]*')
@@ -52,13 +52,13 @@ def test_a_urdf_that_urdfdom_would_misread_is_refused(male_urdf, edit, message):
 
 
 def test_what_pinocchio_built_is_compared_with_what_the_urdf_declares(male_urdf):
-    declared = _validate(male_urdf, "<string>", None, [])
+    declared = validate_urdf(male_urdf, "<string>", None, [])
     model = pin.buildModelFromXML(male_urdf, pin.JointModelFreeFlyer())
-    _check_built(model, declared, "<string>")  # the shipped body: equal
+    check_built(model, declared, "<string>")  # the shipped body: equal
     declared["left_shank"] = pin.Inertia(1.0, np.zeros(3), np.eye(3) * 0.01)
     with pytest.raises(hm.ModelError, match=r"left_shank: Pinocchio built mass 3\.\d+ kg where "
                        r"the URDF declares 1 kg"):  # fmt: skip
-        _check_built(model, declared, "<string>")
+        check_built(model, declared, "<string>")
 
 
 @pytest.mark.parametrize(
