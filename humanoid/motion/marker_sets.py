@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import MarkerSetError
 from .markers import LANDMARKS, MarkerTrajectories, default_markers, landmark_names, read_markers
 from .storage import read_toml
 
@@ -134,7 +134,7 @@ def strip_prefix(names) -> tuple[list[str], str]:
     """
     prefixes = sorted({str(n).rsplit(":", 1)[0] for n in names if ":" in str(n)})
     if len(prefixes) > 1:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"the labels are of {len(prefixes)} subjects ({', '.join(prefixes)}"
             "): inverse kinematics fits one body; keep one subject's markers"
         )
@@ -152,7 +152,7 @@ def seen_frames(markers: MarkerTrajectories, names, fraction: float = SEEN) -> s
     count = np.isfinite(markers.positions[:, cols]).all(axis=2).sum(axis=1)
     ok = np.flatnonzero(count >= max(3, fraction * len(cols)))
     if not len(ok):
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{markers.source or 'the trial'}: no frame has {fraction:.0%} of its "
             f"{len(cols)} markers in the set seen (at most {count.max()})"
         )
@@ -175,9 +175,9 @@ def _read_set(h, path: Path) -> tuple[dict, bool]:
         return default_markers(h, path), bool(spec.get("register", False))
     if "markers" in spec:
         return read_markers(path), False
-    raise HumanoidError(f"{path}: a marker set has [markers.NAME] tables (placed markers, as "
-                        "humanoid ik --save-markers writes) or [landmarks.NAME] tables (as "
-                        "humanoid/data/markers/*.toml)")  # fmt: skip
+    raise MarkerSetError(f"{path}: a marker set has [markers.NAME] tables (placed markers, as "
+                         "humanoid ik --save-markers writes) or [landmarks.NAME] tables (as "
+                         "humanoid/data/markers/*.toml)")  # fmt: skip
 
 
 def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet:
@@ -215,14 +215,14 @@ def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet
         name, reason = str(choice), "its file"
         marker_set, register = _read_set(h, Path(choice))
     else:
-        raise HumanoidError(f"marker set {choice!r}: one of {', '.join(MARKER_SETS)} or a TOML "
-                            "file")  # fmt: skip
+        raise MarkerSetError(f"marker set {choice!r}: one of {', '.join(MARKER_SETS)} or a TOML "
+                             "file")  # fmt: skip
     used = tuple(n for n in names if n in marker_set)
     ignored = tuple(n for n in names if n not in marker_set)
     where = markers.source or "the trial"
     if not used:
         known = ", ".join(f"{k} ({', '.join(s.names[:4])} ...)" for k, s in MARKER_SETS.items())
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{where}: none of its labels ({', '.join(names[:8])}"
             f"{' ...' if len(names) > 8 else ''}) is in the marker set {name}; "
             f"the shipped sets: {known}; or give a TOML file (--marker-set)"

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, require
+from ..errors import KeypointError, MarkerSetError, require
 from .loads import OPENSIM_TO_OURS
 from .storage import MAX_RATE, MotionFileError, check_rate, read_toml
 
@@ -177,9 +177,9 @@ def _landmarks(path: Path) -> tuple[str, dict]:
     spec = read_toml(path, "landmark set")
     table, names = spec.get("landmarks"), spec.get("names", "{side}.{name}")
     if not isinstance(table, dict) or not table:
-        raise HumanoidError(f"{path}: no [landmarks.NAME] tables")
+        raise MarkerSetError(f"{path}: no [landmarks.NAME] tables")
     if not isinstance(names, str) or "{side}" not in names or "{name}" not in names:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{path}: names must be a format with {{side}} and {{name}}, as "
             f'"{{side}}{{name}}" (RASI) or "{{side}}.{{name}}" (R.ASIS)'
         )
@@ -196,7 +196,7 @@ def _landmarks(path: Path) -> tuple[str, dict]:
         if ok:
             flag(path, f"landmarks.{key}", m, "anatomical", True)
         if not ok:
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: landmarks.{key} needs a frame, a from, an offset of 3 "
                 'numbers, and sides true, false, "left" or "right"'
             )
@@ -237,7 +237,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
     ]  # fmt: skip
     missing = [n for n in needed if not model.existFrame(n)]
     if missing:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
             f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
         )
@@ -249,7 +249,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
 
     def at(name):
         if not model.existFrame(name):
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: no point {name!r} to place a landmark from (hip, knee, "
                 "ankle, shoulder, elbow, wrist, neck, root, heel, toe)"
             )
@@ -260,9 +260,9 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
 
     def attach(marker, frame, world, weight=1.0, anatomical=True):
         if not model.existFrame(frame):
-            raise HumanoidError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
-                                "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
-                                "head)")  # fmt: skip
+            raise MarkerSetError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
+                                 "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
+                                 "head)")  # fmt: skip
         offset = at(frame).actInv(np.asarray(world, dtype=float))
         out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
@@ -335,7 +335,7 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
     spec = read_toml(path, "marker set")
     table = spec.get("markers")
     if not isinstance(table, dict) or not table:
-        raise HumanoidError(f"{path}: no [markers.NAME] tables")
+        raise MarkerSetError(f"{path}: no [markers.NAME] tables")
     out = {}
     for name, m in table.items():
         try:
@@ -343,14 +343,14 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
             weight = float(m.get("weight", 1.0))
             frame = str(m["frame"])
         except (KeyError, TypeError, ValueError, AttributeError):
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: markers.{name} needs a frame, an offset of 3 numbers and a weight"
             ) from None
         if len(offset) != 3 or not all(math.isfinite(x) for x in offset):
-            raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers")
+            raise MarkerSetError(f"{path}: markers.{name}: offset must be 3 finite numbers")
         if not 0.0 <= weight <= MAX_WEIGHT:
-            raise HumanoidError(f"{path}: markers.{name}: weight {weight:g} must be in "
-                                f"[0, {MAX_WEIGHT:g}]")  # fmt: skip
+            raise MarkerSetError(f"{path}: markers.{name}: weight {weight:g} must be in "
+                                 f"[0, {MAX_WEIGHT:g}]")  # fmt: skip
         flags = [flag(path, f"markers.{name}", m, k, d) for k, d in (("anatomical", True),
                                                                     ("fixed", False))]  # fmt: skip
         out[name] = Marker(frame, offset, weight, *flags)
@@ -368,7 +368,7 @@ def flag(path, where: str, table: dict, key: str, default: bool) -> bool:
     naming the file and ``where.key`` (a string "false" is not false)."""
     value = table.get(key, default)
     if not isinstance(value, bool):
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{path}: {where}.{key} must be true or false (no quotes), got {value!r}"
         )
     return value
@@ -438,13 +438,13 @@ def keypoints(
         HumanoidError: an unknown layout, or points whose count is not the layout's.
     """
     if layout not in KEYPOINT_LAYOUTS:
-        raise HumanoidError(
+        raise KeypointError(
             f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
         )
     names = KEYPOINT_LAYOUTS[layout]
     points = np.asarray(points, dtype=float)
     if points.ndim != 3 or points.shape[1:] != (len(names), 3):
-        raise HumanoidError(
+        raise KeypointError(
             f"{layout} keypoints must be (frames, {len(names)}, 3), got {points.shape}"
         )
     keep = [i for i, n in enumerate(names) if n is not None]

@@ -251,6 +251,6 @@ def read_toml(path: str | Path, what: str) -> dict:
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise HumanoidError(f"{what} not found: {path}") from None
+        raise MotionFileError(f"{what} not found: {path}") from None
     except tomllib.TOMLDecodeError as exc:
-        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+        raise MotionFileError(f"{path}: not TOML: {exc}") from None
