@@ -84,7 +84,7 @@ def mostly(data, valid, bad=junk):
     return data.draw(valid if data.draw(st.integers(0, 3)) else bad)
 
 
-@fuzz(300)
+@fuzz(200)
 @given(data=st.data())
 def test_fuzz_body_parameters(data):
     height = mostly(
@@ -97,10 +97,10 @@ def test_fuzz_body_parameters(data):
                                                                 max_size=2)))  # fmt: skip
     try:
         p = hm.BodyParameters(height, mass, sex, lengths)
+        urdf = hm.build_urdf(p)  # (a foot the toes outweigh is refused here)
     except hm.HumanoidError:
         tally("body parameters", "typed error")
         return
-    urdf = hm.build_urdf(p)
     h = hm.load(urdf)
     assert h.mass == pytest.approx(p.mass, rel=1e-9)
     assert all_finite(hm.centre_of_mass(h, h.standing_configuration()))

@@ -412,7 +412,7 @@ def match_cameras(keypoints: CameraKeypoints, cameras: list[Camera],
     n-th camera folder is the calibration's n-th camera).
 
     Raises:
-        HumanoidError: the counts differ.
+        CameraError: the counts differ.
     Warns:
         CameraWarning: a camera whose seen points fall outside its image in more than
             :data:`OUTSIDE` of them (the calibration is another's, or the order is wrong),

@@ -8,6 +8,7 @@ matplotlib only when a command runs.
 from __future__ import annotations
 
 import time as clock
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -376,15 +377,15 @@ def markers_file(path, args):
             raise UsageError(f"{path}: keypoints need --layout ({', '.join(KEYPOINT_LAYOUTS)})")
         try:
             loaded = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
+            if suffix == ".npz":
+                if "points" not in loaded.files:
+                    raise MotionFileError(f"{path}: no 'points' array (frames, k, 3)")
+                points = loaded["points"]
+                time = loaded["time"] if "time" in loaded.files else None
+            else:
+                points, time = loaded, None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
             raise MotionFileError(f"cannot read {path}: {exc}") from None
-        if suffix == ".npz":
-            if "points" not in loaded.files:
-                raise MotionFileError(f"{path}: no 'points' array (frames, k, 3)")
-            points = loaded["points"]
-            time = loaded["time"] if "time" in loaded.files else None
-        else:
-            points, time = loaded, None
         if time is None:
             time = np.arange(len(points)) / (args.rate or 30.0)
         return keypoints(time, points, args.layout, y_up=args.y_up, source=str(path))

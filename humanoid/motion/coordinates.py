@@ -252,7 +252,7 @@ def read_map(path: str | Path) -> CoordinateMap:
     """A user map from TOML (see the module docstring).
 
     Raises:
-        HumanoidError: missing file, bad TOML, a joint without columns, axes and columns of
+        CoordinateMapError: missing file, bad TOML, a joint without columns, axes and columns of
             different lengths, an axis that is not one of x, y, z.
     """
     path = Path(path)
@@ -391,7 +391,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         posture.
 
     Raises:
-        HumanoidError: a mapped joint missing from the body; MotionFileError: a column the
+        CoordinateMapError: a mapped joint missing from the body; MotionFileError: a column the
             map needs missing from the file (the root's rotation and translation are needed).
     """
     model = h.model
@@ -442,6 +442,14 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         else:
             for j, s in zip(ids, jm.signs, strict=False):
                 q[:, model.joints[j].idx_q] = s * values[:, 0]
+    for c in sorted(used):
+        gaps = np.flatnonzero(np.isnan(cols[c]))
+        if gaps.size:
+            raise MotionFileError(
+                f"{table.source or 'the motion'}: column {c!r} is NaN at {gaps.size} samples "
+                f"(first at {table.time[gaps[0]]:g} s): a coordinate needs a value at every "
+                "sample (fill the gaps first)"
+            )
     _set_root(q, cols, cmap.root, scale)
     if floor:
         q[:, 2] -= lowest_sole_point(h, q)

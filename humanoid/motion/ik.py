@@ -332,7 +332,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         UnconstrainedWarning: coordinates no marker sees (:attr:`IKResult.unconstrained`).
 
     Raises:
-        HumanoidError: no marker in common, a marker on a frame the body does not have, a frame
+        IKError: no marker in common, a marker on a frame the body does not have, a frame
             with fewer than 3 markers seen in total for the first frame.
     """
     from .cameras import CameraKeypoints

@@ -288,7 +288,7 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
             load acts where it was measured, as OpenSim applies it.
 
     Raises:
-        ConfigurationError: q of the wrong shape or not finite. HumanoidError: fewer than 3
+        ConfigurationError: q of the wrong shape or not finite. InverseDynamicsError: fewer than 3
             samples, time not increasing, a load on a body the model does not have.
     """
     model = h.model

@@ -130,7 +130,7 @@ def strip_prefix(names) -> tuple[list[str], str]:
     prefix (without its colon; "" if none). Labels without one are kept as they are.
 
     Raises:
-        HumanoidError: labels of two subjects or more (different prefixes): fit one at a time.
+        MarkerSetError: labels of two subjects or more (different prefixes): fit one at a time.
     """
     prefixes = sorted({str(n).rsplit(":", 1)[0] for n in names if ":" in str(n)})
     if len(prefixes) > 1:
@@ -146,7 +146,7 @@ def seen_frames(markers: MarkerTrajectories, names, fraction: float = SEEN) -> s
     ``names`` are seen (all frames if none is).
 
     Raises:
-        HumanoidError: no frame has that many markers seen.
+        MarkerSetError: no frame has that many markers seen.
     """
     cols = [markers.names.index(n) for n in names if n in markers.names]
     count = np.isfinite(markers.positions[:, cols]).all(axis=2).sum(axis=1)
@@ -189,7 +189,7 @@ def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet
             TOML file (placed markers or landmarks), or a set (name -> Marker).
 
     Raises:
-        HumanoidError: an unknown name (listing the shipped ones), a file that is not a marker
+        MarkerSetError: an unknown name (listing the shipped ones), a file that is not a marker
             set, labels of several subjects, no label of the trial in the set.
 
     Warns:

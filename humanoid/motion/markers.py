@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import KeypointError, MarkerSetError, require
+from ..errors import KeypointError, MarkerSetError
 from .loads import OPENSIM_TO_OURS
 from .storage import MAX_RATE, MotionFileError, check_rate, read_toml
 
@@ -171,7 +171,7 @@ def _landmarks(path: Path) -> tuple[str, dict]:
     """(the sided markers' name format, the landmarks) of a landmark file, checked.
 
     Raises:
-        HumanoidError: bad TOML, no ``[landmarks.NAME]`` tables, a landmark without a frame,
+        MarkerSetError: bad TOML, no ``[landmarks.NAME]`` tables, a landmark without a frame,
             a ``from`` or an offset, or with ``sides`` not true, false, "left" or "right".
     """
     spec = read_toml(path, "landmark set")
@@ -226,7 +226,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
     ``"right"`` for one side's marker only; its ``name`` if not its key).
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's (its frames have other names); a
+        MarkerSetError: the body is not one of the toolkit's (its frames have other names); a
             landmark file that cannot be read (naming it and the landmark).
     """
     model = h.model
@@ -313,6 +313,10 @@ def marker_positions(h, q: np.ndarray, markers: dict[str, Marker], names=None) -
     data = model.createData()
     names = list(names or markers)
     q = np.atleast_2d(q)
+    missing = sorted({markers[n].frame for n in names} - {f.name for f in model.frames})
+    if missing:
+        raise MarkerSetError(f"the marker set puts markers on {', '.join(map(repr, missing))}, "
+                             f"which {h.source} does not have")  # fmt: skip
     ids = [model.getFrameId(markers[n].frame) for n in names]
     offsets = np.array([markers[n].offset for n in names])
     out = np.zeros((len(q), len(names), 3))
@@ -328,7 +332,7 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
     optional ``anatomical`` and ``fixed``).
 
     Raises:
-        HumanoidError: missing file, bad TOML, a marker without a frame, an offset that is not
+        MarkerSetError: missing file, bad TOML, a marker without a frame, an offset that is not
             three numbers, a negative weight.
     """
     path = Path(path)
@@ -435,18 +439,24 @@ def keypoints(
     named after the default set's joint centres (points the body has no match for dropped).
 
     Raises:
-        HumanoidError: an unknown layout, or points whose count is not the layout's.
+        KeypointError: an unknown layout, or points whose count is not the layout's.
     """
     if layout not in KEYPOINT_LAYOUTS:
         raise KeypointError(
             f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
         )
     names = KEYPOINT_LAYOUTS[layout]
-    points = np.asarray(points, dtype=float)
+    try:
+        points = np.asarray(points, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise KeypointError(f"{source or 'keypoints'}: the points are not numbers: {exc}") from None
     if points.ndim != 3 or points.shape[1:] != (len(names), 3):
         raise KeypointError(
             f"{layout} keypoints must be (frames, {len(names)}, 3), got {points.shape}"
         )
+    if np.isinf(points).any():
+        raise KeypointError(f"{source or 'keypoints'}: a point is infinite (NaN marks a "
+                            "keypoint not seen)")  # fmt: skip
     keep = [i for i, n in enumerate(names) if n is not None]
     pts = points[:, keep]
     if y_up:
@@ -466,15 +476,12 @@ def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
     Raises:
         MotionFileError: a missing or unreadable file, no points.
     """
-    ezc3d = require("ezc3d", "reading a C3D file")
+    from .c3d_file import open_c3d
 
     path = Path(path)
     if not path.exists():
         raise MotionFileError(f"marker file not found: {path}")
-    try:
-        c = ezc3d.c3d(str(path))
-    except Exception as exc:  # noqa: BLE001 - ezc3d raises RuntimeError, ValueError ...
-        raise MotionFileError(f"cannot read {path} as C3D: {exc}") from None
+    c = open_c3d(path)
     point = c["parameters"]["POINT"]
     names = [str(x).strip() for x in point["LABELS"]["value"]]
     data = np.asarray(c["data"]["points"], dtype=float)  # (4, m, n)

@@ -72,7 +72,7 @@ def place_on_rays(camera, uv: np.ndarray, points: np.ndarray,
     Gauss-Newton on the reprojection error over the translation alone.
 
     Raises:
-        HumanoidError: fewer than 3 points, or points that project onto one place.
+        IKError: fewer than 3 points, or points that project onto one place.
     """
     ok = np.all(np.isfinite(uv), axis=1) & np.all(np.isfinite(points), axis=1)
     if ok.sum() < 3:

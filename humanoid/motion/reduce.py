@@ -331,7 +331,7 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
             iterations.
 
     Raises:
-        HumanoidError: a body without a free-flyer root, or no loads.
+        InverseDynamicsError: a body without a free-flyer root, or no loads.
     """
     model0 = h.model
     if "FreeFlyer" not in model0.joints[1].shortname():

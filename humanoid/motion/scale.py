@@ -214,7 +214,7 @@ def body_parameters_of(h):
     from the comment :func:`~humanoid.body.build_urdf` writes at the top of its URDF).
 
     Raises:
-        HumanoidError: the body was not built by the toolkit (an example-robot-data robot, a
+        ScalingError: the body was not built by the toolkit (an example-robot-data robot, a
             URDF of another origin).
     """
     from ..anthropometry import BodyParameters
@@ -442,7 +442,7 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
             2 % off the markers'; coordinates no marker sees in the static pose.
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's; an unknown ``mode``; the trial
+        ScalingError: the body is not one of the toolkit's; an unknown ``mode``; the trial
             has no frame in ``time_range`` or no marker of the set; no measurement can be
             made; a pair's ratio outside 0.5-2 (wrong units or names). BodyParameterError:
             the mass, the stature or a measured length out of range.

@@ -190,7 +190,7 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
             stance shorter than this is not used [s].
 
     Raises:
-        HumanoidError: no single stance of at least ``shortest`` with the foot all on a plate,
+        ScalingError: no single stance of at least ``shortest`` with the foot all on a plate,
             no pelvis marker.
     """
     from .c3d import assign_contacts, foot_markers
