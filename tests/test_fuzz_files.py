@@ -125,7 +125,7 @@ def test_fuzz_trc(tmp_path):
         path = write(tmp_path / f"{i}.trc", text)
         return what, lambda: read_trc(path), _markers_ok
 
-    run_cases("TRC", 500, case)
+    run_cases("TRC", 400, case)
 
 
 def test_fuzz_storage_coordinates(tmp_path, body, motion):
@@ -237,7 +237,7 @@ def test_fuzz_openpose(tmp_path):
 
         return f"{what}, {layout}, {rate}", fn, finite
 
-    run_cases("keypoints (OpenPose JSON)", 200, case)
+    run_cases("keypoints (OpenPose JSON)", 150, case)
 
 
 def test_fuzz_keypoint_arrays(tmp_path):
@@ -397,7 +397,7 @@ def test_fuzz_scene_values():
 
 
 # -- C3D -----------------------------------------------------------------------------------
-C3D_CASES = 600
+C3D_CASES = 500
 
 
 @pytest.fixture(scope="module")
@@ -468,11 +468,12 @@ def cli_files(tmp_path_factory, body, motion, c3d_base):
     """Small files, valid and not, for the commands to refuse or read."""
     d = tmp_path_factory.mktemp("cli")
     t, q = motion
+    t30, q30 = np.arange(30) / 60.0, np.repeat(q, 4, axis=0)[:30]  # (id filters: 10 at least)
     markers = {k: v for k, v in default_markers(body).items() if "." in k}
     positions = marker_positions(body, q[:3], markers)
     files = {
         "trc": write_trc(d / "m.trc", MarkerTrajectories(t[:3], list(markers), positions)),
-        "mot": write_storage(d / "c.mot", coordinates_table(body, t, q, "rajagopal")),
+        "mot": write_storage(d / "c.mot", coordinates_table(body, t30, q30, "rajagopal")),
         "c3d": c3d_base,
         "empty.trc": write(d / "empty.trc", ""),
         "bad.mot": write(d / "bad.mot", "x\nendheader\ntime\tknee\n0\tnan\n"),
@@ -573,3 +574,42 @@ def test_fuzz_command_line_motion(tmp_path, monkeypatch, cli_files):
         return " ".join(argv[:1] + [Path(a).name for a in argv[1:]]), fn, None
 
     run_cases("command line (motion, sweep, bench)", 250, case, seconds=20.0)
+
+
+# the expensive entry points, a handful of tiny cases: a valid run (its exit code; None: no
+# valid run, a report costs 4 s), then one value made bad (exit 2, refused before the work)
+HANDFUL = [
+    ("ik", "trc", [], 0, "--smoothing", "nan"),
+    ("ik", "bvh", [], 0, "--rate", "-1"),
+    ("id", "mot", [], 0, "--cutoff", "inf"),
+    ("report", "mot", ["-o", "report.png"], None, "--speed", "nan"),
+    ("loads", "c3d", ["--threshold", "1"], 0, "--threshold", "nan"),
+]
+
+
+@pytest.mark.parametrize(("command", "file", "extra", "valid", "option", "bad"), HANDFUL)
+def test_fuzz_expensive_commands_a_handful(tmp_path, monkeypatch, cli_files, command, file,
+                                           extra, valid, option, bad):  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    out = [] if command in ("report", "loads") else ["-o", str(tmp_path / "out.sto")]
+    argv = [command, str(cli_files[file]), *extra, *out]
+    if command in ("ik", "id"):
+        argv += ["--figure", str(tmp_path / "f.png")]
+    counts = COUNTS.setdefault("command line (expensive, a handful)", Counter())
+    runs = [(argv, valid)] if valid is not None else []
+    for args, want in (*runs, ([*argv, option, bad], 2)):
+        said = []
+
+        def fn(args=args, said=said):
+            err = io.StringIO()
+            with redirect_stdout(io.StringIO()), redirect_stderr(err):
+                code = main(args)
+            said.append(err.getvalue())
+            return code
+
+        result = outcome(fn, lambda code, want=want: code == want, seconds=60.0)
+        counts[result.split(":")[0]] += 1
+        assert result == "finite", (args, result, said)
+    if command in ("ik", "id"):  # what the valid run wrote is finite
+        table = read_storage(tmp_path / "out.sto")
+        assert finite(table.data)

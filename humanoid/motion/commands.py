@@ -56,6 +56,18 @@ def subject_body(args):
     return h, f"{name} ({h.mass:.1f} kg)"
 
 
+MAX_SPEED = 15.0  # [m/s] a person's walk or run (a treadmill's belt) is slower
+MAX_MASS = 500.0  # [kg]
+MAX_FORCE = 1e5  # [N] a contact threshold above it is no force plate's
+
+
+def in_range(option: str, value: float | None, largest: float, unit: str) -> None:
+    """Raise UsageError naming ``option`` unless ``value`` is None or a number in
+    (0, ``largest``] [``unit``]."""
+    if value is not None and not 0.0 < value <= largest:
+        raise UsageError(f"{option} {value}: a number in (0, {largest:g}] {unit}")
+
+
 def _map(args, table=None):
     from .coordinates import MAPS, guess_map, read_map
 
@@ -964,6 +976,9 @@ def run_report(args) -> int:
 
     if args.marker_set and Path(args.trial).suffix.lower() != ".c3d":
         raise UsageError(f"{args.trial}: --marker-set goes with a C3D trial's markers")
+    in_range("--speed", args.speed, MAX_SPEED, "m/s")
+    in_range("--mass", args.mass, MAX_MASS, "kg")
+    in_range("--threshold", args.threshold, MAX_FORCE, "N")
     mass = args.mass
     if args.mass is not None and args.height is None and args.sex is None:
         args.mass = None  # the subject's mass alone: the moments' divisor, on the default body
