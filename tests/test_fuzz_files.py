@@ -237,7 +237,7 @@ def test_fuzz_openpose(tmp_path):
 
         return f"{what}, {layout}, {rate}", fn, finite
 
-    run_cases("keypoints (OpenPose JSON)", 150, case)
+    run_cases("keypoints (OpenPose JSON)", 100, case)
 
 
 def test_fuzz_keypoint_arrays(tmp_path):
@@ -347,7 +347,7 @@ def test_fuzz_studies(tmp_path):
         path = write(tmp_path / f"{i}.toml", text)
         return what, lambda: load_study(path), None
 
-    run_cases("study files", 250, case)
+    run_cases("study files", 200, case)
 
 
 SCENES = {n: tomllib.loads(hm.data.scene_path(n).read_text())
@@ -397,7 +397,7 @@ def test_fuzz_scene_values():
 
 
 # -- C3D -----------------------------------------------------------------------------------
-C3D_CASES = 500
+C3D_CASES = 400
 
 
 @pytest.fixture(scope="module")
@@ -573,7 +573,7 @@ def test_fuzz_command_line_motion(tmp_path, monkeypatch, cli_files):
 
         return " ".join(argv[:1] + [Path(a).name for a in argv[1:]]), fn, None
 
-    run_cases("command line (motion, sweep, bench)", 250, case, seconds=20.0)
+    run_cases("command line (motion, sweep, bench)", 120, case, seconds=20.0)
 
 
 # the expensive entry points, a handful of tiny cases: a valid run (its exit code; None: no
