@@ -63,8 +63,56 @@ class BenchError(HumanoidError):
 
 
 class UsageError(HumanoidError, ValueError):
-    """A command line that cannot run: an option out of its range, options that do not go
-    together, an output path that cannot be written."""
+    """A command line that cannot run: an option out of its range (the message names the
+    option and what it accepts), options that do not go together, an output path that cannot
+    be written."""
+
+
+class MarkerSetError(HumanoidError, ValueError):
+    """A marker set that cannot be used: not a known set or a marker-set TOML, a marker without
+    a frame, offset or weight, or a set that does not fit the trial (no label in common, labels
+    of two subjects) or the body (a frame it does not have)."""
+
+
+class CoordinateMapError(HumanoidError, ValueError):
+    """A coordinate map (TOML) that cannot be used: an unknown key, a joint without columns,
+    axes that are not x, y, z, or a joint the body does not have."""
+
+
+class KeypointError(HumanoidError, ValueError):
+    """Keypoints that cannot be used: an unknown layout, arrays of the wrong shape, times that
+    do not increase, or nothing seen."""
+
+
+class CameraError(HumanoidError, ValueError):
+    """A camera that cannot be placed or paired with its keypoints (a calibration with another
+    number of cameras than the keypoints have)."""
+
+
+class IKError(HumanoidError, ValueError):
+    """Inverse kinematics that cannot be posed: fewer than 3 markers seen in a frame, no marker
+    of the trial in the set, a setting out of range, keypoints without cameras."""
+
+
+class ScalingError(HumanoidError, ValueError):
+    """A body that cannot be scaled to a static trial: not one of the toolkit's bodies, no
+    marker or measurement in common, a ratio out of range, an unknown mode."""
+
+
+class InverseDynamicsError(HumanoidError, ValueError):
+    """Inverse dynamics (or residual reduction) that cannot be posed: too few samples, a time
+    that does not increase, a filter cutoff out of range, a load on a body part there is not."""
+
+
+class OpenSimError(HumanoidError):
+    """An OpenSim tool (scale, inverse kinematics, inverse dynamics) that failed, or a joint
+    with no OpenSim counterpart."""
+
+
+class ViewerError(HumanoidError, ValueError):
+    """The viewer cannot show this: an unknown camera, a playback speed or frame rate out of
+    range, a run too short or too long to animate, geometry it cannot load, a server that did
+    not start."""
 
 
 class MissingExtra(HumanoidError, ImportError):

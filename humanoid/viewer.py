@@ -44,7 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from .contacts import cop_on_plane
-from .errors import HumanoidError
+from .errors import MissingExtra, ViewerError
 
 __all__ = [
     "BODY_FRACTION", "CameraPose", "CommandRecorder", "FOV", "HiddenMarkerWarning", "LiveViewer",
@@ -63,7 +63,7 @@ def _meshcat():
         import meshcat.animation
         import meshcat.geometry
     except ImportError as exc:  # pragma: no cover - meshcat is a dependency
-        raise HumanoidError(f"the viewer needs meshcat (pip install meshcat): {exc}") from None
+        raise MissingExtra(f"the viewer needs meshcat (pip install meshcat): {exc}") from None
     return meshcat
 
 
@@ -171,7 +171,7 @@ def _geometry(g):
     loaders = {".stl": G.StlMeshGeometry, ".dae": G.DaeMeshGeometry, ".obj": G.ObjMeshGeometry}
     loader = loaders.get(path.suffix.lower())
     if loader is None or not path.is_file():
-        raise HumanoidError(f"cannot show geometry {g.name!r}: unsupported or missing {path}")
+        raise ViewerError(f"cannot show geometry {g.name!r}: unsupported or missing {path}")
     fix[:3, :3] = np.diag(np.asarray(g.meshScale, dtype=float))
     return loader.from_file(str(path)), fix
 
@@ -204,7 +204,7 @@ class SceneView:
         self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right"), camera="oblique"
     ) -> None:
         if camera not in PRESETS:
-            raise HumanoidError(f"unknown camera {camera!r}; one of {', '.join(PRESETS)}")
+            raise ViewerError(f"unknown camera {camera!r}; one of {', '.join(PRESETS)}")
         self.vis, self.h, self.overlays, self.feet = vis, h, overlays, tuple(feet)
         self.camera = camera
         self.model = h.model
@@ -584,10 +584,10 @@ class SceneView:
         check_playback(speed, fps)
         t = np.asarray(traj.t)
         if len(t) < 2:
-            raise HumanoidError("a trajectory needs at least two records to animate")
+            raise ViewerError("a trajectory needs at least two records to animate")
         n = int(math.floor((t[-1] - t[0]) / speed * fps)) + 1
         if n > MAX_ANIMATION_FRAMES:
-            raise HumanoidError(
+            raise ViewerError(
                 f"{t[-1] - t[0]:.4g} s at speed {speed:g} and {fps:g} fps is {n:,} animation "
                 f"frames, more than {MAX_ANIMATION_FRAMES:,}: lower --fps or raise --speed"
             )
@@ -669,7 +669,7 @@ def humanoid_for(traj):
             body["height"], body["mass"], body["sex"], body.get("segment_lengths", {})
         )
         return load(build_urdf(params), ball_joints=mode)
-    raise HumanoidError("the trajectory's metadata does not say which body it was recorded on")
+    raise ViewerError("the trajectory's metadata does not say which body it was recorded on")
 
 
 HTML = """<!DOCTYPE html>
@@ -909,9 +909,9 @@ def check_playback(speed: float, fps: float) -> None:
     """Raise HumanoidError unless 0 < ``speed`` <= :data:`MAX_SPEED` (times real time) and
     0 < ``fps`` <= :data:`MAX_FPS` (frames per second)."""
     if not 0.0 < speed <= MAX_SPEED:
-        raise HumanoidError(f"--speed {speed}: give a playback speed in (0, {MAX_SPEED:g}]")
+        raise ViewerError(f"--speed {speed}: give a playback speed in (0, {MAX_SPEED:g}]")
     if not 0.0 < fps <= MAX_FPS:
-        raise HumanoidError(f"--fps {fps}: give an animation rate in (0, {MAX_FPS:g}] frames/s")
+        raise ViewerError(f"--fps {fps}: give an animation rate in (0, {MAX_FPS:g}] frames/s")
 
 
 class LiveViewer:
@@ -953,7 +953,7 @@ class LiveViewer:
             watchdog.cancel()
         if zmq_url is None or web_url is None:
             self.close()
-            raise HumanoidError("the meshcat server did not start")
+            raise ViewerError("the meshcat server did not start")
         self.url = web_url
         self.page_url = web_url.split("/static/")[0] + "/humanoid/"
         import contextlib

@@ -404,3 +404,82 @@ def test_an_unknown_link_element_is_warned_about(male_urdf):
     with pytest.warns(hm.model.UnknownTagWarning, match=r"link 'pelvis': element <contact>"):
         h = hm.load(extended)
     assert sum(i.mass for i in h.model.inertias) == pytest.approx(75.0)
+
+
+# -- the third fuzz run's findings (tests/test_fuzz_files.py, issue 38) ----------------------
+@pytest.mark.parametrize(
+    ("cut", "message"),
+    [
+        (100, r"100 bytes: not a C3D file"),
+        (5000, r"the parameter section's \d+ blocks from block 2 run past the file's end"),
+        (-1000, r"the header counts \d+ frames .*: a truncated file"),
+    ],
+)
+def test_a_truncated_c3d_is_refused_before_ezc3d_reads_it(tmp_path, cut, message):
+    """ezc3d crashed the interpreter (a segmentation fault) on a truncated file."""
+    blob = (TRIALS / "walking5.c3d").read_bytes()
+    path = tmp_path / "cut.c3d"
+    path.write_bytes(blob[:cut])
+    with pytest.raises(MotionFileError, match=message):
+        read_c3d(path)
+
+
+def test_a_c3d_parameter_of_too_many_dimensions_is_refused(tmp_path):
+    from humanoid.motion.c3d_file import check_c3d
+
+    blob = bytearray((TRIALS / "walking5.c3d").read_bytes())
+    start = (blob[0] - 1) * 512
+    at = blob.index(b"LABELS", start)  # POINT:LABELS: its dimension count after the offset
+    blob[at + 6 + 3] = 172
+    (tmp_path / "dims.c3d").write_bytes(bytes(blob))
+    with pytest.raises(MotionFileError, match=r"parameter 'LABELS' has 172 dimensions"):
+        check_c3d(tmp_path / "dims.c3d")
+
+
+def test_a_nan_coordinate_is_refused_naming_the_column(tmp_path):
+    h, table = _coordinates(tmp_path, True)
+    table.data[2, table.labels.index("knee_angle_r")] = np.nan
+    with pytest.raises(MotionFileError, match=r"column 'knee_angle_r' is NaN at 1 samples"):
+        configurations(h, table)
+
+
+def test_a_nan_load_is_refused_naming_the_column(tmp_path):
+    lines = list(GRF)
+    lines[8] = lines[8].replace("103.2043876", "nan", 1)
+    path = tmp_path / "grf.mot"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(MotionFileError, match=r"column 'ground_force_vx' is NaN at 1 samples"):
+        hm.motion.loads.read_loads(path, xml=TRIALS / "subject01_walk1_grf.xml")
+
+
+def test_a_marker_on_a_frame_the_body_lacks_is_a_marker_set_error():
+    from humanoid.errors import MarkerSetError
+
+    h = get_model("male", "quaternion")
+    with pytest.raises(MarkerSetError, match=r"puts markers on 'tail'"):
+        hm.motion.markers.marker_positions(h, h.standing_configuration(), {"A": Marker("tail")})
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("kp.npz", b"PK", r"cannot read .*kp.npz"),
+        ("s.npy", None, r"the points are not numbers"),
+    ],
+)
+def test_bad_keypoint_files_are_refused(tmp_path, name, content, message):
+    path = tmp_path / name
+    if content is None:
+        np.save(path, np.full((3, 17, 3), "a"))
+    else:
+        path.write_bytes(content)
+    code, err = _cli(["ik", str(path), "--layout", "coco17", "-o", str(tmp_path / "o.mot")])
+    assert code == 2
+    assert re.search(message, err), err
+
+
+def test_a_map_that_is_not_utf8_is_a_motion_file_error(tmp_path):
+    path = tmp_path / "map.toml"
+    path.write_bytes(MAP.encode() + b"\xff\n")
+    with pytest.raises(MotionFileError, match=r"map.toml: not TOML"):
+        read_map(path)

@@ -84,7 +84,7 @@ def mostly(data, valid, bad=junk):
     return data.draw(valid if data.draw(st.integers(0, 3)) else bad)
 
 
-@fuzz(300)
+@fuzz(120)
 @given(data=st.data())
 def test_fuzz_body_parameters(data):
     height = mostly(
@@ -97,10 +97,10 @@ def test_fuzz_body_parameters(data):
                                                                 max_size=2)))  # fmt: skip
     try:
         p = hm.BodyParameters(height, mass, sex, lengths)
+        urdf = hm.build_urdf(p)  # (a foot the toes outweigh is refused here)
     except hm.HumanoidError:
         tally("body parameters", "typed error")
         return
-    urdf = hm.build_urdf(p)
     h = hm.load(urdf)
     assert h.mass == pytest.approx(p.mass, rel=1e-9)
     assert all_finite(hm.centre_of_mass(h, h.standing_configuration()))
@@ -111,7 +111,7 @@ def test_fuzz_body_parameters(data):
 def test_fuzz_urdfs_in_a_child_process(tmp_path):
     out = tmp_path / "urdf.jsonl"
     done = subprocess.run(
-        [sys.executable, str(HERE / "fuzz_urdf_worker.py"), "600", str(out)],
+        [sys.executable, str(HERE / "fuzz_urdf_worker.py"), "400", str(out)],
         capture_output=True,
         text=True,
         timeout=900,
@@ -194,7 +194,7 @@ def test_fuzz_scenes(tmp_path_factory, name, data):
 
 
 # -- 4. states -------------------------------------------------------------------------------------
-@fuzz(400)
+@fuzz(250)
 @given(data=st.data(), which=st.sampled_from(["male", "talos"]))
 def test_fuzz_states(data, which):
     h = get_model(which, "quaternion")
@@ -352,7 +352,7 @@ argument = st.one_of(
 )
 
 
-@fuzz(300)
+@fuzz(150)
 @given(command=st.sampled_from(COMMANDS), positional=st.booleans(),
        rest=st.lists(argument, max_size=4))  # fmt: skip
 def test_fuzz_command_line(tmp_path_factory, monkeypatch, command, positional, rest):

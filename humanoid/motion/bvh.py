@@ -250,7 +250,13 @@ def read_bvh(path: str | Path, scale: float | None = None, y_up: bool = True) ->
             raise MotionFileError(f"{path}: the skeleton has no height: give its scale")
         # a rest pose's joints span about 0.85 of a stature: the unit that makes it 1.2-2.2 m
         scale = min((1.0, 0.01, 0.0254, 0.001), key=lambda s: abs(math.log(height * s / 1.5)))
-    pos = _positions(joints, values) * scale
+    with np.errstate(over="ignore", invalid="ignore"):
+        pos = _positions(joints, values) * scale
+    if not np.all(np.isfinite(pos)):
+        raise MotionFileError(
+            f"{path}: the joints' positions overflow (a channel's value or an offset too "
+            "large for a body)"
+        )
     if y_up:
         pos = pos @ OPENSIM_TO_OURS.T
     names = [_marker_name(j.name) for j in joints]

@@ -79,9 +79,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import require
+from .c3d_file import open_c3d
 from .loads import OPENSIM_TO_OURS, Load
-from .storage import MotionFileError
+from .storage import MAX_RATE, MotionFileError
 
 __all__ = [
     "FOOT_NAMES",
@@ -151,15 +151,10 @@ class Plate:
 
 
 def _open(path: str | Path):
-    ezc3d = require("ezc3d", "reading a C3D file")
-
     path = Path(path)
     if not path.exists():
         raise MotionFileError(f"C3D file not found: {path}")
-    try:
-        return ezc3d.c3d(str(path))
-    except Exception as exc:  # noqa: BLE001 - ezc3d raises RuntimeError, ValueError ...
-        raise MotionFileError(f"cannot read {path} as C3D: {exc}") from None
+    return open_c3d(path)
 
 
 def _values(group: dict, name: str) -> np.ndarray | list | None:
@@ -316,8 +311,9 @@ def _plates_of(c, path: Path, y_up, threshold: float, release: float) -> list[Pl
     signals = data[0]  # (channels, samples); ezc3d applied OFFSET, SCALE and GEN_SCALE
     rate_v = _values(analog, "RATE")
     rate = float(np.ravel(rate_v)[0]) if rate_v is not None and np.size(rate_v) else 0.0
-    if not rate > 0.0:
-        raise MotionFileError(f"{path}: ANALOG:RATE is {rate}: the plates' times are unknown")
+    if not 0.0 < rate <= MAX_RATE:
+        raise MotionFileError(f"{path}: ANALOG:RATE is {rate}: the plates' times are unknown "
+                              f"(a rate in (0, {MAX_RATE:g}] Hz)")  # fmt: skip
     point_rate = float(np.ravel(params["POINT"]["RATE"]["value"])[0])
     first = int(c["header"]["points"]["first_frame"])
     start = first / point_rate if point_rate > 0 else 0.0
@@ -364,6 +360,11 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
         )
     ch = signals[numbers - 1].T  # (n, need)
     ch_units = [units[x - 1] for x in numbers]
+    bad = [int(x) for x in numbers if not np.all(np.isfinite(signals[x - 1]))]
+    if bad:
+        raise MotionFileError(f"{path}: plate {index}'s analog channel(s) {bad} have "
+                              "non-finite samples (or ANALOG:SCALE, OFFSET, GEN_SCALE are not "
+                              "finite)")  # fmt: skip
     R = _axes(corners)
     if R is None:
         warnings.warn(
@@ -373,6 +374,15 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
             stacklevel=3,
         )
         return None
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _placed(path, fp, k, used, kind, index, ch, ch_units, length, corners, origin,
+                       R, A, time, threshold, release)  # fmt: skip
+
+
+def _placed(path, fp, k, used, kind, index, ch, ch_units, length, corners, origin, R, A, time,
+            threshold, release) -> Plate:  # fmt: skip
+    """The rest of :func:`_plate`: its force, centre of pressure and free moment (refused if
+    they overflow: a calibration or scale too large)."""
     centre = corners.mean(axis=0)
     o = origin
     if kind == 1:  # the centre of pressure and the free moment as channels
@@ -390,6 +400,10 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
         fz = np.where(contact, F[:, 2], 1.0)
         r = np.column_stack([-MP[:, 1] / fz, MP[:, 0] / fz, np.zeros(len(F))])
         T = MP[:, 2] - (r[:, 0] * F[:, 1] - r[:, 1] * F[:, 0])
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(np.where(contact, T, 0.0)))):
+        raise MotionFileError(f"{path}: plate {index}'s force or moment is not finite "
+                              "(FORCE_PLATFORM:CAL_MATRIX, ANALOG:SCALE or the channels "
+                              "overflow)")  # fmt: skip
     cop = centre + r @ R.T
     cop[~contact] = np.nan
     free = np.where(contact, T, 0.0)[:, None] * R[:, 2]
@@ -400,7 +414,7 @@ def _plate(path, fp, k, used, kind, channel_all, signals, units, length, corners
             f"(mean {np.mean(force[contact, 2]):.0f} N): the file may hold the force on the "
             "plate rather than on the subject; read as recorded",
             PlateWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
     return Plate(
         index=index, type=kind, corners=corners @ A.T, origin=A @ (centre - R @ o),
@@ -464,6 +478,8 @@ def _per_plate(path, fp: dict, name: str, shape: tuple, used: int, what: str) ->
         raise MotionFileError(
             f"{path}: FORCE_PLATFORM:{name} must be {dims} ({what} per plate), got shape {a.shape}"
         )
+    if not np.all(np.isfinite(a)):
+        raise MotionFileError(f"{path}: FORCE_PLATFORM:{name} has non-finite values")
     return a.reshape(-1, order="F").reshape((*shape, -1), order="F")
 
 
@@ -732,5 +748,7 @@ def read_events(path: str | Path) -> list[tuple[float, str, str]]:
     contexts, labels = _strings(group, "CONTEXTS"), _strings(group, "LABELS")
     contexts += [""] * (used - len(contexts))  # (some writers leave them out)
     labels += [""] * (used - len(labels))
+    if not np.all(np.isfinite(times[:, :used])):
+        raise MotionFileError(f"{path}: EVENT:TIMES has non-finite values")
     out = [(float(60.0 * times[0, i] + times[1, i]), contexts[i], labels[i]) for i in range(used)]
     return sorted(out, key=lambda e: e[0])

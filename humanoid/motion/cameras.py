@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import CameraError, KeypointError
 from .markers import KEYPOINT_LAYOUTS, MarkerTrajectories
 from .storage import MotionFileError, read_toml
 
@@ -162,7 +162,7 @@ def look_at(name: str, eye, target, size=(1920, 1080), focal: float = 1400.0,
     forward /= np.linalg.norm(forward)
     right = np.cross(forward, [0.0, 0.0, 1.0])
     if np.linalg.norm(right) < 1e-9:
-        raise HumanoidError(f"camera {name!r} looks straight up or down: give another target")
+        raise CameraError(f"camera {name!r} looks straight up or down: give another target")
     right /= np.linalg.norm(right)
     down = np.cross(forward, right)
     R = np.array([right, down, forward])  # rows: the camera's axes in the world
@@ -271,19 +271,19 @@ class CameraKeypoints:
         c, n, k = len(self.cameras), len(self.time), len(self.names)
         what = self.source or "keypoints"
         if self.uv.shape != (c, n, k, 2) or self.confidence.shape != (c, n, k):
-            raise HumanoidError(
+            raise KeypointError(
                 f"{what}: uv must be (cameras, frames, points, 2) = ({c}, {n}, {k}, 2) and "
                 f"confidence ({c}, {n}, {k}); got {self.uv.shape} and {self.confidence.shape}"
             )
         if n and (not np.all(np.isfinite(self.time)) or np.any(np.diff(self.time) <= 0)):
-            raise HumanoidError(f"{what}: times must be finite and increasing")
+            raise KeypointError(f"{what}: times must be finite and increasing")
         bad = ~np.isfinite(self.confidence) | (self.confidence < 0)
         self.confidence = np.where(bad, 0.0, np.minimum(self.confidence, 1.0))
         unseen = (self.confidence <= 0) | ~np.all(np.isfinite(self.uv), axis=-1)
         self.uv = np.where(unseen[..., None], np.nan, self.uv)
         self.confidence = np.where(unseen, 0.0, self.confidence)
         if n and not np.any(self.confidence > 0):
-            raise HumanoidError(f"{what}: every keypoint has confidence 0: nothing was seen")
+            raise KeypointError(f"{what}: every keypoint has confidence 0: nothing was seen")
 
     @property
     def rate(self) -> float:
@@ -297,13 +297,13 @@ def camera_keypoints(time, uv, confidence, layout: str, cameras, source: str = "
     known ``layout``, named as the default marker set (points without a match dropped);
     points at or below ``threshold`` confidence are not seen."""
     if layout not in KEYPOINT_LAYOUTS:
-        raise HumanoidError(
+        raise KeypointError(
             f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
         )
     names = KEYPOINT_LAYOUTS[layout]
     uv, conf = np.asarray(uv, dtype=float), np.asarray(confidence, dtype=float)
     if uv.ndim != 4 or uv.shape[2:] != (len(names), 2):
-        raise HumanoidError(f"{source or 'keypoints'}: {layout} keypoints must be (cameras, "
+        raise KeypointError(f"{source or 'keypoints'}: {layout} keypoints must be (cameras, "
                             f"frames, {len(names)}, 2), got {uv.shape}")  # fmt: skip
     keep = [i for i, n in enumerate(names) if n is not None]
     conf = np.where(conf > threshold, conf, 0.0)
@@ -340,9 +340,9 @@ def read_openpose(folder: str | Path, layout: str, rate: float, threshold: float
             the layout's, cameras with different frame counts.
     """
     if not (math.isfinite(rate) and rate > 0):
-        raise HumanoidError(f"rate must be a positive number of frames per second, got {rate}")
+        raise KeypointError(f"rate must be a positive number of frames per second, got {rate}")
     if layout not in KEYPOINT_LAYOUTS:
-        raise HumanoidError(
+        raise KeypointError(
             f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
         )
     k = len(KEYPOINT_LAYOUTS[layout])
@@ -412,14 +412,14 @@ def match_cameras(keypoints: CameraKeypoints, cameras: list[Camera],
     n-th camera folder is the calibration's n-th camera).
 
     Raises:
-        HumanoidError: the counts differ.
+        CameraError: the counts differ.
     Warns:
         CameraWarning: a camera whose seen points fall outside its image in more than
             :data:`OUTSIDE` of them (the calibration is another's, or the order is wrong),
             or a camera that saw nothing.
     """
     if len(cameras) != len(keypoints.cameras):
-        raise HumanoidError(
+        raise CameraError(
             f"{calibration} has {len(cameras)} cameras ({', '.join(c.name for c in cameras)}), "
             f"{keypoints.source or 'the keypoints'} {len(keypoints.cameras)} "
             f"({', '.join(keypoints.cameras)})"

@@ -8,11 +8,13 @@ matplotlib only when a command runs.
 from __future__ import annotations
 
 import time as clock
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import HumanoidError, UsageError
+from .storage import MotionFileError
 
 __all__ = [
     "markers_file",
@@ -44,14 +46,26 @@ def subject_body(args):
     given = [x is not None for x in (args.height, args.mass, args.sex)]
     if any(given):
         if not all(given):
-            raise HumanoidError("--height, --mass and --sex go together (a person's body)")
+            raise UsageError("--height, --mass and --sex go together (a person's body)")
         if args.model is not None:
-            raise HumanoidError("give either --model or --height/--mass/--sex, not both")
+            raise UsageError("give either --model or --height/--mass/--sex, not both")
         params = BodyParameters(args.height, args.mass, args.sex)
         return load(build_urdf(params)), f"{args.sex}, {args.height} m, {args.mass} kg"
     name = args.model or "adult_male"
     h = load(name)
     return h, f"{name} ({h.mass:.1f} kg)"
+
+
+MAX_SPEED = 15.0  # [m/s] a person's walk or run (a treadmill's belt) is slower
+MAX_MASS = 500.0  # [kg]
+MAX_FORCE = 1e5  # [N] a contact threshold above it is no force plate's
+
+
+def in_range(option: str, value: float | None, largest: float, unit: str) -> None:
+    """Raise UsageError naming ``option`` unless ``value`` is None or a number in
+    (0, ``largest``] [``unit``]."""
+    if value is not None and not 0.0 < value <= largest:
+        raise UsageError(f"{option} {value}: a number in (0, {largest:g}] {unit}")
 
 
 def _map(args, table=None):
@@ -63,7 +77,7 @@ def _map(args, table=None):
         return MAPS[args.map]
     if Path(args.map).suffix.lower() == ".toml":
         return read_map(args.map)
-    raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)} or a TOML file of your own")
+    raise UsageError(f"--map {args.map}: one of {', '.join(MAPS)} or a TOML file of your own")
 
 
 def _sides(pairs) -> dict | None:
@@ -73,7 +87,7 @@ def _sides(pairs) -> dict | None:
     for text in pairs:
         prefix, sep, side = text.partition("=")
         if not sep or side not in ("left", "right"):
-            raise HumanoidError(f"--loads-side expects PREFIX=left or PREFIX=right, got {text!r}")
+            raise UsageError(f"--loads-side expects PREFIX=left or PREFIX=right, got {text!r}")
         out[prefix] = side
     return out
 
@@ -87,7 +101,7 @@ def read_loads_file(path, sides=None, xml=None) -> list:
 
     if Path(path).suffix.lower() == ".c3d":
         if sides or xml:
-            raise HumanoidError(
+            raise UsageError(
                 f"{path}: --loads-side and --loads-xml name the feet of a .mot's loads; a "
                 "C3D's plates are given to the feet by its markers"
             )
@@ -95,7 +109,7 @@ def read_loads_file(path, sides=None, xml=None) -> list:
 
         loads = c3d_loads(path)[1]
         if not loads:
-            raise HumanoidError(f"{path}: no plate contact could be given to a foot")
+            raise MotionFileError(f"{path}: no plate contact could be given to a foot")
         return loads
     return read_loads(path, sides, xml)
 
@@ -125,7 +139,7 @@ def read_motion(args):
                 args.model = run.metadata.get("model")
             h, what = subject_body(args)
         if run.q.shape[1] != h.nq:
-            raise HumanoidError(
+            raise UsageError(
                 f"{path}: its configurations have {run.q.shape[1]} entries, the body "
                 f"{what} {h.nq}: give the body the run was made with (--model)"
             )
@@ -341,11 +355,11 @@ def _camera_keypoints(args, path):
     from .markers import KEYPOINT_LAYOUTS
 
     if args.layout is None:
-        raise HumanoidError(f"{path}: 2D keypoints need --layout "
-                            f"({', '.join(KEYPOINT_LAYOUTS)})")  # fmt: skip
+        raise UsageError(f"{path}: 2D keypoints need --layout "
+                         f"({', '.join(KEYPOINT_LAYOUTS)})")  # fmt: skip
     if not Path(path).is_dir():
-        raise HumanoidError(f"{path}: with --calibration, the keypoints are a folder of "
-                            f"OpenPose .json folders, one per camera")  # fmt: skip
+        raise UsageError(f"{path}: with --calibration, the keypoints are a folder of "
+                         f"OpenPose .json folders, one per camera")  # fmt: skip
     keypoints = read_openpose(path, args.layout, args.rate or 30.0)
     cameras = read_calibration(args.calibration)
     return keypoints, match_cameras(keypoints, cameras, args.calibration)
@@ -361,7 +375,7 @@ def markers_file(path, args):
     suffix = path.suffix.lower()
     rate = getattr(args, "rate", None)
     if rate is not None and not 0.0 < rate <= MAX_RATE:
-        raise HumanoidError(f"--rate {rate}: a frame rate in (0, {MAX_RATE:g}] Hz")
+        raise UsageError(f"--rate {rate}: a frame rate in (0, {MAX_RATE:g}] Hz")
     if suffix == ".trc":
         return read_trc(path)
     if suffix == ".c3d":
@@ -372,22 +386,22 @@ def markers_file(path, args):
         return read_bvh(path)
     if suffix in (".npy", ".npz"):
         if args.layout is None:
-            raise HumanoidError(f"{path}: keypoints need --layout ({', '.join(KEYPOINT_LAYOUTS)})")
+            raise UsageError(f"{path}: keypoints need --layout ({', '.join(KEYPOINT_LAYOUTS)})")
         try:
             loaded = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise HumanoidError(f"cannot read {path}: {exc}") from None
-        if suffix == ".npz":
-            if "points" not in loaded.files:
-                raise HumanoidError(f"{path}: no 'points' array (frames, k, 3)")
-            points = loaded["points"]
-            time = loaded["time"] if "time" in loaded.files else None
-        else:
-            points, time = loaded, None
+            if suffix == ".npz":
+                if "points" not in loaded.files:
+                    raise MotionFileError(f"{path}: no 'points' array (frames, k, 3)")
+                points = loaded["points"]
+                time = loaded["time"] if "time" in loaded.files else None
+            else:
+                points, time = loaded, None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            raise MotionFileError(f"cannot read {path}: {exc}") from None
         if time is None:
             time = np.arange(len(points)) / (args.rate or 30.0)
         return keypoints(time, points, args.layout, y_up=args.y_up, source=str(path))
-    raise HumanoidError(f"{path}: markers are .trc, .c3d, .bvh, or keypoints in .npy/.npz")
+    raise MotionFileError(f"{path}: markers are .trc, .c3d, .bvh, or keypoints in .npy/.npz")
 
 
 def marker_set_of(h, markers, choice, crop: bool = True):
@@ -455,7 +469,7 @@ def run_ik(args) -> int:
     from .storage import write_csv, write_storage
 
     if args.map not in (None, *MAPS):
-        raise HumanoidError(f"--map {args.map}: one of {', '.join(MAPS)}")
+        raise UsageError(f"--map {args.map}: one of {', '.join(MAPS)}")
     markers, cameras, h, what, marker_set, register, static = fit_input(args, args.markers)
     bar = tqdm(total=len(markers.time) * (2 if register and not args.static else 1),
                unit="frame",
@@ -778,8 +792,8 @@ def _plate_sides(pairs) -> dict[int, str] | None:
     for text in pairs:
         plate, sep, side = text.partition("=")
         if not sep or side not in ("left", "right") or not plate.strip().isdigit():
-            raise HumanoidError(f"--plate-side expects PLATE=left or PLATE=right (PLATE: its "
-                                f"number, 1 for the first), got {text!r}")  # fmt: skip
+            raise UsageError(f"--plate-side expects PLATE=left or PLATE=right (PLATE: its "
+                             f"number, 1 for the first), got {text!r}")  # fmt: skip
         out[int(plate)] = side
     return out
 
@@ -817,11 +831,11 @@ def run_loads(args) -> int:
             for t, context, label in events[:8]
         ) + (" ..." if len(events) > 8 else ""))  # fmt: skip
     if not contacts:
-        raise HumanoidError(f"{path}: no plate has a contact above {args.threshold:g} N "
-                            "(--threshold)")  # fmt: skip
+        raise MotionFileError(f"{path}: no plate has a contact above {args.threshold:g} N "
+                         "(--threshold)")  # fmt: skip
     if not loads:
-        raise HumanoidError(f"{path}: no plate contact could be given to a foot; name them "
-                            "(--plate-side 1=left)")  # fmt: skip
+        raise MotionFileError(f"{path}: no plate contact could be given to a foot; name them "
+                         "(--plate-side 1=left)")  # fmt: skip
     written = write_loads(out, loads, name=f"{path.stem} ground reaction")
     print(f"loads        {', '.join(f'{x.body} ({x.name})' for x in loads)}")
     print(f"wrote        {written} and {written.with_suffix('.xml')}")
@@ -849,12 +863,12 @@ def _scale_mass(args, markers, marker_set) -> tuple[float, str]:
         try:
             return float(args.mass), ""
         except ValueError:
-            raise HumanoidError(f"--mass {args.mass}: a mass in kg, or auto (from a C3D's "
-                                "force plates)") from None  # fmt: skip
+            raise UsageError(f"--mass {args.mass}: a mass in kg, or auto (from a C3D's "
+                             "force plates)") from None  # fmt: skip
     if Path(args.static).suffix.lower() != ".c3d":
-        raise HumanoidError(f"--mass auto weighs the subject on a C3D's force plates; "
-                            f"{Path(args.static).name} is not a C3D: give the mass "
-                            "in kg")  # fmt: skip
+        raise UsageError(f"--mass auto weighs the subject on a C3D's force plates; "
+                         f"{Path(args.static).name} is not a C3D: give the mass "
+                         "in kg")  # fmt: skip
     from .c3d import read_plates
     from .scale_walk import plate_mass
 
@@ -961,7 +975,10 @@ def run_report(args) -> int:
     from .marker_sets import MarkerSetWarning
 
     if args.marker_set and Path(args.trial).suffix.lower() != ".c3d":
-        raise HumanoidError(f"{args.trial}: --marker-set goes with a C3D trial's markers")
+        raise UsageError(f"{args.trial}: --marker-set goes with a C3D trial's markers")
+    in_range("--speed", args.speed, MAX_SPEED, "m/s")
+    in_range("--mass", args.mass, MAX_MASS, "kg")
+    in_range("--threshold", args.threshold, MAX_FORCE, "N")
     mass = args.mass
     if args.mass is not None and args.height is None and args.sex is None:
         args.mass = None  # the subject's mass alone: the moments' divisor, on the default body
@@ -969,7 +986,7 @@ def run_report(args) -> int:
     path = Path(args.trial)
     c3d = path.suffix.lower() == ".c3d"
     if c3d and (args.moments or args.loads or args.events):
-        raise HumanoidError(
+        raise UsageError(
             f"{path}: a C3D trial is its own markers, plates and events; --moments, --loads "
             "and --events go with a coordinates file"
         )
@@ -987,9 +1004,9 @@ def run_report(args) -> int:
                 and Path(args.loads).suffix.lower() == ".c3d"
                 and (args.loads_side or args.loads_xml)
             ):
-                raise HumanoidError(f"{args.loads}: --loads-side and --loads-xml name the feet "
-                                    "of a .mot's loads; a C3D's plates are given to the feet "
-                                    "by its markers")  # fmt: skip
+                raise UsageError(f"{args.loads}: --loads-side and --loads-xml name the feet "
+                                 "of a .mot's loads; a C3D's plates are given to the feet "
+                                 "by its markers")  # fmt: skip
             trial = read_trial(h, path, args.moments, args.loads, args.events, cmap=cmap,
                                mass=mass, speed=args.speed, sides=_sides(args.loads_side),
                                xml=args.loads_xml, floor=not args.no_floor,

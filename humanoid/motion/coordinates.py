@@ -71,7 +71,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import CoordinateMapError, HumanoidError
 from .storage import MotionFileError, Table, read_toml
 
 __all__ = [
@@ -100,7 +100,7 @@ def _axis(text: str) -> np.ndarray:
     sign = -1.0 if text.startswith("-") else 1.0
     name = text.lstrip("+-")
     if name not in _AXES:
-        raise HumanoidError(f"an axis is one of x, y, z with an optional sign, got {text!r}")
+        raise CoordinateMapError(f"an axis is one of x, y, z with an optional sign, got {text!r}")
     a = np.zeros(3)
     a[_AXES[name]] = sign
     return a
@@ -252,20 +252,22 @@ def read_map(path: str | Path) -> CoordinateMap:
     """A user map from TOML (see the module docstring).
 
     Raises:
-        HumanoidError: missing file, bad TOML, a joint without columns, axes and columns of
+        CoordinateMapError: missing file, bad TOML, a joint without columns, axes and columns of
             different lengths, an axis that is not one of x, y, z.
     """
     path = Path(path)
     spec = read_toml(path, "map file")
     unknown = set(spec) - {"name", "root", "joints", "ignored"}
     if unknown:
-        raise HumanoidError(f"{path}: unknown keys {sorted(unknown)} (name, root, joints, ignored)")
+        raise CoordinateMapError(
+            f"{path}: unknown keys {sorted(unknown)} (name, root, joints, ignored)"
+        )
     root = spec.get("root")
     if not isinstance(root, dict):
-        raise HumanoidError(f"{path}: a [root] table is required (rotation, translation ...)")
+        raise CoordinateMapError(f"{path}: a [root] table is required (rotation, translation ...)")
     for key in ("rotation", "rotation_axes", "translation", "translation_axes"):
         if key not in root:
-            raise HumanoidError(f"{path}: [root] needs {key!r}")
+            raise CoordinateMapError(f"{path}: [root] needs {key!r}")
     root_map = RootMap(
         _texts(path, "root.rotation", root["rotation"]),
         _texts(path, "root.rotation_axes", root["rotation_axes"]),
@@ -276,11 +278,11 @@ def read_map(path: str | Path) -> CoordinateMap:
     joints = []
     table = spec.get("joints") or {}
     if not isinstance(table, dict):
-        raise HumanoidError(f"{path}: joints must be tables [joints.NAME]")
+        raise CoordinateMapError(f"{path}: joints must be tables [joints.NAME]")
     for name, j in table.items():
         where = f"joints.{name}"
         if not isinstance(j, dict):
-            raise HumanoidError(f"{path}: {where} must be a table (columns, axes or signs)")
+            raise CoordinateMapError(f"{path}: {where} must be a table (columns, axes or signs)")
         cols = _texts(path, f"{where}.columns", j.get("columns", ()))
         names = _texts(path, f"{where}.joints", j["joints"]) if "joints" in j else (name,)
         jm = JointMap(
@@ -290,7 +292,7 @@ def read_map(path: str | Path) -> CoordinateMap:
             _numbers(path, f"{where}.signs", j.get("signs", ())),
         )
         if not cols or len(jm.axes or jm.signs) != len(cols) or (jm.axes and jm.signs):
-            raise HumanoidError(
+            raise CoordinateMapError(
                 f"{path}: joints.{name}: give 'columns' and, one per column, 'axes' (a ball "
                 "joint) or 'signs' (a one-axis joint)"
             )
@@ -302,10 +304,10 @@ def read_map(path: str | Path) -> CoordinateMap:
             try:
                 _axis(a)
             except HumanoidError as exc:
-                raise HumanoidError(f"{path}: {jm.joints[0]}: {exc}") from None
+                raise CoordinateMapError(f"{path}: {jm.joints[0]}: {exc}") from None
     name = spec.get("name", path.stem)
     if not isinstance(name, str):
-        raise HumanoidError(f"{path}: name must be a string, got {name!r}")
+        raise CoordinateMapError(f"{path}: name must be a string, got {name!r}")
     return CoordinateMap(name, root_map, tuple(joints),
                          _texts(path, "ignored", spec.get("ignored", ())))  # fmt: skip
 
@@ -314,9 +316,9 @@ def _texts(path, key: str, value, n: int | None = None) -> tuple[str, ...]:
     """``value`` as a tuple of strings (of ``n``, if given); HumanoidError naming the file and
     ``key`` if it is not a list of strings."""
     if not isinstance(value, list | tuple) or not all(isinstance(x, str) for x in value):
-        raise HumanoidError(f"{path}: {key} must be a list of strings, got {value!r}")
+        raise CoordinateMapError(f"{path}: {key} must be a list of strings, got {value!r}")
     if n is not None and len(value) != n:
-        raise HumanoidError(f"{path}: {key} must have {n} entries, got {len(value)}")
+        raise CoordinateMapError(f"{path}: {key} must have {n} entries, got {len(value)}")
     return tuple(value)
 
 
@@ -328,7 +330,7 @@ def _numbers(path, key: str, value, n: int | None = None) -> tuple[float, ...]:
     )
     if not ok or (n is not None and len(value) != n):
         size = f"{n} " if n is not None else "a list of "
-        raise HumanoidError(f"{path}: {key} must be {size}finite numbers, got {value!r}")
+        raise CoordinateMapError(f"{path}: {key} must be {size}finite numbers, got {value!r}")
     return tuple(float(x) for x in value)
 
 
@@ -347,14 +349,14 @@ def _angles(R: np.ndarray, axes) -> np.ndarray:
     vecs = [_axis(a) for a in axes]
     letters = "".join("XYZ"[int(np.flatnonzero(v)[0])] for v in vecs)
     if len(set(letters)) != 3:
-        raise HumanoidError(f"a rotation sequence needs three different axes, got {axes}")
+        raise CoordinateMapError(f"a rotation sequence needs three different axes, got {axes}")
     signs = np.array([v.sum() for v in vecs])
     return Rotation.from_matrix(R).as_euler(letters) * signs
 
 
 def _joint(model, name: str) -> int:
     if not model.existJointName(name):
-        raise HumanoidError(
+        raise CoordinateMapError(
             f"the map names joint {name!r}, which this body does not have: the built-in maps "
             "are for the toolkit's bodies (humanoid build); give a map of your own (TOML)"
         )
@@ -366,7 +368,9 @@ def _set_rotation(model, q, joint: int, R: np.ndarray) -> None:
     if j.nq == 4:  # a ball joint: its quaternion (x, y, z, w)
         q[j.idx_q : j.idx_q + 4] = pin.Quaternion(R).coeffs()
     else:
-        raise HumanoidError(f"joint {model.names[joint]!r} is not a ball joint ({j.shortname()})")
+        raise CoordinateMapError(
+            f"joint {model.names[joint]!r} is not a ball joint ({j.shortname()})"
+        )
 
 
 def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor: bool = True,
@@ -387,7 +391,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         posture.
 
     Raises:
-        HumanoidError: a mapped joint missing from the body; MotionFileError: a column the
+        CoordinateMapError: a mapped joint missing from the body; MotionFileError: a column the
             map needs missing from the file (the root's rotation and translation are needed).
     """
     model = h.model
@@ -438,6 +442,14 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
         else:
             for j, s in zip(ids, jm.signs, strict=False):
                 q[:, model.joints[j].idx_q] = s * values[:, 0]
+    for c in sorted(used):
+        gaps = np.flatnonzero(np.isnan(cols[c]))
+        if gaps.size:
+            raise MotionFileError(
+                f"{table.source or 'the motion'}: column {c!r} is NaN at {gaps.size} samples "
+                f"(first at {table.time[gaps[0]]:g} s): a coordinate needs a value at every "
+                "sample (fill the gaps first)"
+            )
     _set_root(q, cols, cmap.root, scale)
     if floor:
         q[:, 2] -= lowest_sole_point(h, q)

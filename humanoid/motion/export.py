@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import HumanoidError
+from ..errors import TrajectoryError
 from .coordinates import coordinates_table
 from .loads import Load, write_loads
 from .storage import write_storage
@@ -19,7 +19,7 @@ def write_opensim(h, run, path: str | Path, cmap="rajagopal") -> list[Path]:
     as they are). Returns the files written."""
     path = Path(path)
     if run.q.shape[1] != h.nq:
-        raise HumanoidError(f"the run's configurations are not {h.source}'s ({h.nq} entries)")
+        raise TrajectoryError(f"the run's configurations are not {h.source}'s ({h.nq} entries)")
     written = [write_storage(path, coordinates_table(h, run.t, run.q, cmap))]
     sides = [s for s in ("left", "right") if f"ground_{s}" in run.forces]
     if sides:

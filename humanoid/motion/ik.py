@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import IKError
 from .inverse_dynamics import joint_labels
 from .markers import MAX_WEIGHT, Marker, MarkerTrajectories
 
@@ -332,16 +332,16 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         UnconstrainedWarning: coordinates no marker sees (:attr:`IKResult.unconstrained`).
 
     Raises:
-        HumanoidError: no marker in common, a marker on a frame the body does not have, a frame
+        IKError: no marker in common, a marker on a frame the body does not have, a frame
             with fewer than 3 markers seen in total for the first frame.
     """
     from .cameras import CameraKeypoints
 
     if isinstance(markers, CameraKeypoints) != (cameras is not None):
-        raise HumanoidError("2D keypoints (CameraKeypoints) need their cameras, and cameras "
-                            "need 2D keypoints")  # fmt: skip
+        raise IKError("2D keypoints (CameraKeypoints) need their cameras, and cameras "
+                      "need 2D keypoints")  # fmt: skip
     if cameras is not None and (register or static is not None):
-        raise HumanoidError("registering technical markers needs 3D markers, not 2D keypoints")
+        raise IKError("registering technical markers needs 3D markers, not 2D keypoints")
     single = cameras is not None and len(cameras) == 1  # (the defaults of one view)
     if ground is None:
         ground = SINGLE_VIEW_GROUND if single else 0.0
@@ -355,8 +355,8 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
     names = [n for n in markers.names if n in marker_set]
     heavy = [n for n in names if not 0.0 <= marker_set[n].weight <= MAX_WEIGHT]
     if heavy:
-        raise HumanoidError(f"marker {heavy[0]!r}: weight {marker_set[heavy[0]].weight} must be "
-                            f"in [0, {MAX_WEIGHT:g}]")  # fmt: skip
+        raise IKError(f"marker {heavy[0]!r}: weight {marker_set[heavy[0]].weight} must be "
+                      f"in [0, {MAX_WEIGHT:g}]")  # fmt: skip
     if smoothing is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
         smoothing = SINGLE_VIEW_SMOOTHING if single else smoothing
@@ -422,11 +422,11 @@ def _check_settings(**settings) -> None:
             or not isinstance(value, int | float | np.number)
             or not (0.0 <= float(value) <= MAX_SETTING)
         ):
-            raise HumanoidError(f"inverse kinematics: {key} must be a number in "
-                                f"[0, {MAX_SETTING:g}], got {value!r}")  # fmt: skip
+            raise IKError(f"inverse kinematics: {key} must be a number in "
+                          f"[0, {MAX_SETTING:g}], got {value!r}")  # fmt: skip
     if settings.get("iterations") is not None and int(settings["iterations"]) < 1:
-        raise HumanoidError(f"inverse kinematics: iterations must be at least 1, got "
-                            f"{settings['iterations']!r}")  # fmt: skip
+        raise IKError(f"inverse kinematics: iterations must be at least 1, got "
+                      f"{settings['iterations']!r}")  # fmt: skip
 
 
 def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: dict,
@@ -466,7 +466,7 @@ def _centroid_shift(points, seen, P, i: int, time: float) -> np.ndarray:
     """The mean of ``points - P`` over the seen, finite points (at least 3) of frame ``i``."""
     ok = np.all(np.isfinite(points), axis=1) & seen
     if ok.sum() < 3:
-        raise HumanoidError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
+        raise IKError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
     return (points[ok] - P[ok]).mean(axis=0)
 
 
@@ -533,7 +533,7 @@ class _Views:
 
         ok = seen & (self.conf[0, i] > 0)
         if ok.sum() < 3:
-            raise HumanoidError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
+            raise IKError(f"frame {i} ({time:.3f} s): fewer than 3 markers seen")
         return place_on_rays(self.cameras[0], self.uv[0, i, ok], P[ok])
 
     def ray(self, point) -> np.ndarray:
@@ -598,15 +598,15 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     data = model.createData()
     names = [n for n in markers.names if n in marker_set]
     if not names:
-        raise HumanoidError(
+        raise IKError(
             f"no marker of {markers.source or 'the trajectories'} is in the marker set "
             f"(the file's: {', '.join(markers.names[:10])}; the set's: "
             f"{', '.join(list(marker_set)[:10])})"
         )
     for n in names:
         if not model.existFrame(marker_set[n].frame):
-            raise HumanoidError(f"marker {n!r} is on frame {marker_set[n].frame!r}, which "
-                                f"{h.source} does not have")  # fmt: skip
+            raise IKError(f"marker {n!r} is on frame {marker_set[n].frame!r}, which "
+                          f"{h.source} does not have")  # fmt: skip
     frames = [model.getFrameId(marker_set[n].frame) for n in names]
     offsets = np.array([marker_set[n].offset for n in names])
     weights = np.array([marker_set[n].weight for n in names])

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ConfigurationError, HumanoidError
+from ..errors import ConfigurationError, InverseDynamicsError
 from ..model import SIDES
 from .coordinates import lowest_sole_point
 from .loads import Load
@@ -87,7 +87,9 @@ class InverseDynamics:
         try:
             return self.tau[:, self.labels.index(label)]
         except ValueError:
-            raise HumanoidError(f"no coordinate {label!r}; the labels: {self.labels}") from None
+            raise InverseDynamicsError(
+                f"no coordinate {label!r}; the labels: {self.labels}"
+            ) from None
 
 
 def joint_labels(model: pin.Model, root=("fx", "fy", "fz", "mx", "my", "mz")) -> list[str]:
@@ -154,13 +156,13 @@ def lowpass(x: np.ndarray, rate: float, cutoff: float) -> np.ndarray:
     from scipy.signal import butter, filtfilt
 
     if not 0.0 < cutoff < rate / 2.0:
-        raise HumanoidError(
+        raise InverseDynamicsError(
             f"the filter's cutoff must be between 0 and half the rate ({rate / 2:g} Hz), got "
             f"{cutoff:g} Hz"
         )
     b, a = butter(2, cutoff / (rate / 2.0))
     if len(x) <= 3 * max(len(a), len(b)):
-        raise HumanoidError(f"{len(x)} samples are too few to filter (at least 10)")
+        raise InverseDynamicsError(f"{len(x)} samples are too few to filter (at least 10)")
     return filtfilt(b, a, x, axis=0)
 
 
@@ -180,11 +182,11 @@ def residual_cutoff(model, time, q) -> float:
     x = np.array([pin.difference(model, q[0], qi) for qi in q])
     x = x[:, np.std(x, axis=0) > 1e-9]
     if x.shape[1] == 0:
-        raise HumanoidError("the motion does not move: no cutoff to find")
+        raise InverseDynamicsError("the motion does not move: no cutoff to find")
     cutoffs = np.arange(1.0, 0.45 * rate, 0.25)
     if len(cutoffs) < 8:
-        raise HumanoidError(f"a motion at {rate:.1f} Hz is too slow for a residual analysis "
-                            f"(at least 7 Hz)")  # fmt: skip
+        raise InverseDynamicsError(f"a motion at {rate:.1f} Hz is too slow for a residual analysis "
+                                   f"(at least 7 Hz)")  # fmt: skip
     residual = np.array([np.sqrt(np.mean((x - lowpass(x, rate, f)) ** 2, axis=0))
                          for f in cutoffs])  # fmt: skip
     noise = cutoffs >= cutoffs[len(cutoffs) // 2]
@@ -215,9 +217,9 @@ def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
     if not np.all(np.isfinite(q)) or not np.all(np.isfinite(time)):
         raise ConfigurationError("the motion has non-finite entries")
     if len(time) < 3:
-        raise HumanoidError(f"a motion needs at least 3 samples, got {len(time)}")
+        raise InverseDynamicsError(f"a motion needs at least 3 samples, got {len(time)}")
     if not np.all(np.diff(time) > 0):
-        raise HumanoidError("the motion's time must increase")
+        raise InverseDynamicsError("the motion's time must increase")
     check_rate(time, "the motion")
     gap = int(np.argmax(np.diff(time)))
     if time[gap + 1] - time[gap] > MAX_GAP:
@@ -237,14 +239,14 @@ def derivatives(model, time, q, *, cutoff: float | str | None = 6.0,
     (time, q, v, a) on a uniform grid. ``cutoff``: [Hz], None (unfiltered) or ``"auto"``
     (:func:`residual_cutoff` of the resampled motion)."""
     if velocity not in ("central", "backward"):
-        raise HumanoidError(f"velocity must be 'central' or 'backward', got {velocity!r}")
+        raise InverseDynamicsError(f"velocity must be 'central' or 'backward', got {velocity!r}")
     time, q = _checked(model, time, q)
     slots = quaternion_slots(model)
     rate = float(rate) if rate is not None else (len(time) - 1) / (time[-1] - time[0])
     if not 0.0 < rate <= MAX_RATE:
-        raise HumanoidError(f"the rate must be in (0, {MAX_RATE:g}] Hz, got {rate:g}")
+        raise InverseDynamicsError(f"the rate must be in (0, {MAX_RATE:g}] Hz, got {rate:g}")
     if (time[-1] - time[0]) * rate + 1 > MAX_SAMPLES:
-        raise HumanoidError(
+        raise InverseDynamicsError(
             f"{time[-1] - time[0]:.6g} s at {rate:g} Hz is more than {MAX_SAMPLES:g} samples: "
             "give a lower rate or a shorter record"
         )
@@ -286,7 +288,7 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
             load acts where it was measured, as OpenSim applies it.
 
     Raises:
-        ConfigurationError: q of the wrong shape or not finite. HumanoidError: fewer than 3
+        ConfigurationError: q of the wrong shape or not finite. InverseDynamicsError: fewer than 3
             samples, time not increasing, a load on a body the model does not have.
     """
     model = h.model
@@ -567,7 +569,7 @@ def _load_joint(h, body: str) -> int:
         return model.frames[h.sole_id(body)].parentJoint
     if model.existFrame(body):
         return model.frames[model.getFrameId(body)].parentJoint
-    raise HumanoidError(
+    raise InverseDynamicsError(
         f"a load is applied to {body!r}, which {h.source} does not have (a foot: 'left', "
         "'right', or a frame name)"
     )

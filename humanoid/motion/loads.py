@@ -154,6 +154,14 @@ def read_loads(path: str | Path, sides: dict[str, str] | None = None, xml: str |
             )
 
         def cols(names, prefix=prefix):
+            for n in names:
+                gaps = np.flatnonzero(np.isnan(table.column(prefix + n)))
+                if gaps.size:
+                    raise MotionFileError(
+                        f"{path}: column {prefix + n!r} is NaN at {gaps.size} samples (first "
+                        f"at {table.time[gaps[0]]:g} s): a load needs a value at every sample "
+                        "(0 where the foot is off the ground)"
+                    )
             return np.column_stack([table.column(prefix + n) for n in names]) @ R.T
 
         force = cols(("force_vx", "force_vy", "force_vz"))

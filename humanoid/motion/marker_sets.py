@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import MarkerSetError
 from .markers import LANDMARKS, MarkerTrajectories, default_markers, landmark_names, read_markers
 from .storage import read_toml
 
@@ -130,11 +130,11 @@ def strip_prefix(names) -> tuple[list[str], str]:
     prefix (without its colon; "" if none). Labels without one are kept as they are.
 
     Raises:
-        HumanoidError: labels of two subjects or more (different prefixes): fit one at a time.
+        MarkerSetError: labels of two subjects or more (different prefixes): fit one at a time.
     """
     prefixes = sorted({str(n).rsplit(":", 1)[0] for n in names if ":" in str(n)})
     if len(prefixes) > 1:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"the labels are of {len(prefixes)} subjects ({', '.join(prefixes)}"
             "): inverse kinematics fits one body; keep one subject's markers"
         )
@@ -146,13 +146,13 @@ def seen_frames(markers: MarkerTrajectories, names, fraction: float = SEEN) -> s
     ``names`` are seen (all frames if none is).
 
     Raises:
-        HumanoidError: no frame has that many markers seen.
+        MarkerSetError: no frame has that many markers seen.
     """
     cols = [markers.names.index(n) for n in names if n in markers.names]
     count = np.isfinite(markers.positions[:, cols]).all(axis=2).sum(axis=1)
     ok = np.flatnonzero(count >= max(3, fraction * len(cols)))
     if not len(ok):
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{markers.source or 'the trial'}: no frame has {fraction:.0%} of its "
             f"{len(cols)} markers in the set seen (at most {count.max()})"
         )
@@ -175,9 +175,9 @@ def _read_set(h, path: Path) -> tuple[dict, bool]:
         return default_markers(h, path), bool(spec.get("register", False))
     if "markers" in spec:
         return read_markers(path), False
-    raise HumanoidError(f"{path}: a marker set has [markers.NAME] tables (placed markers, as "
-                        "humanoid ik --save-markers writes) or [landmarks.NAME] tables (as "
-                        "humanoid/data/markers/*.toml)")  # fmt: skip
+    raise MarkerSetError(f"{path}: a marker set has [markers.NAME] tables (placed markers, as "
+                         "humanoid ik --save-markers writes) or [landmarks.NAME] tables (as "
+                         "humanoid/data/markers/*.toml)")  # fmt: skip
 
 
 def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet:
@@ -189,7 +189,7 @@ def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet
             TOML file (placed markers or landmarks), or a set (name -> Marker).
 
     Raises:
-        HumanoidError: an unknown name (listing the shipped ones), a file that is not a marker
+        MarkerSetError: an unknown name (listing the shipped ones), a file that is not a marker
             set, labels of several subjects, no label of the trial in the set.
 
     Warns:
@@ -215,14 +215,14 @@ def resolve_marker_set(h, markers: MarkerTrajectories, choice=None) -> ChosenSet
         name, reason = str(choice), "its file"
         marker_set, register = _read_set(h, Path(choice))
     else:
-        raise HumanoidError(f"marker set {choice!r}: one of {', '.join(MARKER_SETS)} or a TOML "
-                            "file")  # fmt: skip
+        raise MarkerSetError(f"marker set {choice!r}: one of {', '.join(MARKER_SETS)} or a TOML "
+                             "file")  # fmt: skip
     used = tuple(n for n in names if n in marker_set)
     ignored = tuple(n for n in names if n not in marker_set)
     where = markers.source or "the trial"
     if not used:
         known = ", ".join(f"{k} ({', '.join(s.names[:4])} ...)" for k, s in MARKER_SETS.items())
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{where}: none of its labels ({', '.join(names[:8])}"
             f"{' ...' if len(names) > 8 else ''}) is in the marker set {name}; "
             f"the shipped sets: {known}; or give a TOML file (--marker-set)"

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, require
+from ..errors import KeypointError, MarkerSetError
 from .loads import OPENSIM_TO_OURS
 from .storage import MAX_RATE, MotionFileError, check_rate, read_toml
 
@@ -171,15 +171,15 @@ def _landmarks(path: Path) -> tuple[str, dict]:
     """(the sided markers' name format, the landmarks) of a landmark file, checked.
 
     Raises:
-        HumanoidError: bad TOML, no ``[landmarks.NAME]`` tables, a landmark without a frame,
+        MarkerSetError: bad TOML, no ``[landmarks.NAME]`` tables, a landmark without a frame,
             a ``from`` or an offset, or with ``sides`` not true, false, "left" or "right".
     """
     spec = read_toml(path, "landmark set")
     table, names = spec.get("landmarks"), spec.get("names", "{side}.{name}")
     if not isinstance(table, dict) or not table:
-        raise HumanoidError(f"{path}: no [landmarks.NAME] tables")
+        raise MarkerSetError(f"{path}: no [landmarks.NAME] tables")
     if not isinstance(names, str) or "{side}" not in names or "{name}" not in names:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{path}: names must be a format with {{side}} and {{name}}, as "
             f'"{{side}}{{name}}" (RASI) or "{{side}}.{{name}}" (R.ASIS)'
         )
@@ -196,7 +196,7 @@ def _landmarks(path: Path) -> tuple[str, dict]:
         if ok:
             flag(path, f"landmarks.{key}", m, "anatomical", True)
         if not ok:
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: landmarks.{key} needs a frame, a from, an offset of 3 "
                 'numbers, and sides true, false, "left" or "right"'
             )
@@ -226,7 +226,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
     ``"right"`` for one side's marker only; its ``name`` if not its key).
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's (its frames have other names); a
+        MarkerSetError: the body is not one of the toolkit's (its frames have other names); a
             landmark file that cannot be read (naming it and the landmark).
     """
     model = h.model
@@ -237,7 +237,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
     ]  # fmt: skip
     missing = [n for n in needed if not model.existFrame(n)]
     if missing:
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
             f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
         )
@@ -249,7 +249,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
 
     def at(name):
         if not model.existFrame(name):
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: no point {name!r} to place a landmark from (hip, knee, "
                 "ankle, shoulder, elbow, wrist, neck, root, heel, toe)"
             )
@@ -260,9 +260,9 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
 
     def attach(marker, frame, world, weight=1.0, anatomical=True):
         if not model.existFrame(frame):
-            raise HumanoidError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
-                                "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
-                                "head)")  # fmt: skip
+            raise MarkerSetError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
+                                 "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
+                                 "head)")  # fmt: skip
         offset = at(frame).actInv(np.asarray(world, dtype=float))
         out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
@@ -313,6 +313,10 @@ def marker_positions(h, q: np.ndarray, markers: dict[str, Marker], names=None) -
     data = model.createData()
     names = list(names or markers)
     q = np.atleast_2d(q)
+    missing = sorted({markers[n].frame for n in names} - {f.name for f in model.frames})
+    if missing:
+        raise MarkerSetError(f"the marker set puts markers on {', '.join(map(repr, missing))}, "
+                             f"which {h.source} does not have")  # fmt: skip
     ids = [model.getFrameId(markers[n].frame) for n in names]
     offsets = np.array([markers[n].offset for n in names])
     out = np.zeros((len(q), len(names), 3))
@@ -328,14 +332,14 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
     optional ``anatomical`` and ``fixed``).
 
     Raises:
-        HumanoidError: missing file, bad TOML, a marker without a frame, an offset that is not
+        MarkerSetError: missing file, bad TOML, a marker without a frame, an offset that is not
             three numbers, a negative weight.
     """
     path = Path(path)
     spec = read_toml(path, "marker set")
     table = spec.get("markers")
     if not isinstance(table, dict) or not table:
-        raise HumanoidError(f"{path}: no [markers.NAME] tables")
+        raise MarkerSetError(f"{path}: no [markers.NAME] tables")
     out = {}
     for name, m in table.items():
         try:
@@ -343,14 +347,14 @@ def read_markers(path: str | Path) -> dict[str, Marker]:
             weight = float(m.get("weight", 1.0))
             frame = str(m["frame"])
         except (KeyError, TypeError, ValueError, AttributeError):
-            raise HumanoidError(
+            raise MarkerSetError(
                 f"{path}: markers.{name} needs a frame, an offset of 3 numbers and a weight"
             ) from None
         if len(offset) != 3 or not all(math.isfinite(x) for x in offset):
-            raise HumanoidError(f"{path}: markers.{name}: offset must be 3 finite numbers")
+            raise MarkerSetError(f"{path}: markers.{name}: offset must be 3 finite numbers")
         if not 0.0 <= weight <= MAX_WEIGHT:
-            raise HumanoidError(f"{path}: markers.{name}: weight {weight:g} must be in "
-                                f"[0, {MAX_WEIGHT:g}]")  # fmt: skip
+            raise MarkerSetError(f"{path}: markers.{name}: weight {weight:g} must be in "
+                                 f"[0, {MAX_WEIGHT:g}]")  # fmt: skip
         flags = [flag(path, f"markers.{name}", m, k, d) for k, d in (("anatomical", True),
                                                                     ("fixed", False))]  # fmt: skip
         out[name] = Marker(frame, offset, weight, *flags)
@@ -368,7 +372,7 @@ def flag(path, where: str, table: dict, key: str, default: bool) -> bool:
     naming the file and ``where.key`` (a string "false" is not false)."""
     value = table.get(key, default)
     if not isinstance(value, bool):
-        raise HumanoidError(
+        raise MarkerSetError(
             f"{path}: {where}.{key} must be true or false (no quotes), got {value!r}"
         )
     return value
@@ -435,18 +439,24 @@ def keypoints(
     named after the default set's joint centres (points the body has no match for dropped).
 
     Raises:
-        HumanoidError: an unknown layout, or points whose count is not the layout's.
+        KeypointError: an unknown layout, or points whose count is not the layout's.
     """
     if layout not in KEYPOINT_LAYOUTS:
-        raise HumanoidError(
+        raise KeypointError(
             f"unknown keypoint layout {layout!r}; known: {', '.join(KEYPOINT_LAYOUTS)}"
         )
     names = KEYPOINT_LAYOUTS[layout]
-    points = np.asarray(points, dtype=float)
+    try:
+        points = np.asarray(points, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise KeypointError(f"{source or 'keypoints'}: the points are not numbers: {exc}") from None
     if points.ndim != 3 or points.shape[1:] != (len(names), 3):
-        raise HumanoidError(
+        raise KeypointError(
             f"{layout} keypoints must be (frames, {len(names)}, 3), got {points.shape}"
         )
+    if np.isinf(points).any():
+        raise KeypointError(f"{source or 'keypoints'}: a point is infinite (NaN marks a "
+                            "keypoint not seen)")  # fmt: skip
     keep = [i for i, n in enumerate(names) if n is not None]
     pts = points[:, keep]
     if y_up:
@@ -466,15 +476,12 @@ def read_c3d(path: str | Path, y_up: bool | None = None) -> MarkerTrajectories:
     Raises:
         MotionFileError: a missing or unreadable file, no points.
     """
-    ezc3d = require("ezc3d", "reading a C3D file")
+    from .c3d_file import open_c3d
 
     path = Path(path)
     if not path.exists():
         raise MotionFileError(f"marker file not found: {path}")
-    try:
-        c = ezc3d.c3d(str(path))
-    except Exception as exc:  # noqa: BLE001 - ezc3d raises RuntimeError, ValueError ...
-        raise MotionFileError(f"cannot read {path} as C3D: {exc}") from None
+    c = open_c3d(path)
     point = c["parameters"]["POINT"]
     names = [str(x).strip() for x in point["LABELS"]["value"]]
     data = np.asarray(c["data"]["points"], dtype=float)  # (4, m, n)

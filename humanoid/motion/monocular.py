@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import IKError
 from ..model import SIDES
 
 __all__ = [
@@ -72,18 +72,18 @@ def place_on_rays(camera, uv: np.ndarray, points: np.ndarray,
     Gauss-Newton on the reprojection error over the translation alone.
 
     Raises:
-        HumanoidError: fewer than 3 points, or points that project onto one place.
+        IKError: fewer than 3 points, or points that project onto one place.
     """
     ok = np.all(np.isfinite(uv), axis=1) & np.all(np.isfinite(points), axis=1)
     if ok.sum() < 3:
-        raise HumanoidError(f"{camera.name}: fewer than 3 keypoints seen, cannot place the body")
+        raise IKError(f"{camera.name}: fewer than 3 keypoints seen, cannot place the body")
     uv, points = uv[ok], points[ok]
     ab = camera.normalised(uv)
     spread_img = float(np.sqrt(np.mean(np.sum((ab - ab.mean(axis=0)) ** 2, axis=1))))
     spread_body = float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
     if spread_img < 1e-9:
-        raise HumanoidError(f"{camera.name}: the keypoints fall on one pixel, cannot place "
-                            f"the body")  # fmt: skip
+        raise IKError(f"{camera.name}: the keypoints fall on one pixel, cannot place "
+                      f"the body")  # fmt: skip
     depth = spread_body / spread_img
     a, b = ab.mean(axis=0)
     ray = camera.rotation.T @ np.array([a, b, 1.0])

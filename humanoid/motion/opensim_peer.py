@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError, require
+from ..errors import OpenSimError, require
 from .loads import Load, write_loads
 from .storage import Table, read_storage, write_storage
 
@@ -47,7 +47,7 @@ def _kind(model, j) -> str:
         return "ball"
     if model.joints[j].nv == 1 and ("Revolute" in short or short.endswith(("RX", "RY", "RZ"))):
         return "hinge"
-    raise HumanoidError(f"joint {model.names[j]!r} ({short}) has no OpenSim counterpart here")
+    raise OpenSimError(f"joint {model.names[j]!r} ({short}) has no OpenSim counterpart here")
 
 
 def _axis(model, j) -> np.ndarray:
@@ -220,7 +220,7 @@ def run_opensim_id(h, time, q, loads: list[Load], folder: str | Path) -> tuple[T
     tool.setExcludedForces(osim.ArrayStr())
     start = clock.perf_counter()
     if not tool.run():
-        raise HumanoidError("OpenSim's InverseDynamicsTool failed")
+        raise OpenSimError("OpenSim's InverseDynamicsTool failed")
     elapsed = clock.perf_counter() - start
     return read_storage(folder / "id.sto"), elapsed
 
@@ -260,7 +260,7 @@ def run_opensim_ik(h, markers, marker_set: dict, folder: str | Path,
     tool.setOutputMotionFileName(str(folder / "ik.mot"))
     start = clock.perf_counter()
     if not tool.run():
-        raise HumanoidError("OpenSim's InverseKinematicsTool failed")
+        raise OpenSimError("OpenSim's InverseKinematicsTool failed")
     elapsed = clock.perf_counter() - start
     return read_storage(folder / "ik.mot"), elapsed
 
@@ -337,7 +337,7 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
     setup.write_text(text, encoding="utf-8")
     tool = osim.ScaleTool(str(setup))
     if not tool.run():
-        raise HumanoidError("OpenSim's ScaleTool failed")
+        raise OpenSimError("OpenSim's ScaleTool failed")
     factors = {}
     scales = {x.findtext("segment").strip(): [float(v) for v in x.findtext("scales").split()]
               for x in ET.parse(folder / "scale_factors.xml").iter("Scale")}  # fmt: skip

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import InverseDynamicsError
 from .inverse_dynamics import derivatives, inverse_dynamics, joint_labels
 from .loads import Load
 
@@ -331,14 +331,15 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
             iterations.
 
     Raises:
-        HumanoidError: a body without a free-flyer root, or no loads.
+        InverseDynamicsError: a body without a free-flyer root, or no loads.
     """
     model0 = h.model
     if "FreeFlyer" not in model0.joints[1].shortname():
-        raise HumanoidError("residual reduction needs a body with a free-flyer root")
+        raise InverseDynamicsError("residual reduction needs a body with a free-flyer root")
     if not loads:
-        raise HumanoidError("residual reduction needs the motion's ground forces (measured or "
-                            "estimated)")  # fmt: skip
+        raise InverseDynamicsError(
+            "residual reduction needs the motion's ground forces (measured or estimated)"
+        )
     before = inverse_dynamics(h, time, q, loads, cutoff=cutoff)
     t, q0 = before.time, before.q
     W = _world_loads(before.loads, len(t))

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pinocchio as pin
 
-from ..errors import HumanoidError
+from ..errors import ScalingError
 from .markers import Marker, MarkerTrajectories, default_markers, marker_positions
 from .scale_walk import MOVING, joint_centres, movement, pair_distances, picked
 
@@ -214,7 +214,7 @@ def body_parameters_of(h):
     from the comment :func:`~humanoid.body.build_urdf` writes at the top of its URDF).
 
     Raises:
-        HumanoidError: the body was not built by the toolkit (an example-robot-data robot, a
+        ScalingError: the body was not built by the toolkit (an example-robot-data robot, a
             URDF of another origin).
     """
     from ..anthropometry import BodyParameters
@@ -222,7 +222,7 @@ def body_parameters_of(h):
     text = h.recipe.get("urdf", "") if isinstance(h.recipe, dict) else ""
     found = _COMMENT.search(text[:2000])
     if found is None:
-        raise HumanoidError(
+        raise ScalingError(
             f"{h.source}: scaling needs one of the toolkit's bodies (humanoid build, "
             "adult_male, adult_female: their URDF says their height, mass and sex), or "
             "BodyParameters"
@@ -249,7 +249,7 @@ def _trial(static: MarkerTrajectories, time_range) -> MarkerTrajectories:
     t0, t1 = time_range
     keep = (static.time >= t0 - 1e-9) & (static.time <= t1 + 1e-9)
     if not keep.any():
-        raise HumanoidError(
+        raise ScalingError(
             f"{static.source or 'the static trial'}: no frame in {t0:g}-{t1:g} s (it runs "
             f"{static.time[0]:g}-{static.time[-1]:g} s)"
         )
@@ -334,11 +334,11 @@ def _measure(seen, model_pos, measurements, where, distance):
         for a, b in ok:
             experimental, model = distance(a, b)
             if model < 1e-6:
-                raise HumanoidError(f"{m.name}: markers {a} and {b} are at the same place on "
-                                    "the body; their distance cannot scale it")  # fmt: skip
+                raise ScalingError(f"{m.name}: markers {a} and {b} are at the same place on "
+                                   "the body; their distance cannot scale it")  # fmt: skip
             ratio = experimental / model
             if not FACTOR_RANGE[0] <= ratio <= FACTOR_RANGE[1]:
-                raise HumanoidError(
+                raise ScalingError(
                     f"{where}: {m.name}: {a}-{b} is {experimental * 1e3:.0f} mm apart, "
                     f"{model * 1e3:.0f} mm on the body (ratio {ratio:.2f}, valid "
                     f"{FACTOR_RANGE[0]}-{FACTOR_RANGE[1]}): wrong units or marker names?"
@@ -442,7 +442,7 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
             2 % off the markers'; coordinates no marker sees in the static pose.
 
     Raises:
-        HumanoidError: the body is not one of the toolkit's; an unknown ``mode``; the trial
+        ScalingError: the body is not one of the toolkit's; an unknown ``mode``; the trial
             has no frame in ``time_range`` or no marker of the set; no measurement can be
             made; a pair's ratio outside 0.5-2 (wrong units or names). BodyParameterError:
             the mass, the stature or a measured length out of range.
@@ -458,14 +458,14 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
     BodyParameters(params.height, mass, sex or params.sex)
     marker_set = default_markers(h) if marker_set is None else dict(marker_set)
     if mode not in MODES:
-        raise HumanoidError(f"scaling mode {mode!r}: one of {', '.join(MODES)}")
+        raise ScalingError(f"scaling mode {mode!r}: one of {', '.join(MODES)}")
     static = _trial(static, time_range)
     static, centres = joint_centres(static, marker_set)
     in_set = [n for n in static.names if n in marker_set]
     if not in_set:
-        raise HumanoidError(f"{where}: no marker of the trial is in the marker set (the trial's: "
-                            f"{', '.join(static.names[:8])}; the set's: "
-                            f"{', '.join(list(marker_set)[:8])})")  # fmt: skip
+        raise ScalingError(f"{where}: no marker of the trial is in the marker set (the trial's: "
+                           f"{', '.join(static.names[:8])}; the set's: "
+                           f"{', '.join(list(marker_set)[:8])})")  # fmt: skip
     fitted = [n for n in in_set if n not in centres]  # (a pipeline's centres measure only)
     moves = movement(static, fitted)
     if mode == "auto":
@@ -490,8 +490,8 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
         distance = _static_pairs(static, model_pos)
     made, unmeasured = _measure(seen, model_pos, measurements, where, distance)
     if not any(m.segments for m in made):
-        raise HumanoidError(f"{where}: no measurement can be made: "
-                            + "; ".join(unmeasured.values()))  # fmt: skip
+        raise ScalingError(f"{where}: no measurement can be made: "
+                           + "; ".join(unmeasured.values()))  # fmt: skip
     dims = body_dimensions(params)
     lengths = {}
     for m in made:

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import HumanoidError
+from ..errors import ScalingError
 from .markers import Marker, MarkerTrajectories, marker_positions
 
 __all__ = [
@@ -164,7 +164,7 @@ def _vertical_speed(markers: MarkerTrajectories, cols, t: float, half: float = 0
     z = np.nanmean(markers.positions[:, cols, 2], axis=1)
     near = (np.abs(markers.time - t) <= half) & np.isfinite(z)
     if near.sum() < 3:
-        raise HumanoidError(f"{markers.source}: the pelvis markers are not seen at {t:.3f} s")
+        raise ScalingError(f"{markers.source}: the pelvis markers are not seen at {t:.3f} s")
     return float(np.polyfit(markers.time[near], z[near], 1)[0])
 
 
@@ -190,14 +190,14 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
             stance shorter than this is not used [s].
 
     Raises:
-        HumanoidError: no single stance of at least ``shortest`` with the foot all on a plate,
+        ScalingError: no single stance of at least ``shortest`` with the foot all on a plate,
             no pelvis marker.
     """
     from .c3d import assign_contacts, foot_markers
 
     cols = [markers.names.index(n) for n in pelvis if n in markers.names]
     if not cols:
-        raise HumanoidError(f"{markers.source}: weighing on the plates needs pelvis markers")
+        raise ScalingError(f"{markers.source}: weighing on the plates needs pelvis markers")
     feet = foot_markers(markers.names)
     speed = {s: _speed(markers, c) for s, c in feet.items() if c}
     rows = []
@@ -225,7 +225,7 @@ def plate_mass(plates, markers: MarkerTrajectories, pelvis, swing: float = SWING
         dv = _vertical_speed(markers, cols, t1) - _vertical_speed(markers, cols, t0)
         rows.append((p.name, t0, t1, impulse / (G * (t1 - t0) + dv)))
     if not rows:
-        raise HumanoidError(f"{markers.source}: no single stance of {shortest:g} s with the foot "
-                            "all on a plate (the other foot swinging, no other plate loaded): "
-                            "give the mass")  # fmt: skip
+        raise ScalingError(f"{markers.source}: no single stance of {shortest:g} s with the foot "
+                           "all on a plate (the other foot swinging, no other plate loaded): "
+                           "give the mass")  # fmt: skip
     return Weighed(float(np.mean([r[3] for r in rows])), tuple(rows))

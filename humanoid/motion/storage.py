@@ -78,6 +78,8 @@ class Table:
 
     def __post_init__(self) -> None:
         self.time = np.asarray(self.time, dtype=float).reshape(-1)
+        if len(self.time) == 0:
+            raise MotionFileError(f"{self.source or 'table'}: no rows of data")
         self.data = np.asarray(self.data, dtype=float).reshape(len(self.time), -1)
         if self.data.shape[1] != len(self.labels):
             raise MotionFileError(
@@ -251,6 +253,8 @@ def read_toml(path: str | Path, what: str) -> dict:
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise HumanoidError(f"{what} not found: {path}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise HumanoidError(f"{path}: not TOML: {exc}") from None
+        raise MotionFileError(f"{what} not found: {path}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise MotionFileError(f"{path}: not TOML: {exc}") from None
+    except OSError as exc:
+        raise MotionFileError(f"cannot read {what} {path}: {exc}") from None

@@ -426,6 +426,8 @@ def _figure(doc: dict, columns: set, bad) -> dict:
     for key, col in [*((k, doc.get(k)) for k in ("value", "where", "of", "reference", "x",
                                                   "series", "panels")),
                      *(("also", c) for c in also)]:  # fmt: skip
+        if col is not None and not isinstance(col, str):
+            bad(f"figure.{key}", f"a column name (a string), got {col!r}")
         if col is not None and col not in columns:
             bad(
                 f"figure.{key}",
