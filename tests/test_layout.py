@@ -113,11 +113,19 @@ def test_no_module_is_shadowed_by_a_function():
 
 def _implementations() -> list[tuple]:
     """(registry of names, its implementations) for each variant the simulation dispatches."""
+    from humanoid.contacts import CONTACT_CONSTRAINTS
     from humanoid.simulation.backends import CONSTRAINT_BACKENDS
     from humanoid.simulation.formulation import FORMULATION
     from humanoid.simulation.integration import INTEGRATION
     from humanoid.simulation.setup import CONTROLLER_FACTORIES, JOINT_LIMIT_KINDS
-    from humanoid.variants import BACKENDS, CONTROLLERS, FORMULATIONS, INTEGRATORS, JOINT_LIMITS
+    from humanoid.variants import (
+        BACKENDS,
+        CONTACT_KINDS,
+        CONTROLLERS,
+        FORMULATIONS,
+        INTEGRATORS,
+        JOINT_LIMITS,
+    )
 
     return [
         (INTEGRATORS, INTEGRATION),
@@ -125,6 +133,7 @@ def _implementations() -> list[tuple]:
         (BACKENDS, CONSTRAINT_BACKENDS),
         (CONTROLLERS, CONTROLLER_FACTORIES),
         (JOINT_LIMITS, JOINT_LIMIT_KINDS),
+        (CONTACT_KINDS, CONTACT_CONSTRAINTS),
     ]
 
 
