@@ -12,7 +12,7 @@ import pinocchio as pin
 from .constraints import JointLock, PointContact, Weld, foot_hinges
 from .model import Humanoid
 
-__all__ = ["ContactState", "cop_in_sole", "cop_on_plane"]
+__all__ = ["CONTACT_CONSTRAINTS", "ContactState", "cop_in_sole", "cop_on_plane"]
 
 
 def cop_on_plane(wrench, origin) -> np.ndarray:
@@ -51,17 +51,9 @@ class ContactState:
         self.cop_box = lo[:2], hi[:2]
 
     def attach(self, data: pin.Data) -> None:
-        if self.spec.kind == "weld":
-            self.constraints = [Weld(self.side, self.sole, data.oMf[self.sole])] + [
-                JointLock(f"{self.side}_{self.model.names[j]}_lock", self.model, j,
-                          data.joints[j].joint_q[0])
-                for j in self.hinges
-            ]  # fmt: skip
-        else:
-            self.constraints = [
-                PointContact(f"{self.side}_{i}", p, data.oMf[p].translation)
-                for i, p in enumerate(self.points)
-            ]
+        """Attach where the foot is in ``data`` (its placements), with its kind's constraints
+        (:data:`CONTACT_CONSTRAINTS`)."""
+        self.constraints = CONTACT_CONSTRAINTS[self.spec.kind](self, data)
         self.attached = self.ever_attached = True
 
     def release(self) -> None:
@@ -112,3 +104,22 @@ class ContactState:
             pin.getFrameVelocity(model, data, p, pin.LOCAL_WORLD_ALIGNED).linear[2] < 0.0
             for p in self.points
         )
+
+
+def _welded(c: ContactState, data: pin.Data) -> list:
+    """The sole frame welded in 6D, the foot's own hinges (the toes') locked with it."""
+    return [Weld(c.side, c.sole, data.oMf[c.sole])] + [
+        JointLock(f"{c.side}_{c.model.names[j]}_lock", c.model, j, data.joints[j].joint_q[0])
+        for j in c.hinges
+    ]
+
+
+def _pinned(c: ContactState, data: pin.Data) -> list:
+    """The four sole corners pinned in 3D."""
+    return [PointContact(f"{c.side}_{i}", p, data.oMf[p].translation)
+            for i, p in enumerate(c.points)]  # fmt: skip
+
+
+# contact kind -> (contact, data -> its constraints where the foot is); the names are
+# humanoid.variants.CONTACT_KINDS'
+CONTACT_CONSTRAINTS = {"weld": _welded, "points": _pinned}

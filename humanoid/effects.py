@@ -222,6 +222,9 @@ class PostureController(Effect):
         self._gains = np.hstack([self.kp, self.kd])
         self._x = np.zeros(2 * len(self.kp))
 
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        """A controller's hook before each step: the hold has nothing to update."""
+
     def force(self, model, data, t, q, v):
         # tau_j = ff_j + Kp e_j - Kd v_j as one product: [Kp, Kd] @ [e_j; -v_j]
         x = self._x

@@ -37,7 +37,9 @@ Example (the shipped ``standing`` scene, :mod:`humanoid.data`)::
     projection = false
 
 Unknown keys, wrong types and impossible values raise :class:`SceneError` naming the file, the
-key and the reason.
+key and the reason. A scene is data: it validates its own fields and loads nothing. What needs
+its body (the frames it pushes, the size of its initial configuration) is checked once, when a
+simulation sets it up on the body it builds (:func:`humanoid.simulation.check_scene`).
 """
 
 from __future__ import annotations
@@ -47,12 +49,8 @@ import tomllib
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from pathlib import Path
 
-import numpy as np
-
 from .anthropometry import BodyParameters
-from .body import build_urdf
-from .errors import BodyParameterError, ConfigurationError, ModelError, SceneError
-from .model import Humanoid, check_configuration, load
+from .errors import BodyParameterError, SceneError
 from .variants import (
     BACKENDS,
     BALL_JOINTS,
@@ -207,30 +205,7 @@ class Scene:
             raise SceneError(f"{path}: not valid TOML: {type(exc).__name__}: {exc}") from None
         except OSError as exc:
             raise SceneError(f"cannot read scene file {path}: {exc}") from None
-        scene = cls.from_dict(doc, source=str(path), base=path.parent)
-        scene.check()
-        return scene
-
-    def check(self, humanoid=None):
-        """Check the scene against its body: the body loads, frame names exist, sizes match.
-
-        Returns:
-            The initial state ``(q0, v0)`` of the scene on that body.
-
-        Raises:
-            SceneError: naming the scene file, the key and the reason.
-        """
-        h = humanoid or load_body(self)
-        for i, p in enumerate(self.effects.pushes):
-            if not h.model.existFrame(p.frame):
-                frames = sorted(
-                    f.name for f in h.model.frames if f.type.name in ("BODY", "OP_FRAME")
-                )
-                raise SceneError(
-                    f"{self.source}: effects.pushes[{i}].frame: no frame {p.frame!r} in the body; "
-                    f"frames: {', '.join(frames)}"
-                )
-        return initial_state(self, h)
+        return cls.from_dict(doc, source=str(path), base=path.parent)
 
     @classmethod
     def from_dict(cls, doc: dict, source: str = "<scene>", base: Path | None = None) -> Scene:
@@ -594,46 +569,3 @@ def _toml(d: dict, prefix: str = "") -> str:
         for item in items:
             out += f"\n[[{prefix}{k}]]\n" + _toml(item, f"{prefix}{k}.")
     return out
-
-
-def load_body(scene: Scene) -> Humanoid:
-    """The scene's body: a URDF path or BodyParameters."""
-    if isinstance(scene.body, BodyParameters):
-        return load(build_urdf(scene.body), ball_joints=scene.ball_joints)
-    try:
-        return load(scene.body, ball_joints=scene.ball_joints, massless=scene.massless)
-    except ModelError as exc:
-        raise SceneError(f"{scene.source}: body.urdf: {exc}") from None
-
-
-def initial_state(scene: Scene, h: Humanoid):
-    """(q0, v0) of a scene on its body: sizes and unit quaternions checked here (NaN and inf
-    never get this far: the scene's own validation rejects them)."""
-    model = h.model
-    ini = scene.initial
-    if isinstance(ini.configuration, str):
-        q = h.standing_configuration()
-    else:
-        q = np.array(ini.configuration, dtype=float)
-        if q.shape != (model.nq,):
-            raise SceneError(
-                f"{scene.source}: initial.configuration: needs nq = {model.nq} numbers, "
-                f"got {q.size}"
-            )
-    q[2] += ini.lift
-    v = np.zeros(model.nv)
-    v[:6] = ini.base_velocity
-    jv = np.asarray(ini.joint_velocity, dtype=float)
-    if jv.ndim == 0:
-        v[6:] = jv
-    elif jv.shape == (model.nv - 6,):
-        v[6:] = jv
-    else:
-        raise SceneError(
-            f"{scene.source}: initial.joint_velocity: needs 1 or {model.nv - 6} numbers, "
-            f"got {jv.size}"
-        )
-    try:  # the same check as every state: finite, bounded, unit quaternions (normalised)
-        return check_configuration(h, q, v)
-    except ConfigurationError as exc:
-        raise SceneError(f"{scene.source}: initial: {exc}") from None

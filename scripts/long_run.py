@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from humanoid.scene import Scene
-from humanoid.simulation import Simulation
+from humanoid.simulation import Simulation, scene_schedule
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,7 +34,6 @@ def main() -> None:
     )
     sim = Simulation(scene)
     lap_times = []
-    original = sim.schedule
     state = {"last": time.perf_counter(), "next": 60.0}
 
     def timed(sim, k, t, q, v, last):  # wall time of every simulated minute
@@ -43,11 +42,10 @@ def main() -> None:
             lap_times.append(now - state["last"])
             print(f"minute {len(lap_times):3d}: {lap_times[-1]:7.2f} s wall", flush=True)
             state["last"], state["next"] = now, state["next"] + 60.0
-        return original(sim, k, t, q, v, last)
+        return scene_schedule(sim, k, t, q, v, last)
 
-    sim.schedule = timed
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    traj = sim.run()
+    traj = sim.run(schedule=timed)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # peak, before saving
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

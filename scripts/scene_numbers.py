@@ -17,7 +17,8 @@ import numpy as np
 import humanoid as hm
 from humanoid.constraints.limits import JointRanges
 from humanoid.data import SCENES
-from humanoid.scene import Scene, load_body
+from humanoid.scene import Scene
+from humanoid.simulation import load_body
 
 
 def main(names) -> None:

@@ -204,8 +204,8 @@ def test_joint_range_constraints_conserve_momentum_and_never_add_energy():
     q, v = sim.q0, sim.v0
     loaded, worst = 0, 0.0
     for k in range(int(round(scene.duration / dt))):
-        v_free = v + dt * sim.acceleration(k * dt, q, v)
-        q_new, v_new = sim.ground_step_advance(k * dt, q, v, dt)
+        v_free = v + dt * sim.plant.acceleration(k * dt, q, v)
+        q_new, v_new = sim.plant.ground.advance(k * dt, q, v, dt)
         if np.abs(sim.ground_step.limit_impulses).max(initial=0.0) > 1e-9:
             loaded += 1
             A = pin.computeCentroidalMap(model, data, q)

@@ -231,8 +231,8 @@ def test_ground_impulses_change_momentum_by_exactly_their_sum(name):
     q, v, dt = sim.q0, sim.v0, scene.dt
     touching = 0
     for k in range(1200):
-        v_free = v + dt * sim.acceleration(k * dt, q, v)
-        q_new, v_new = sim.ground_step_advance(k * dt, q, v, dt)
+        v_free = v + dt * sim.plant.acceleration(k * dt, q, v)
+        q_new, v_new = sim.plant.ground.advance(k * dt, q, v, dt)
         found = sim.ground_step
         A = pin.computeCentroidalMap(model, data, q)
         c = data.com[0].copy()

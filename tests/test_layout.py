@@ -29,7 +29,7 @@ def _imports() -> dict[str, set[str]]:
 
 def test_no_import_cycles():
     graph = _imports()
-    assert "humanoid.scene" in graph["humanoid.simulation"]  # the walk sees the imports
+    assert "humanoid.scene" in graph["humanoid.simulation.setup"]  # the walk sees the imports
 
     def reaches(start, goal, seen):
         for n in graph[start]:
@@ -111,6 +111,32 @@ def test_no_module_is_shadowed_by_a_function():
     assert not clashes, "\n".join(clashes)
 
 
+def _implementations() -> list[tuple]:
+    """(registry of names, its implementations) for each variant the simulation dispatches."""
+    from humanoid.contacts import CONTACT_CONSTRAINTS
+    from humanoid.simulation.backends import CONSTRAINT_BACKENDS
+    from humanoid.simulation.formulation import FORMULATION
+    from humanoid.simulation.integration import INTEGRATION
+    from humanoid.simulation.setup import CONTROLLER_FACTORIES, JOINT_LIMIT_KINDS
+    from humanoid.variants import (
+        BACKENDS,
+        CONTACT_KINDS,
+        CONTROLLERS,
+        FORMULATIONS,
+        INTEGRATORS,
+        JOINT_LIMITS,
+    )
+
+    return [
+        (INTEGRATORS, INTEGRATION),
+        (FORMULATIONS, FORMULATION),
+        (BACKENDS, CONSTRAINT_BACKENDS),
+        (CONTROLLERS, CONTROLLER_FACTORIES),
+        (JOINT_LIMITS, JOINT_LIMIT_KINDS),
+        (CONTACT_KINDS, CONTACT_CONSTRAINTS),
+    ]
+
+
 def test_every_variant_has_an_implementation_and_the_cli_offers_it():
     """The registries are the one list: every integrator name runs, the CLI's choices are the
     registries', and a scene naming an unknown variant is refused with the registry's list."""
@@ -123,6 +149,8 @@ def test_every_variant_has_an_implementation_and_the_cli_offers_it():
     from humanoid.variants import BALL_JOINTS, INTEGRATORS, REGISTRIES
 
     assert set(STEPPERS) | {"adaptive"} == set(INTEGRATORS)
+    for registry, implementations in _implementations():
+        assert list(implementations) == list(registry), registry.what
     walk = build_parser()._subparsers._group_actions[0].choices["walk"]
     choices = {a.dest: a.choices for a in walk._actions if a.choices}
     assert list(choices["integrator"]) == list(INTEGRATORS)
@@ -140,7 +168,8 @@ def test_one_run_loop():
     module run through Simulation.run (the benchmarks, which time single steps, aside)."""
     found = []
     for name, path in sorted(_modules().items()):
-        if name in ("humanoid.simulation", "humanoid.trajectory") or ".bench" in name:
+        inside = name == "humanoid.trajectory" or name.startswith("humanoid.simulation.")
+        if inside or ".bench" in name:
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
@@ -203,3 +232,71 @@ def test_the_command_line_is_thin():
                     long.append(f"cli/{p.name}:{node.lineno} {node.name}: {n} lines")
     assert (PACKAGE / "cli" / "__init__.py").is_file()
     assert not long, long
+
+
+SIMULATION = PACKAGE / "simulation"
+MAX_CLASS_LINES, MAX_FUNCTION_LINES = 250, 80
+
+
+def test_the_simulation_package_is_made_of_small_pieces():
+    """No class in humanoid/simulation/ over 250 lines, no function over 80 (issue 38: the
+    763-line module and its 650-line class are not to grow back)."""
+    big = []
+    for path in sorted(SIMULATION.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = node.end_lineno - node.lineno + 1
+                limit = MAX_CLASS_LINES if isinstance(node, ast.ClassDef) else MAX_FUNCTION_LINES
+                if lines > limit:
+                    big.append(f"{path.name}: {node.name} {lines} lines (> {limit})")
+    assert not big, big
+
+
+PLUG_INS = {"controller", "schedule", "monitors"}
+
+
+def _attached_plug_ins(tree) -> list[str]:
+    """``x.controller = ...``, ``x.monitors.append(...)``, ``setattr(x, "schedule", ...)``."""
+    found = []
+    for node in ast.walk(tree):
+        targets = []
+        if isinstance(node, ast.Assign):
+            targets = node.targets
+        elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+            targets = [node.target]
+        for target in targets:
+            if isinstance(target, ast.Attribute) and target.attr in PLUG_INS:
+                found.append(f"line {node.lineno}: .{target.attr} = ...")
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            owner = node.func.value
+            mutates = node.func.attr in ("append", "extend", "insert")
+            if mutates and isinstance(owner, ast.Attribute) and owner.attr in PLUG_INS:
+                found.append(f"line {node.lineno}: .{owner.attr}.{node.func.attr}(...)")
+        if isinstance(node, ast.Call) and getattr(node.func, "id", "") in ("setattr", "getattr"):
+            name = node.args[1] if len(node.args) > 1 else None
+            if isinstance(name, ast.Constant) and name.value in PLUG_INS | {"before_step"}:
+                found.append(f"line {node.lineno}: {node.func.id}(..., {name.value!r})")
+    return found
+
+
+def test_no_controller_is_attached_to_a_simulation():
+    """A controller, a contact schedule and monitors are arguments of Simulation.run, never
+    attributes set on a simulation outside humanoid/simulation/ (the rest of the package, the
+    tests, the scripts), nor looked up with getattr anywhere."""
+    found = []
+    for folder in ("humanoid", "tests", "scripts"):
+        for path in sorted((PACKAGE.parent / folder).rglob("*.py")):
+            if path.name == "test_layout.py":
+                continue
+            inside = SIMULATION in path.parents  # (the plant keeps the controller it is given)
+            found += [f"{path.relative_to(PACKAGE.parent)} {where}"
+                      for where in _attached_plug_ins(ast.parse(path.read_text()))
+                      if not inside or "attr(" in where]  # fmt: skip
+    assert not found, "\n".join(found)
+
+
+def test_the_plug_in_guard_sees_what_it_forbids():
+    code = ("sim.controller = ctl\nsim.monitors.append(m)\nsetattr(sim, 'schedule', s)\n"
+            "getattr(self.controller, 'before_step', None)\n")  # fmt: skip
+    assert len(_attached_plug_ins(ast.parse(code))) == 4
+    assert not _attached_plug_ins(ast.parse("sim.run(controller=ctl, monitors=[m])\n"))

@@ -191,8 +191,7 @@ def test_the_tracking_controller_and_the_ground_agree(male):
     # plant stops a point the controller let approach)
     exact = TrackingGains(touch=2e-4, settle=0.0, contact_time=0.0, horizon=1e-3)
     ctl = GaitController(h, sim.model, c, sim.ground, scene.dt, phase0=0.2, gains=exact)
-    sim.q0, sim.v0, _ = ctl.player.state(0.0)
-    sim.controller = ctl
+    q0, v0, _ = ctl.player.state(0.0)
     seen = []
 
     class Agreement:
@@ -208,8 +207,7 @@ def test_the_tracking_controller_and_the_ground_agree(male):
                 len(loaded),
             ))  # fmt: skip
 
-    sim.monitors.append(Agreement())
-    traj = sim.run(quiet=True)
+    traj = sim.run(quiet=True, controller=ctl, monitors=[Agreement()], initial=(q0, v0))
     assert traj.metadata["status"] == "completed"
     seen = np.array(seen)
     assert len(seen) == 30 and seen[:, 3].min() == 4  # the flat right foot's four corners

@@ -12,6 +12,7 @@ import humanoid as hm
 from humanoid import BodyParameters
 from humanoid.errors import SceneError
 from humanoid.scene import Contact, Effects, Scene
+from humanoid.simulation import Simulation, simulate
 
 SCENE_FILES = sorted(SCENES.glob("*.toml"))
 MALE = str(BODIES / "adult_male.urdf")
@@ -100,8 +101,10 @@ def _write(tmp_path, text: str) -> Path:
     ],
 )
 def test_bad_scenes_name_file_key_and_reason(tmp_path, text, message):
+    """Its own fields when the scene loads; what needs the body (a frame's name, the size of
+    the configuration) when a simulation sets it up on its body."""
     with pytest.raises(SceneError, match=message):
-        Scene.load(_write(tmp_path, text))
+        Simulation(Scene.load(_write(tmp_path, text)))
 
 
 def test_missing_scene_and_missing_body(tmp_path):
@@ -110,7 +113,7 @@ def test_missing_scene_and_missing_body(tmp_path):
     p = tmp_path / "s.toml"
     p.write_text('[body]\nurdf = "no_such_body.urdf"\n')
     with pytest.raises(SceneError, match=r"s.toml: body.urdf: URDF file not found"):
-        Scene.load(p)
+        Simulation(Scene.load(p))  # (a scene loads no body: its set-up does)
     p.write_text('[body]\nurdf = "x.urdf"\nheight = 1.7\n')
     with pytest.raises(SceneError, match="either urdf or height/mass/sex"):
         Scene.load(p)
@@ -128,3 +131,38 @@ def test_scene_is_frozen_and_validated_on_replace():
     with pytest.raises(SceneError, match="appears twice"):
         scene.replace(effects=Effects(contacts=(Contact("left"), Contact("left"))))
     assert math.isinf(Contact("left").end)
+
+
+class BuildCounter:
+    """Counts the bodies built (Pinocchio models parsed from a URDF's text)."""
+
+    def __init__(self, monkeypatch) -> None:
+        import pinocchio as pin
+
+        self.n, original = 0, pin.buildModelFromXML
+
+        def counted(*args, **kw):
+            self.n += 1
+            return original(*args, **kw)
+
+        monkeypatch.setattr(pin, "buildModelFromXML", counted)
+
+
+def test_a_scene_loads_no_body_and_a_run_builds_it_once(monkeypatch, tmp_path):
+    """A scene is data: loading one builds nothing. A run builds its body once, from a
+    file, from body parameters, and through ``humanoid simulate`` (it was built twice there:
+    once to check the scene, once to run it)."""
+    from humanoid.cli import main
+
+    builds = BuildCounter(monkeypatch)
+    scene = Scene.load("tumble").replace(duration=0.004)
+    assert builds.n == 0
+    assert simulate(scene, quiet=True).status == "completed"
+    assert builds.n == 1
+    p = tmp_path / "s.toml"
+    p.write_text('duration = 0.004\n[body]\nheight = 1.6\nmass = 55\nsex = "female"\n')
+    assert simulate(Scene.load(p), quiet=True).status == "completed"
+    assert builds.n == 2
+    out = tmp_path / "run.npz"
+    assert main(["simulate", "tumble", "--duration", "0.004", "--quiet", "--output", str(out)]) == 0
+    assert builds.n == 3

@@ -122,7 +122,7 @@ def test_plain_aba_equals_the_kkt_path_without_constraints():
     rng = np.random.default_rng(40)
     q = pin.integrate(sim.model, sim.q0, 0.1 * rng.normal(size=sim.model.nv))
     v = rng.normal(size=sim.model.nv)
-    a = sim.acceleration(0.0, q, v)
+    a = sim.plant.acceleration(0.0, q, v)
     ref = constrained_dynamics(sim.model, sim.model.createData(), q, v, np.zeros(sim.model.nv), [])
     assert np.abs(a - ref.a).max() < 1e-9
 
@@ -165,14 +165,15 @@ def test_coordinate_formulation_drifts_without_stabilisation_and_not_with_it():
         ("projection", Stabilisation(quaternions="coordinates", projection=True)),
     ):
         sim = Simulation(scene.replace(stabilisation=stab))
-        x, xd = sim.cmap.from_tangent(sim.q0, sim.v0)
+        cmap = sim.formulation.cmap
+        x, xd = cmap.from_tangent(sim.q0, sim.v0)
         for k in range(100):
             step = sim.step(k * scene.dt, x, xd, scene.dt)
             x, xd = step.q, step.v
             if stab.projection:
-                q = sim.cmap.configuration(x)
-                x, xd = sim.cmap.from_tangent(q, sim.cmap.H(x) @ xd)
-        drift[label] = np.abs(sim.norm.residual(x)).max()
+                q = cmap.configuration(x)
+                x, xd = cmap.from_tangent(q, cmap.H(x) @ xd)
+        drift[label] = np.abs(sim.formulation.norm.residual(x)).max()
     assert drift["none"] > 1e-4, drift  # explicit Euler leaves the unit sphere
     assert drift["baumgarte"] < drift["none"] / 10, drift
     assert drift["projection"] < 1e-14, drift
@@ -222,7 +223,7 @@ def test_divergence_stops_with_a_message_and_keeps_the_good_part():
 
 def test_ctrl_c_keeps_what_was_computed(monkeypatch):
     sim = Simulation(_scene(duration=0.5, initial=Initial(base_velocity=SPIN)))
-    original, calls = sim.step, [0]
+    original, calls = sim.plant.step, [0]
 
     def step(*args):
         calls[0] += 1
@@ -230,7 +231,7 @@ def test_ctrl_c_keeps_what_was_computed(monkeypatch):
             raise KeyboardInterrupt
         return original(*args)
 
-    monkeypatch.setattr(sim, "step", step)
+    monkeypatch.setattr(sim.plant, "step", step)
     traj = sim.run(quiet=True)
     assert traj.status == "interrupted" and "interrupted" in traj.metadata["message"]
     assert len(traj.t) == 12 and np.all(np.isfinite(traj.q))
@@ -400,8 +401,7 @@ def test_a_run_does_its_dense_algebra_on_one_thread():
     with threadpool_limits(limits=2):
         before = {p["filepath"]: p["num_threads"] for p in threadpool_info()}
         sim = Simulation(_scene(duration=0.01))
-        sim.controller = Probe()
-        sim.run(quiet=True)
+        sim.run(quiet=True, controller=Probe())
         after = {p["filepath"]: p["num_threads"] for p in threadpool_info()}
         assert {f: after[f] for f in before} == before
     assert seen and set(seen) == {1}
@@ -425,8 +425,7 @@ def test_a_fresh_process_runs_the_balance_scene_on_one_thread():
         "    def observe(self, sim, k, t, q, v, step):\n"
         "        seen.update((p['filepath'], p['num_threads']) for p in threadpool_info())\n"
         "sim = Simulation(Scene.load('balance').replace(duration=0.02))\n"
-        "sim.monitors.append(Probe())\n"
-        "sim.run(quiet=True)\n"
+        "sim.run(quiet=True, monitors=[Probe()])\n"
         "print(sorted({n for _, n in seen}), len({f for f, _ in seen}))\n"
     )
     env = dict(os.environ, OPENBLAS_NUM_THREADS="2", OMP_NUM_THREADS="2")

@@ -198,9 +198,8 @@ def test_held_forces_are_the_plants_forces_between_qp_ticks():
                     f = ctl.last[1][c.side]  # the QP's corner forces, world axes
                     worst = max(worst, float(np.abs(c.wrench[:3] - f.sum(axis=0)).max()))
 
-    sim.monitors.append(Compare())
     sim.scene = sim.scene.replace(duration=2.5)
-    traj = sim.run(quiet=True)
+    traj = setup.run(quiet=True, monitors=[Compare()])
     assert traj.status == "completed", traj.metadata["message"]
     assert held > 1500 and worst < 1e-6 * weight, (held, worst)
 

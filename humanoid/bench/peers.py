@@ -188,7 +188,7 @@ def _mujoco_welded(h, scene, integrator, weld):
 
     ours = Simulation(scene, humanoid=h)  # the initial state, controller and pushes
     efforts = [e for e in ours.effects if not e.external]
-    efforts += [ours.controller] if ours.controller else []
+    efforts += [ours.setup.controller] if ours.setup.controller else []
     pushes = [e for e in ours.effects if e.external]
     model, dt = h.model, scene.dt
     q0 = ours.q0

@@ -395,14 +395,13 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     shifted = MotionReference(model, t - t[0], qf, vf, af, floor=base)
     contacts = {s: (times - t[0], on) for s, (times, on) in contacts.items()}
     ctl = MotionTracker(h, sim.model, shifted, contacts, sim.ground, dt, gains)
-    sim.q0, sim.v0, _ = shifted.state(0.0)
+    q0, v0, _ = shifted.state(0.0)
     # a fitted floor is a plane through the stances: a foot may start a centimetre in it, and
     # the run would open with an impact; it starts on it
-    sim.q0[2] += max(0.0, base - lowest_sole_point(h, sim.q0[None]))
-    sim.controller = ctl
-    sim.monitors.append(FallMonitor(sim.model, sim.q0))
+    q0[2] += max(0.0, base - lowest_sole_point(h, q0[None]))
     start = clock.perf_counter()
-    traj = sim.run(quiet=quiet)
+    traj = sim.run(quiet=quiet, controller=ctl, monitors=[FallMonitor(sim.model, q0)],
+                   initial=(q0, v0))  # fmt: skip
     wall = clock.perf_counter() - start
     ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])

@@ -74,21 +74,18 @@ class _FallMonitor:
 
 
 def _scene_run(payload: dict, params: dict):
-    from ..scene import load_body
-    from ..simulation import Simulation
+    from ..simulation import Simulation, load_body
 
-    scene = scene_for(payload, params, check=False, weight=None)
+    scene = scene_for(payload, params, weight=None)
     h = load_body(scene)
     weight = h.mass * float(np.linalg.norm(h.model.gravity.linear))
     if "push.fraction" in params and body_parameters(params) is None:
-        scene = scene_for(payload, params, check=False, weight=weight)
-    scene.check(h)
+        scene = scene_for(payload, params, weight=weight)
     sim = Simulation(scene, humanoid=h)
     monitor = None
     if scene.effects.ground is not None:
         monitor = _FallMonitor(float(sim.q0[2]))
-        sim.monitors.append(monitor)
-    traj = sim.run(quiet=True)
+    traj = sim.run(quiet=True, monitors=[monitor] if monitor is not None else [])
     status, message = traj.metadata["status"], traj.metadata["message"]
     fell_at = monitor.fell_at if monitor is not None else math.nan
     if not math.isnan(fell_at):

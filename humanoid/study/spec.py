@@ -452,7 +452,7 @@ def check_runs(study: Study) -> None:
                              f"({_describe(run.params)}): {exc}") from None  # fmt: skip
         if study.run == "scene":
             try:
-                scene_for(study.payload(), params, check=False)
+                scene_for(study.payload(), params)
             except SceneError as exc:
                 keys = [k for k in params if k.startswith("scene.")]
                 key = next((k for k in keys if k.split(".", 1)[1].split(".")[-1] in str(exc)),

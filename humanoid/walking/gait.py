@@ -341,15 +341,13 @@ def walk_on_ground(h, speed: float | None = None, steps: int = 20, *, cycle=None
                          gains=gains or TrackingGains(), transitions=ends,
                          radius=radius)  # fmt: skip
     if ends is None:
-        sim.q0, sim.v0, _ = ctl.player.state(0.0)
+        q0, v0, _ = ctl.player.state(0.0)
     else:
-        sim.q0, sim.v0 = ends.q0.copy(), np.zeros(sim.model.nv)
-    sim.controller = ctl
-    z = pin.centerOfMass(sim.model, sim.model.createData(), sim.q0)[2]
+        q0, v0 = ends.q0.copy(), np.zeros(sim.model.nv)
+    z = pin.centerOfMass(sim.model, sim.model.createData(), q0)[2]
     recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)
-    sim.monitors.append(recorder)
     start = time.perf_counter()
-    traj = sim.run(quiet=quiet)
+    traj = sim.run(quiet=quiet, controller=ctl, monitors=[recorder], initial=(q0, v0))
     wall = time.perf_counter() - start
     record = recorder.record(h.mass, dt)
     return GroundWalk(traj, record, cycle, ctl.relaxed, wall, steps, h)

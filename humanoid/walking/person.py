@@ -576,12 +576,9 @@ def _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate
     sim = Simulation(scene, humanoid=h)
     ctl = CycleTracker(h, sim.model, ref, sim.ground, dt, t0, gains)
     q0, v0, _ = ref.state(t0)
-    sim.q0, sim.v0 = q0, v0
-    sim.controller = ctl
     z = pin.centerOfMass(sim.model, sim.model.createData(), q0)[2]
     recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)
-    sim.monitors.append(recorder)
     start = time.perf_counter()
-    traj = sim.run(quiet=quiet)
+    traj = sim.run(quiet=quiet, controller=ctl, monitors=[recorder], initial=(q0, v0))
     wall = time.perf_counter() - start
     return GroundWalk(traj, recorder.record(h.mass, dt), ref, ctl.relaxed, wall, steps, h)

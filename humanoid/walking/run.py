@@ -139,9 +139,15 @@ class WalkSetup:
     scene: Scene
     sim: Simulation  # the plant (and the stance welds' bookkeeping)
     ctl: WalkingController
+    schedule: FootstepSchedule
     t_ref: np.ndarray
     c_ref: np.ndarray
     zmp: np.ndarray
+
+    def run(self, quiet: bool = False, monitors=()) -> Trajectory:
+        """The walk: the plant driven by the controller along the plan's footsteps."""
+        return self.sim.run(quiet=quiet, controller=self.ctl, schedule=self.schedule,
+                            monitors=monitors)  # fmt: skip
 
 
 def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_implicit_euler",
@@ -169,10 +175,9 @@ def prepare(h, gait, dt=1e-3, mu=0.8, drop=0.04, gains=None, integrator="semi_im
         h, sim.model, plan, (t_ref, c_ref, dc_ref, ddc_ref), c0[2], q0, sim.baumgarte,
         gains or ControllerGains(mu=min(0.6, 0.75 * mu)), period=dt,
     )  # fmt: skip
-    sim.controller = ctl
-    sim.schedule = FootstepSchedule(plan, sim.n_steps)
+    schedule = FootstepSchedule(plan, sim.n_steps)
     v0 = sim.update_contacts(0.0, q0, np.zeros(model.nv))  # both feet welded where they stand
-    return WalkSetup(plan, q0, v0, soles, scene, sim, ctl, t_ref, c_ref, zmp_ref)
+    return WalkSetup(plan, q0, v0, soles, scene, sim, ctl, schedule, t_ref, c_ref, zmp_ref)
 
 
 def walk(
@@ -222,12 +227,11 @@ def walk(
     ctl.period = ctl.every * dt
     ctl.hold = hold
     monitor = WalkMonitor(h, sim, ctl)
-    sim.monitors.append(monitor)
-    traj = sim.run(quiet=quiet)
+    traj = setup.run(quiet=quiet, monitors=[monitor])
     meta = traj.metadata
     status, message, n = meta["status"], meta["message"], meta["steps"]
     series = monitor.series_until(n)
-    series["impulse"] = sim.schedule.impulse[:n]
+    series["impulse"] = setup.schedule.impulse[:n]
     weight = monitor.weight
     meta.update({
         "gait": {f: getattr(gait, f) for f in gait.__dataclass_fields__},
