@@ -24,8 +24,10 @@ demo: $(STAMP)
 	$(PY) -m humanoid walk --gait welded -o results/welded.npz --html results/welded.html --figure results/welded.png
 	@echo "demo: results in results/: walk.npz, walk.html, gait_report.png (the person's walk), welded.npz, welded.png, welded.html (open the HTML in a browser)"
 
+# pytest-xdist: a worker per core (at most 4); the optimal-control checks run in chunks of
+# their own processes, which the workers share out (tests/conftest.py)
 test: $(STAMP) lint
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --maxprocesses 4 --dist worksteal
 
 # The documentation site (docs/*.md, MyST, and the API reference from the docstrings), warnings
 # as errors: docs/_build/html/index.html

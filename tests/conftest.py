@@ -169,14 +169,18 @@ def clean_library_path() -> dict:
 
 
 # -- the casadi checks' child processes (tests/test_optimal_dynamics.py) --------------------
-# started as soon as the session has collected them, so that they run on the second core beside
-# the rest of the suite (about five minutes of optimal control and walking), and collected by
-# their test
+# Each (file, chunk) runs in a child pytest that collects the file and keeps every N-th test
+# (HUMANOID_CHECKS_CHUNK="i/N", read by pytest_collection_modifyitems in the child). Run alone,
+# the session starts them all as soon as it has collected them, so that they run on the second
+# core beside the rest of the suite; under pytest-xdist (every worker collects every test) each
+# starts in the worker that runs its test, and the workers balance the chunks.
 CHILDREN: dict = {}
+CHUNK = "HUMANOID_CHECKS_CHUNK"
 
 
-def start_checks(checks: str):
-    """A child pytest running ``tests/<checks>`` with its output in temporary files."""
+def start_checks(checks: str, chunk: str = "0/1"):
+    """A child pytest running chunk ``chunk`` ("i/N") of ``tests/<checks>`` with its output in
+    temporary files."""
     import subprocess
     import sys
     import tempfile
@@ -185,18 +189,31 @@ def start_checks(checks: str):
     here = Path(__file__).resolve().parent
     out, err = tempfile.TemporaryFile("w+"), tempfile.TemporaryFile("w+")
     child = subprocess.Popen(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(here / checks)],
-        stdout=out, stderr=err, text=True, cwd=here.parent, env=clean_library_path(),
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist",
+         str(here / checks)],
+        stdout=out, stderr=err, text=True, cwd=here.parent,
+        env=clean_library_path() | {CHUNK: chunk},
     )  # fmt: skip
     return child, out, err
 
 
 def pytest_collection_modifyitems(session, config, items):
+    import os
+
+    chunk = os.environ.get(CHUNK)
+    if chunk:  # a child: its share of the checks
+        i, n = (int(x) for x in chunk.split("/"))
+        items[:] = [item for k, item in enumerate(items) if k % n == i]
+        return
+    # the children first: the longest tests, started before the rest rather than after it
+    items.sort(key=lambda item: item.path.name != "test_optimal_dynamics.py")
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return  # (started by the test, in the worker that runs it)
     for item in items:
         callspec = getattr(item, "callspec", None)
         if item.path.name == "test_optimal_dynamics.py" and callspec is not None:
-            checks = callspec.params["checks"]
-            CHILDREN.setdefault(checks, start_checks(checks))
+            key = callspec.params["checks"], callspec.params["chunk"]
+            CHILDREN.setdefault(key, start_checks(*key))
 
 
 def pytest_sessionfinish(session, exitstatus):

@@ -12,11 +12,16 @@ from __future__ import annotations
 import pytest
 from conftest import CHILDREN, start_checks
 
+# the gait checks (optimal control and walks, about ten minutes of CPU) in six chunks, which
+# pytest-xdist's workers share out (in three, one chunk took 14 minutes of a 36-minute run)
+CHUNKS = [("casadi_checks.py", "0/1")] + [("casadi_gait_checks.py", f"{i}/6") for i in range(6)]
 
-@pytest.mark.parametrize("checks", ["casadi_checks.py", "casadi_gait_checks.py"])
-def test_the_optimal_control_layer_in_its_own_process(checks):
-    # started when the session collected this test (conftest.pytest_collection_modifyitems)
-    child, out, err = CHILDREN.pop(checks, None) or start_checks(checks)
+
+@pytest.mark.parametrize(("checks", "chunk"), CHUNKS)
+def test_the_optimal_control_layer_in_its_own_process(checks, chunk):
+    # started when the session collected this test (conftest.pytest_collection_modifyitems),
+    # or now (under pytest-xdist)
+    child, out, err = CHILDREN.pop((checks, chunk), None) or start_checks(checks, chunk)
     try:
         child.wait(timeout=900)
     finally:
