@@ -98,6 +98,9 @@ def add_track(command) -> None:
     tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
                     "none; default: Winter's residual analysis of the motion)")  # fmt: skip
     tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
+    tr.add_argument("--toes", action="store_true", dest="free_toes", help="a body with toes "
+                    "tracks with its toe hinges free, rolling over them (default: locked, one "
+                    "rigid foot)")  # fmt: skip
     tr.add_argument("-o", "--output", default="tracked.npz", help="the run to write (.npz)")
     tr.add_argument("--mot", help="also write it as OpenSim files (coordinates, ground forces)")
     tr.add_argument("--figure", help="figure (PNG); default: next to the run")

@@ -654,9 +654,10 @@ def run_track(args) -> int:
 
     with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
         warnings.simplefilter("always", ReferenceRangeWarning)
-        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor)
+        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor,
+                    toes=getattr(args, "free_toes", False))  # fmt: skip
     again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
-    h = res.body  # (its toes locked)
+    h = res.body  # (its toes locked unless --toes)
     traj = res.trajectory
     path = traj.save(args.output)
     meta = traj.metadata
@@ -674,6 +675,9 @@ def run_track(args) -> int:
         print(f"reduced      {line}")
     for line in again:
         print(f"ranges       clamped again (the reduced motion): {line}")
+    if res.toes:
+        print(f"toes         the reference's turned onto the floor: "
+              f"{describe_clamped(res.toes, len(q))}")  # fmt: skip
     print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
           + (" (Winter's residual analysis)" if cutoff == "auto" else ""))  # fmt: skip
     print(

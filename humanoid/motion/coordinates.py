@@ -503,16 +503,16 @@ def _set_root(q: np.ndarray, cols: dict, root: RootMap, scale: float) -> None:
 
 
 def lowest_sole_point(h, q: np.ndarray) -> float:
-    """The lowest height any sole point reaches over the configurations."""
+    """The lowest height any sole point reaches over the configurations (each point on its
+    own frame: a foot with free toes carries its toe points on them)."""
     model = h.model
     data = model.createData()
-    points = {s: h.sole_points(s) for s in ("left", "right")}
+    frames = [h.frame_id(n) for s in ("left", "right") for n in h.require_contact_points(s)]
     low = math.inf
     for qi in q:
-        pin.framesForwardKinematics(model, data, qi)
-        for s, p in points.items():
-            M = data.oMf[h.sole_id(s)]
-            low = min(low, float((p @ M.rotation.T + M.translation)[:, 2].min()))
+        pin.forwardKinematics(model, data, qi)
+        for f in frames:
+            low = min(low, float(pin.updateFramePlacement(model, data, f).translation[2]))
     return low
 
 

@@ -350,7 +350,8 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     data = model.createData()
     out = {}
     measured = {x.body: x for x in loads if x.body in SIDES}
-    pts = {s: h.sole_points(s) for s in SIDES}
+    # (the points' own frames: a foot with free toes carries its toe points on them)
+    pts = {s: [h.frame_id(n) for n in h.require_contact_points(s)] for s in SIDES}
     # per sole point: its height and speed; a foot is down where one of its points is low and
     # still (a trailing foot rolls on its toes while its frame moves fast)
     low = {s: np.zeros((len(time), len(pts[s]))) for s in SIDES}
@@ -358,13 +359,10 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
     for i in range(len(time)):
         pin.forwardKinematics(model, data, q[i], v[i])
         for s in SIDES:
-            fid = h.sole_id(s)
-            M = pin.updateFramePlacement(model, data, fid)
-            frame = pin.getFrameVelocity(model, data, fid, LWA)
-            arms = pts[s] @ M.rotation.T
-            world = arms + M.translation
+            world = np.array([pin.updateFramePlacement(model, data, f).translation
+                              for f in pts[s]])  # fmt: skip
             low[s][i] = world[:, 2] if floor is None else floor.above(world)
-            vel[s][i] = frame.linear + np.cross(frame.angular, arms)
+            vel[s][i] = [pin.getFrameVelocity(model, data, f, LWA).linear for f in pts[s]]
     # the motion's floor: the median over samples of the lowest sole point (in a walk a foot
     # always stands; the lowest of all is a rigid foot's tip through the floor at push-off,
     # 4-5 cm under walking5's stances, under which no stance was found)

@@ -31,7 +31,7 @@ tracking error per joint against the reference.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -52,7 +52,9 @@ __all__ = [
     "ReferenceRangeWarning",
     "TrackGains",
     "Tracked",
+    "foot_joints",
     "inside_ranges",
+    "toes_on_floor",
     "track",
 ]
 
@@ -106,6 +108,13 @@ class TrackGains:
     # the motion by 30 cm and tipped forward at 2.4 s of 2.5; at 0.5 it completed, 9 cm at
     # most from it and its joints 2.1 deg RMS off (1.0: 14 cm, 2.1 deg)
     placement: float = 0.5
+    w_toes: float = 10.0  # a free toe hinge's (MTP) weight in the joints' task
+
+
+# [m] a rearfoot's point this near a loaded point of its toes is the ball of the foot, the
+# toes' (their rear corners and its front ones are one edge with the toes flat, 8 mm apart
+# with them bent 30 deg)
+BALL = 1e-2
 
 
 class FallMonitor:
@@ -189,6 +198,16 @@ class MotionTracker(Effect):
         self.swings = {s: _swings(*contacts[s]) for s in SIDES}
         self.sole = {s: h.sole_id(s) for s in SIDES}
         self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        self.foot_joints = {s: foot_joints(h, s) for s in SIDES}
+        self.toes = any(len(js) > 1 for js in self.foot_joints.values())
+        # the joints' task weights: a foot's own hinges (its toes') weigh w_toes
+        from ..constraints import foot_hinges
+
+        self.w_joints = np.full(model.nv - 6, self.gains.w_joint)
+        for s in SIDES:
+            frames = [h.frame_id(n) for n in h.contact_points[s]]
+            for j in foot_hinges(model, self.sole[s], frames):
+                self.w_joints[model.joints[j].idx_v - 6] = self.gains.w_toes
         self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
         self.ranges = JointRanges(h)
         self.tau = np.zeros(model.nv)
@@ -215,10 +234,32 @@ class MotionTracker(Effect):
         i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
         return bool(on[i])
 
+    def _ball(self, cms, phi, points, loaded, free):
+        """(loaded, free) with, of a rearfoot's loaded point and a loaded point of its toes
+        within :data:`BALL` of each other (the ball of the foot), the higher made free (the
+        rearfoot's with the toes flat and the heel up, the toes' with the toes bent up on a
+        flat foot). Both loaded, they locked the foot: a rearfoot turning about the MTP axis
+        moves its ball backwards under toes that stand still (walking5's stance foot stood on
+        its ball with its heel and toes up, pushed 2.6 BW and flew), and a point 0.7 mm up
+        settling onto the floor turned a standing body's toes down from 17 degrees to 0."""
+        joint = {i: cms[i].extract().joint2_id for i in loaded}
+        parents = self.model.parents
+        out = []
+        for i in loaded:
+            higher = any(
+                (parents[joint[k]] == joint[i] and phi[i] >= phi[k])
+                or (parents[joint[i]] == joint[k] and phi[i] > phi[k])
+                for k in loaded
+                if np.linalg.norm(points[k][:2] - points[i][:2]) < BALL
+            )
+            (free if higher else out).append(i)
+        return out, free
+
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         M, hvec = dynamics_terms(model, data, q, v)
-        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
+        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data,
+                                                       self.foot_joints)  # fmt: skip
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
         rd = self.rdata
@@ -228,19 +269,24 @@ class MotionTracker(Effect):
         for i, s in enumerate(side_of):
             ok = False
             if s is not None and on[s] and phi[i] < g.touch:
-                local = data.oMf[self.sole[s]].actInv(points[i])
+                # the point on its own body (the rearfoot or the toes)
+                j = cms[i].extract().joint2_id
+                local = data.oMi[j].actInv(points[i])
                 # a point of the sole that the motion has on the floor now: low, and not
                 # rising away from it (a heel rising in push-off is not held down; a fitted
                 # noisy motion's standing heel, a centimetre or two up, is)
-                M_r = rd.oMf[self.sole[s]]
+                M_r = rd.oMi[j]
                 ref_z = float(M_r.act(local)[2]) - self.ref.floor
-                vel = pin.getFrameVelocity(model, rd, self.sole[s], LWA)
+                vel = pin.getVelocity(model, rd, j, LWA)
                 rising = float(vel.linear[2] + np.cross(vel.angular, M_r.rotation @ local)[2])
-                ok = local[2] < SOLE_DEPTH and (
+                ok = self.foot_joints[s][j].act(local)[2] < SOLE_DEPTH and (
                     ref_z < g.ref_touch or (ref_z < g.ref_reach and rising < g.ref_rise)
                 )
             (loaded if ok else free).append(i)
+        loaded, free = self._ball(cms, phi, points, loaded, free)
         bearing = {side_of[i] for i in loaded}
+        if self.toes:  # a bearing foot's free points are the plant's to keep out of the floor
+            free = [i for i in free if side_of[i] not in bearing]
         tasks = TaskStack(model, data, q, v)
         # the root: position and orientation
         tasks.add(PostureTask(q_r, g.root_kp, g.root_kd, g.w_root, v_r, a_r, dofs="root"))
@@ -261,7 +307,7 @@ class MotionTracker(Effect):
                 moved = None if shift is None else self.swing_phase(s, t) * shift
                 tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
                                               g.w_foot, moved))  # fmt: skip
-        tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, g.w_joint, v_r, a_r))
+        tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, self.w_joints, v_r, a_r))
         p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
                        self.weight, g, self.ranges, self.ground.settings.correction,
                        RANGE_MARGIN, RANGE_TIME)  # fmt: skip
@@ -270,6 +316,70 @@ class MotionTracker(Effect):
         tau, dv, f = p.torques(checked(x, "tracking", t, self.qp), M, hvec, self.weight)
         self.last = (dv, f, loaded)
         return tau
+
+
+def foot_joints(h, side: str) -> dict:
+    """The joints of a side's foot (its sole's and those below it: a foot with free toes, its
+    toes'), each with its placement in the sole's frame when the body stands (a point's
+    height above the sole's plane with the toes flat)."""
+    model = h.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, h.standing_configuration())
+    sole = data.oMf[h.sole_id(side)]
+    root = model.frames[h.sole_id(side)].parentJoint
+    return {j: sole.actInv(data.oMi[j]) for j in model.subtrees[root]}
+
+
+def toes_on_floor(h, q, floor: float | None = None) -> tuple[np.ndarray, dict]:
+    """The configurations ``q`` (n, nq) with each foot's own hinges (its toes' MTP) turned,
+    where the motion has the points they carry under the floor at height ``floor`` [m], just
+    enough to bring them onto it (within the hinge's range), and what was turned: {hinge:
+    (frames, the most it turned [rad])}. ``floor`` None: the median over the frames of the
+    lowest sole point. A motion fitted with the toes locked (or on a model without them) has a
+    rigid foot: walking5's tips went 3-5 cm through the floor at every push-off, where a foot
+    rolls over its toes (with them flat, its sole stayed out of the floor in every frame)."""
+    from ..constraints import foot_hinges
+
+    model = h.model
+    data = model.createData()
+    out = np.array(q, dtype=float)
+    hinges = []  # (hinge, its q index, the sole points it carries)
+    for s in SIDES:
+        frames = [h.frame_id(n) for n in h.require_contact_points(s)]
+        for j in foot_hinges(model, h.sole_id(s), frames):
+            below = [f for f in frames if model.frames[f].parentJoint in model.subtrees[j]]
+            hinges.append((model.names[j], model.joints[j].idx_q, below))
+    if not hinges:
+        return out, {}
+
+    def lowest(qi, frames):
+        pin.forwardKinematics(model, data, qi)
+        return min(float(pin.updateFramePlacement(model, data, f).translation[2]) for f in frames)
+
+    if floor is None:
+        every = [h.frame_id(n) for s in SIDES for n in h.require_contact_points(s)]
+        floor = float(np.median([lowest(qi, every) for qi in out]))
+    turned = {}
+    for name, iq, below in hinges:
+        lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
+        for qi in out:
+            a0 = float(qi[iq])
+            if lowest(qi, below) >= floor:
+                continue
+            ends = []  # the limit whose angle lifts the points more
+            for end in (lo, hi):
+                qi[iq] = end
+                ends.append((lowest(qi, below), end))
+            lift, end = max(ends)
+            a, b = a0, end
+            if lift > floor:  # bisection for the points on the floor
+                for _ in range(30):
+                    qi[iq] = 0.5 * (a + b)
+                    a, b = (qi[iq], b) if lowest(qi, below) < floor else (a, qi[iq])
+            qi[iq] = b
+            k, most = turned.get(name, (0, 0.0))
+            turned[name] = (k + 1, max(most, abs(b - a0)))
+    return out, turned
 
 
 def inside_ranges(h, q) -> tuple[np.ndarray, dict[str, tuple[int, float]]]:
@@ -309,11 +419,12 @@ class Tracked:
             the run's records. joint_error: per record, each joint's error against the
             reference [rad] (the root's 6 first: position [m] and orientation [rad]).
         contacts: side -> (times, in contact) as scheduled. wall_time: [s]. body: the body
-            that moved (a body with toes tracks with them locked:
+            that moved (with ``toes=False`` its toes locked:
             :func:`~humanoid.model.lock_foot_hinges`). cutoff: the reference's low-pass
             cutoff [Hz] (None: unfiltered). floor: the
             :class:`~humanoid.motion.floor.Floor` whose frame the run is in (None: the
-            motion's own).
+            motion's own). toes: what the reference's toes were turned by to bring them
+            onto the floor (:func:`toes_on_floor`).
     """
 
     trajectory: object
@@ -324,6 +435,7 @@ class Tracked:
     body: object = None
     cutoff: float | None = None
     floor: object = None
+    toes: dict = field(default_factory=dict)
 
     @property
     def completed(self) -> bool:
@@ -332,7 +444,8 @@ class Tracked:
 
 def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | None = "auto",
           dt: float = 1e-3, mu: float = 0.8, gains: TrackGains | None = None,
-          record_rate: float = 100.0, quiet: bool = True, floor=None) -> Tracked:  # fmt: skip
+          record_rate: float = 100.0, quiet: bool = True, floor=None,
+          toes: bool = False) -> Tracked:  # fmt: skip
     """Follow the motion ``q`` (n, nq) at ``time`` in forward simulation (see the module
     docstring); ``loads`` (measured ground forces) only say when each foot is on the ground.
     ``cutoff``: the reference's low-pass cutoff [Hz]; ``"auto"`` (the default): Winter's
@@ -344,9 +457,18 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     (:func:`inside_ranges`; a :class:`ReferenceRangeWarning` names what). The run starts in the
     reference's first state; it stops as failed if the body falls (its
     centre of mass below half its starting height, or its pelvis tipped over 60 deg), the
-    message saying when and how it lost the motion; what it recorded up to then is kept. A
-    body with toes tracks with them locked (the tracker plans a rigid foot); the result's
-    :attr:`Tracked.body` is the body that moved.
+    message saying when and how it lost the motion; what it recorded up to then is kept.
+
+    ``toes``: False (default): a body with toes tracks with them locked
+    (:func:`~humanoid.model.lock_foot_hinges`, one rigid foot). True: it keeps its toe hinges
+    (MTP) free: their angles are tracked as every joint's (weighted ``TrackGains.w_toes``),
+    their sole points bear load as the rearfoot's (the toes' rear corners, not the rearfoot's
+    front ones, are the ball of the foot), and where the motion has them under its floor (a
+    motion fitted with the toes locked: a rigid foot's tip 3-5 cm through the floor at
+    push-off) the reference turns them onto it (:func:`toes_on_floor`), so that the body rolls
+    over its toes. Not the default: on walking5 (a Vicon walk) it fell at 2.0 s where the
+    locked foot completed, and OpenSim's subject01 walk ended 23 cm from its motion (16
+    locked); see docs/motion.md. The result's :attr:`Tracked.body` is the body that moved.
 
     ``floor``: the :class:`~humanoid.motion.floor.Floor` the motion was recorded on
     (:func:`~humanoid.motion.floor.fit_floor`), or ``"fit"`` to fit it: the motion is followed
@@ -360,7 +482,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
     from ..simulation import Simulation
 
-    full, h = h, lock_foot_hinges(h)
+    full, h = h, h if toes else lock_foot_hinges(h)
     if np.shape(q)[-1] != h.model.nq:
         q = restrict_configurations(q, full, h)
     q, clamped = inside_ranges(h, q)
@@ -378,6 +500,9 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
             floor = fit_floor(h, time, q)
         q = floor.onto(model, time, q)
         gravity = floor.gravity(gravity)
+    turned = {}
+    if toes:
+        q, turned = toes_on_floor(h, q, None if floor is None else 0.0)
     if cutoff == "auto":
         cutoff = min(max(residual_cutoff(model, time, q), LOWEST_CUTOFF), HIGHEST_CUTOFF)
     t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
@@ -409,7 +534,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
         cause = _lost(traj.t, err, ctl)
         if cause:
             traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor, turned)
 
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
