@@ -640,26 +640,17 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
     previous = before = None
 
-    # each marker on its frame's joint: the joints that carry markers, and each marker's point
-    # in its joint's frame (one Jacobian per joint, not per marker)
-    carriers = [model.frames[f].parentJoint for f in frames]
-    joints_used, on_joint = np.unique(carriers, return_inverse=True)
-    joints_used = [int(j) for j in joints_used]
-    in_joint = np.array([model.frames[f].placement.act(o)
-                         for f, o in zip(frames, offsets, strict=True)])  # fmt: skip
-
     def model_markers(q):
-        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv): a marker's
-        velocity is its joint's linear velocity at the joint's origin plus the angular
-        velocity crossed with the marker's lever from that origin."""
+        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv)."""
         pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)  # (the feet's rows read data.oMf)
-        R = np.array([data.oMi[j].rotation for j in joints_used])[on_joint]
-        origin = np.array([data.oMi[j].translation for j in joints_used])[on_joint]
-        P = np.einsum("kij,kj->ki", R, in_joint) + origin
-        J = np.array([pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED)
-                      for j in joints_used])[on_joint]  # fmt: skip
-        Jp = J[:, :3] - np.cross((P - origin)[:, :, None], J[:, 3:], axisa=1, axisb=1, axisc=1)
+        pin.updateFramePlacements(model, data)
+        P = np.zeros((m, 3))
+        Jp = np.zeros((m, 3, model.nv))
+        for k in range(m):
+            M = data.oMf[frames[k]]
+            P[k] = M.act(offsets[k])
+            Jf = pin.getFrameJacobian(model, data, frames[k], pin.LOCAL_WORLD_ALIGNED)
+            Jp[k] = Jf[:3] - pin.skew(P[k] - M.translation) @ Jf[3:]
         return P, Jp
 
     def system(q, frame, rows=None):
