@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -52,6 +53,9 @@ import pinocchio as pin
 from ..errors import IKError
 from .inverse_dynamics import joint_labels
 from .markers import MAX_WEIGHT, Marker, MarkerTrajectories
+
+if TYPE_CHECKING:
+    from .monocular import DepthReport
 
 __all__ = [
     "IKResult",
@@ -150,7 +154,7 @@ class IKResult:
     coordinates: list[str] = field(default_factory=list)
     held: np.ndarray | None = None
     pixels: np.ndarray | None = None
-    depth: object = None
+    depth: DepthReport | None = None
 
     @property
     def unconstrained(self) -> list[str]:

@@ -234,7 +234,8 @@ def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
 
 def derivatives(model, time, q, *, cutoff: float | str | None = 6.0,
                 rate: float | None = None,
-                velocity: str = "central") -> tuple[np.ndarray, ...]:  # fmt: skip
+                velocity: str = "central",
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """A motion resampled, filtered and differentiated (steps 1-3 of the module docstring):
     (time, q, v, a) on a uniform grid. ``cutoff``: [Hz], None (unfiltered) or ``"auto"``
     (:func:`residual_cutoff` of the resampled motion)."""

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -45,6 +46,11 @@ from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives, residual_cutoff
 from .loads import Load
+
+if TYPE_CHECKING:
+    from ..model import Humanoid
+    from ..trajectory import Trajectory
+    from .floor import Floor
 
 __all__ = [
     "MotionReference",
@@ -316,14 +322,14 @@ class Tracked:
             motion's own).
     """
 
-    trajectory: object
+    trajectory: Trajectory
     reference: tuple
     joint_error: np.ndarray
     contacts: dict
     wall_time: float
-    body: object = None
+    body: Humanoid | None = None
     cutoff: float | None = None
-    floor: object = None
+    floor: Floor | None = None
 
     @property
     def completed(self) -> bool:

@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -57,6 +58,9 @@ from .clinical import ANGLES, arm_chains, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import OTHER, GaitController, TrackingGains
 from .transitions import start_stop
+
+if TYPE_CHECKING:
+    from ..model import Humanoid
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
@@ -271,7 +275,7 @@ class GroundWalk:
     relaxed: int
     wall_time: float
     steps: int
-    body: object = None
+    body: Humanoid | None = None
 
     @property
     def completed(self) -> bool:
