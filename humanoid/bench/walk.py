@@ -61,7 +61,7 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
     from ..walking import run as walk_run
 
     clock = _Clock()
-    samples = []
+    samples: list[tuple[np.ndarray, np.ndarray, list]] = []
     original = Recorder.add
     record = clock.timed(original, "records")
 

@@ -160,7 +160,8 @@ def _check_tree(root, label: str) -> None:
     dup = sorted({n for n in links if links.count(n) > 1})
     if dup:
         raise ModelError(f"{label}: links defined twice: {', '.join(dup)}")
-    known, parent, names = set(links), {}, set()
+    known, names = set(links), set()
+    parent: dict[str, str] = {}
     children: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         name = joint.get("name")
@@ -237,7 +238,7 @@ def _check_shape(element, where: str) -> None:
 def check_built(model: pin.Model, declared: dict, label: str) -> None:
     """What Pinocchio built equals what the URDF declares: each joint's inertia is the sum of
     its links' declared inertias (a link that urdfdom dropped would be missing)."""
-    frames = {}
+    frames: dict[int, list] = {}
     for f in model.frames:
         if f.type == pin.FrameType.BODY:
             frames.setdefault(f.parentJoint, []).append(f)

@@ -249,7 +249,7 @@ def _ball_rows(balls, q, nv: int, margin: float) -> tuple[np.ndarray, np.ndarray
 def _ball_reports(balls, time, q, wanted) -> list[LimitReport]:
     """The ball joints' angles held at a bound in ``q`` where ``wanted`` (NaN in frames that
     needed no refit) goes past it, named by the hinges they replace."""
-    out = []
+    out: list[LimitReport] = []
     if balls is None or not balls.balls:
         return out
     rows = np.flatnonzero(np.all(np.isfinite(wanted), axis=1))

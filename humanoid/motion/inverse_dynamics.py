@@ -294,13 +294,13 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
     """
     model = h.model
     time, q = _checked(model, time, q)
-    carried = []
+    carried: list[tuple] = []
     if recorded_feet:  # at the motion's own samples, where the recorded feet are given
         loads, carried = carry_loads(h, time, q, loads, recorded_feet)
     time, q, v, a = derivatives(model, time, q, cutoff=cutoff, rate=rate, velocity=velocity)
     rate = 1.0 / (time[1] - time[0])
     n = len(time)
-    wrenches = {}
+    wrenches: dict[str, tuple[int, np.ndarray]] = {}
     for load in loads:
         j = _load_joint(h, load.body)
         wrenches[load.body] = (j, wrenches.get(load.body, (j, 0.0))[1] + load.resampled(time))
@@ -313,7 +313,9 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
     fext = pin.StdVec_Force()
     for _ in range(model.njoints):
         fext.append(pin.Force.Zero())
-    per_joint = {}  # the loads on each joint, summed: world wrenches about the origin
+    per_joint: dict[
+        int, np.ndarray
+    ] = {}  # the loads on each joint, summed: world wrenches about the origin
     for j, w in wrenches.values():
         per_joint[j] = per_joint.get(j, 0.0) + w
     for i in range(n):

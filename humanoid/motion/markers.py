@@ -581,7 +581,8 @@ def read_trc(path: str | Path, y_up: bool = True) -> MarkerTrajectories:
             ) from None
         if count != len(names):
             raise MotionFileError(f"{path}:4: {len(names)} marker names for NumMarkers={count}")
-    times, rows = [], []
+    times: list[float] = []
+    rows: list[list[float]] = []
     for number, line in enumerate(lines[5:], start=6):
         if not line.strip():
             if rows:

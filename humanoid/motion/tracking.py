@@ -230,7 +230,8 @@ class MotionTracker(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        loaded, free = [], []
+        loaded: list[int] = []
+        free: list[int] = []
         for i, s in enumerate(side_of):
             ok = False
             if s is not None and on[s] and phi[i] < g.touch:

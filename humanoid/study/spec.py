@@ -154,7 +154,7 @@ class Study:
         keys = list(self.grid)
         combos = list(itertools.product(*(self.grid[k] for k in keys))) or [()]
         samples = self._draws()
-        out = []
+        out: list[Run] = []
         base = self.fingerprint
         for i, draw in enumerate(samples):
             for combo in combos:

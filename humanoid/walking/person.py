@@ -304,7 +304,7 @@ class CycleTracker(Effect):
         self.heels = {s: [p for p in self.points[s] if "heel" in p] for s in SIDES}
         z = pin.centerOfMass(model, self.data, reference.state(t0)[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
-        self.loaded_before = set()
+        self.loaded_before: set[int] = set()
         # the last step's reference centre of mass: (x, y) [m], the direction of travel, and
         # the speed along it [m/s]
         self.com_ref = None
@@ -389,7 +389,7 @@ class CycleTracker(Effect):
         point's shared among the corners matched to it, and their vertical upper bounds: the
         cycle's plus a margin that fades to zero before the cycle lifts the point."""
         g, ref = self.gains, self.ref
-        count = {}
+        count: dict[int, int] = {}
         for m in match:
             count[m] = count.get(m, 0) + 1
         target = np.zeros(3 * len(match))
