@@ -7,6 +7,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -134,7 +135,8 @@ class Progress:
     """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
 
     def __init__(self, total: int, quiet: bool) -> None:
-        self.total, self.bar = total, None
+        self.total = total
+        self.bar: Any = None  # a tqdm bar, once the run has lasted 2 s
         self.enabled = not quiet and sys.stderr.isatty()
         self.start = time.perf_counter()
 

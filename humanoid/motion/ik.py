@@ -522,7 +522,7 @@ class _Views:
         self.single = len(self.cameras) == 1
         if not self.single:
             self.points = triangulate(keypoints, cameras).positions[:, cols]
-        self.pixels = None  # (n, m) the last fit's reprojection errors [px]
+        self.pixels: np.ndarray | None = None  # (n, m) the last fit's reprojection errors [px]
 
     def seen(self, i: int) -> np.ndarray:
         return (self.conf[:, i] > 0).any(axis=0) & (self.weights > 0)

@@ -200,7 +200,8 @@ class MotionTracker(Effect):
         self.tau = np.zeros(model.nv)
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
         self.relaxed = 0
-        self.last = None
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
 
     def force(self, model, data, t, q, v):
         return self.tau

@@ -38,6 +38,7 @@ import json
 import math
 import warnings
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,7 +154,8 @@ class _Fitter:
             self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
         self.thorax = torso_frame(self.model, self.arms.values())
         self.ranges = JointRanges(h)
-        self.com_target = None  # phi -> the centre of mass's target (NaN: free)
+        # phi -> the centre of mass's target (NaN: free)
+        self.com_target: Callable[[float], np.ndarray] | None = None
         # the legs carry the centre of mass where it must go, not a swing of the arms
         self.w_posture = leg_joint_weights(self.model, self.chains, W_POSTURE, W_UPPER)
 

@@ -322,7 +322,8 @@ class GaitController(Effect):
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
         # side -> (footstep it left, its pose and velocity errors there, u0)
         self.lift: dict[str, tuple[int, np.ndarray, np.ndarray, np.ndarray, float]] = {}
-        self.last = None
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
         self.relaxed = 0  # steps solved without the range dampers and floor rows
         self.down: dict[str, bool] = {}  # side -> whether it was a stance foot at the last step
         z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
