@@ -172,11 +172,11 @@ def _check_tree(root, label: str) -> None:
         kind = joint.get("type")
         if kind not in JOINT_TYPES:
             raise ModelError(f"{where}: type {kind!r} is not one of {', '.join(JOINT_TYPES)}")
-        ends = []
+        ends: list[str] = []
         for end in ("parent", "child"):
             e = joint.find(end)
             link = e.get("link") if e is not None else None
-            if link not in known:
+            if link is None or link not in known:  # (no link is None: checked above)
                 raise ModelError(f"{where}: <{end} link={link!r}> is not a link of the file")
             ends.append(link)
         p, c = ends

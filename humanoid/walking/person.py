@@ -345,6 +345,7 @@ class CycleTracker(Effect):
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
         com = tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, g.com_kp, g.com_kd, g.w_com))
         c, dc = com.c, com.dc
+        assert c is not None and dc is not None  # computed by tasks.add
         heading = ref.heading(tc)
         ahead = np.array([math.cos(heading), math.sin(heading)])
         self.com_ref = (c_r[:2].copy(), ahead, float(dc_r[:2] @ ahead))

@@ -168,7 +168,7 @@ class _Fitter:
         return np.array([self.norm(k, psi) for k in ANGLES])
 
     # -- the residual ----------------------------------------------------------------------
-    def wants(self, phi: float) -> tuple[dict, tuple | None, dict]:
+    def wants(self, phi: float) -> tuple[dict, np.ndarray | None, dict]:
         """What the fit aims at, at the cycle's phase phi: each side's normative angles [deg],
         the centre of mass [m] (NaN where free) if it has a plan, and each arm's swing [deg]."""
         psi = {s: phi + (0.5 if s == "left" else 0.0) for s in SIDES}
