@@ -279,6 +279,14 @@ _SCALED_JOINTS = {
 }  # fmt: skip
 
 
+def _text(element, tag: str) -> str:
+    """The text of ``element``'s child ``tag`` in a file OpenSim wrote."""
+    text = element.findtext(tag)
+    if text is None:
+        raise OpenSimError(f"OpenSim's scale factors have a <Scale> without <{tag}>")
+    return text
+
+
 def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
                       folder: str | Path) -> tuple[dict[str, float], dict[str, float]]:  # fmt: skip
     """OpenSim 4's ScaleTool on a static trial: its ModelScaler with a MeasurementSet of the
@@ -338,8 +346,8 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
     tool = osim.ScaleTool(str(setup))
     if not tool.run():
         raise OpenSimError("OpenSim's ScaleTool failed")
-    factors = {}
-    scales = {x.findtext("segment").strip(): [float(v) for v in x.findtext("scales").split()]
+    factors: dict[str, float] = {}
+    scales = {_text(x, "segment").strip(): [float(v) for v in _text(x, "scales").split()]
               for x in ET.parse(folder / "scale_factors.xml").iter("Scale")}  # fmt: skip
     for m in measured:
         bodies = [f"{j}_body" for j in _SCALED_JOINTS.get(m.name, ()) if j + "_body" in scales]
