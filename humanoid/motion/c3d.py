@@ -545,6 +545,7 @@ def assign_contacts(plates: list[Plate], markers=None, sides: dict[int, str] | N
     side)`` (samples ``[start, stop)``; side ``"left"``, ``"right"`` or None), in the plates'
     order (see :func:`plate_loads`; it warns where it gives a contact to no foot)."""
     sides = dict(sides or {})
+    side: str | None  # a plate's foot (None: no foot's)
     for index, side in sides.items():
         if side not in ("left", "right"):
             raise MotionFileError(f"plate {index}: its side must be left or right, not {side!r}")
@@ -561,7 +562,6 @@ def assign_contacts(plates: list[Plate], markers=None, sides: dict[int, str] | N
     out = []
     for p in plates:
         for i0, i1 in p.contacts():
-            side: str | None
             if p.index in sides:
                 side = sides[p.index]
             elif none:

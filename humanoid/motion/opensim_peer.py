@@ -315,11 +315,11 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
         joints = [j for j in _SCALED_JOINTS.get(m.name, ()) if model.existJointName(j)]
         pairs = "".join(f"<MarkerPair><markers>{a} {b}</markers></MarkerPair>"
                         for a, b, *_ in m.pairs)  # fmt: skip
-        bodies = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
+        scaled = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
                          for j in joints)  # fmt: skip
         measurements.append(f'<Measurement name="{m.name}"><apply>true</apply><MarkerPairSet>'
                             f"<objects>{pairs}</objects></MarkerPairSet><BodyScaleSet><objects>"
-                            f"{bodies}</objects></BodyScaleSet></Measurement>")  # fmt: skip
+                            f"{scaled}</objects></BodyScaleSet></Measurement>")  # fmt: skip
     tasks = "".join(f'<IKMarkerTask name="{n}"><apply>true</apply><weight>1</weight>'
                     "</IKMarkerTask>" for n in names)  # fmt: skip
     span = f"{float(static.time[0])!r} {float(static.time[-1])!r}"

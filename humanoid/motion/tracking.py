@@ -394,7 +394,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     scene = Scene(
         name="track", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
         integrator="semi_implicit_euler", record_rate=record_rate,
-        effects=Effects(gravity=tuple(float(x) for x in gravity),
+        effects=Effects(gravity=tuple(float(x) for x in gravity),  # type: ignore[arg-type]  # (3 floats)
                         joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu)),
     )  # fmt: skip
@@ -417,7 +417,8 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
         cause = _lost(traj.t, err, ctl)
         if cause:
             traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor)
+    # (cutoff is a number or None here: "auto" was resolved above)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor)  # type: ignore[arg-type]
 
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
