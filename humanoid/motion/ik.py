@@ -161,7 +161,9 @@ class IKResult:
         """The coordinates no marker saw in at least one frame (held there)."""
         if self.held is None:
             return []
-        return [c for c, h in zip(self.coordinates, self.held.any(axis=0), strict=True) if h]
+        # (numpy's stubs: any over an axis of a 2-D array is an array, not a scalar)
+        held = self.held.any(axis=0)
+        return [c for c, h in zip(self.coordinates, held, strict=True) if h]  # type: ignore[arg-type]
 
     def marker_rms(self) -> dict[str, float]:
         """Each marker's RMS residual over the frames it was seen in [m]."""
@@ -390,6 +392,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
                         smoothing, unseen, hold, result.q[-1], None, cameras, ball_ranges,
                         ground, root_smoothing, pins, backward=True)  # fmt: skip
+        assert result.depth is not None  # one view: the solve reported the depth
         result.depth = replace(result.depth, stances=tuple(found))
     result.marker_set = marker_set
     if result.depth is not None:
@@ -401,6 +404,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             r.describe(len(result.time)) for r in result.at_limit),
             RangeLimitWarning, stacklevel=2)  # fmt: skip
     if result.unconstrained:
+        assert result.held is not None  # unconstrained coordinates are held ones
         counts = result.held.sum(axis=0)
         named = [f"{c} ({counts[k]} of {len(result.time)} frames)"
                  for k, c in enumerate(result.coordinates) if counts[k]]  # fmt: skip
@@ -614,6 +618,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     frames = [model.getFrameId(marker_set[n].frame) for n in names]
     offsets = np.array([marker_set[n].offset for n in names])
     weights = np.array([marker_set[n].weight for n in names])
+    obs: _Points | _Views
     if cameras is None:
         obs = _Points(markers, names, weights)
     else:
@@ -769,6 +774,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                     break
             wanted[i] = free
         if single:  # the root's depth: its sd for one pixel of noise, from the curvature
+            assert isinstance(obs, _Views)  # only views are single
             A, _ = system(q, frame)  # (data at q)
             J, _, w = obs.rows(i, seen, *model_markers(q))
             depth[i] = obs.root_depth(q, A, J, w)
@@ -788,6 +794,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     if single:
         from .monocular import DepthReport
 
+        assert isinstance(obs, _Views) and result.pixels is not None  # a view's reprojection
         px = float(np.sqrt(np.nanmean(result.pixels**2)))
         result.depth = DepthReport(obs.cameras[0].name, depth[:, 0], depth[:, 1], depth[:, 2],
                                    px)  # fmt: skip
