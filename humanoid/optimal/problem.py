@@ -164,6 +164,7 @@ class Collocation:
                 else:
                     opti.subject_to(pos[axis, i] == self._anchor(p, stay, axis))
                 if p in landing:
+                    assert vel is not None  # computed when a point lands
                     opti.subject_to(vel[axis, i] == 0)
             for p in self.clearance:
                 if p not in down and p not in {q for q, _ in held}:
@@ -302,7 +303,11 @@ class Collocation:
         the objective whose values the solution reports."""
         opti = self.opti
         opti.minimize(objective)
-        opts = {"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8}
+        opts: dict[str, Any] = {
+            "ipopt.max_iter": max_iter,
+            "ipopt.tol": tol,
+            "ipopt.constr_viol_tol": 1e-8,
+        }
         opts |= {"ipopt.print_level": 5 if verbose else 0, "print_time": False}
         opts |= {"ipopt.sb": "yes", "expand": True}
         opts |= dict(options or {})

@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 import pinocchio as pin
@@ -560,7 +560,8 @@ class GaitAnalysis:
         0.165 and 0.151 BW, their mean curve's 0.11)."""
         out = {k: float(np.mean(v)) if len(v) else float("nan") for k, v in self.table.items()}
         stance = out["stance"] * 100.0 if math.isfinite(out["stance"]) else 60.0
-        sides = [s for s in SIDES if len(self.curves[s]["grf_vertical"])] or [None]
+        sides: list[str | None] = [s for s in SIDES if len(self.curves[s]["grf_vertical"])]
+        sides = sides or [None]
         peaks = [self._peaks(s, stance) for s in sides]
         out.update({k: float(np.mean([p[k] for p in peaks])) for k in peaks[0]})
         # the pelvis's and the arms' motion (each side's own curves, averaged)
@@ -734,7 +735,7 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
     def at(x, times, tt):
         return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
 
-    def covers(series, t0, t1):
+    def covers(series: tuple | None, t0, t1) -> TypeGuard[tuple]:
         return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
 
     def bears(s, t0, off):
