@@ -467,9 +467,9 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
     for s in SIDES:
         n = len(analysis.cycles[s])
         if n == 0:
-            strikes = ", ".join(f"{x:.3f}" for x in analysis.events[s]["strike"]) or "none"
+            listed = ", ".join(f"{x:.3f}" for x in analysis.events[s]["strike"]) or "none"
             warnings.warn(f"{source}: the {s} side has fewer than one full cycle (heel strikes "
-                          f"at {strikes} s, from {where.get(s, 'no source')}): nothing of it "
+                          f"at {listed} s, from {where.get(s, 'no source')}): nothing of it "
                           "is drawn or tabled", TrialWarning, stacklevel=2)  # fmt: skip
             continue
         for what, names, present in (("moments and powers", "hip_power", kinetics),
