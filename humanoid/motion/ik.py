@@ -161,9 +161,8 @@ class IKResult:
         """The coordinates no marker saw in at least one frame (held there)."""
         if self.held is None:
             return []
-        # (numpy's stubs: any over an axis of a 2-D array is an array, not a scalar)
-        held = self.held.any(axis=0)
-        return [c for c, h in zip(self.coordinates, held, strict=True) if h]  # type: ignore[arg-type]
+        held = np.asarray(self.held.any(axis=0))  # per coordinate
+        return [c for c, h in zip(self.coordinates, held, strict=True) if h]
 
     def marker_rms(self) -> dict[str, float]:
         """Each marker's RMS residual over the frames it was seen in [m]."""
