@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelError
+from ..errors import ModelError, OptimalControlError
 from ._casadi import ca
 
 __all__ = ["Kinematics", "SymbolicModel"]
@@ -279,7 +279,7 @@ class SymbolicModel:
         """The frame's spatial velocity in its world-aligned frame (linear: the velocity of its
         origin in world axes; angular: the world angular velocity)."""
         if kin.v is None:
-            raise TypeError("frame_velocity needs kinematics(q, v), at a velocity")
+            raise OptimalControlError("frame_velocity needs kinematics(q, v), at a velocity")
         i, Rf, pf = self.frame(frame)
         v = kin.v[i]
         lin = v[:3] + ca.cross(v[3:], ca.SX(pf))
@@ -289,7 +289,9 @@ class SymbolicModel:
         """The classical (second time derivative) acceleration of the frame's origin, in world
         axes."""
         if kin.v is None or kin.a is None:
-            raise TypeError("frame_acceleration needs kinematics(q, v, a), at an acceleration")
+            raise OptimalControlError(
+                "frame_acceleration needs kinematics(q, v, a), at an acceleration"
+            )
         i, Rf, pf = self.frame(frame)
         v, a = kin.v[i], kin.a[i]
         P = ca.SX(pf)
