@@ -37,6 +37,7 @@ docs: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check humanoid tests scripts
 	$(VENV)/bin/ruff format --check humanoid tests scripts
+	$(VENV)/bin/mypy
 
 format: $(STAMP)
 	$(VENV)/bin/ruff format humanoid tests scripts

@@ -326,7 +326,8 @@ def segments(params: BodyParameters) -> dict[str, Segment]:
         r = np.array([row.r_sag, row.r_trans, row.r_long]) * length
         if name in HORIZONTAL:  # long axis along x: (long, sag, trans) on (x, y, z), Gurchiek
             r = np.array([row.r_long, row.r_sag, row.r_trans]) * length
-        inertia = tuple(float(v) for v in mass * r**2)
+        ixx, iyy, izz = (float(v) for v in mass * r**2)
+        inertia = (ixx, iyy, izz)
         out[name] = Segment(name, length, mass, row.com, inertia, row)
     return out
 

@@ -202,8 +202,8 @@ class _Builder:
     def __init__(self, params: BodyParameters) -> None:
         self.params = params
         self.mass_scale = params.mass / 75.0
-        self.links = []
-        self.joints = []
+        self.links: list = []  # yourdfpy Links
+        self.joints: list = []  # yourdfpy Joints
         self.materials = [
             _urdf().Material(name=k, color=_urdf().Color(rgba=np.array(c)))
             for k, c in COLORS.items()

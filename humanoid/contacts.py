@@ -42,7 +42,7 @@ class ContactState:
         self.hinges = foot_hinges(h.model, self.sole, self.points)
         self.attached = False
         self.ever_attached = False
-        self.constraints = []
+        self.constraints: list = []  # its kind's constraints (a weld's first)
         self.wrench = np.full(6, np.nan)
         self.point_forces = np.full((4, 3), np.nan)
         self.lock_torques = np.zeros(len(self.hinges))  # [N m] on the locked hinges

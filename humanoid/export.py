@@ -82,7 +82,7 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
             be merged (it has several children or a child with an offset).
     """
     model = h.model
-    children = {j: [] for j in range(model.njoints)}
+    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
     names = {}

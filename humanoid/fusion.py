@@ -196,7 +196,7 @@ def _triplet_axes(model, j1, j2, j3) -> tuple[np.ndarray, np.ndarray]:
 
 
 def find_triplets(model: pin.Model, geometry_models) -> list[tuple[int, int, int]]:
-    children = {j: [] for j in range(model.njoints)}
+    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
     carrying = {g.parentJoint for gm in geometry_models for g in gm.geometryObjects}

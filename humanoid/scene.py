@@ -48,6 +48,7 @@ import math
 import tomllib
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from pathlib import Path
+from typing import NoReturn
 
 from .anthropometry import BodyParameters
 from .errors import BodyParameterError, SceneError
@@ -192,8 +193,8 @@ class Scene:
         """Read and validate a scene TOML file (or a shipped scene by name: ``"push"``)."""
         from .data import scene_names, scene_path
 
-        if not Path(path).is_file() and scene_path(str(path)) is not None:
-            path = scene_path(str(path))
+        if not Path(path).is_file() and (shipped := scene_path(str(path))) is not None:
+            path = shipped
         path = Path(path)
         if not path.is_file():
             raise SceneError(
@@ -344,7 +345,7 @@ class _Reader:
     def __init__(self, source: str) -> None:
         self.source = source
 
-    def fail(self, key: str, reason: str):
+    def fail(self, key: str, reason: str) -> NoReturn:
         raise SceneError(f"{self.source}: {key}: {reason}")
 
     def section(self, d, name: str, valid: set[str]) -> dict:
@@ -427,7 +428,7 @@ def _finite(obj, key: str) -> None:
 
 
 def _validate(s: Scene) -> None:
-    def bad(key, reason):
+    def bad(key, reason) -> NoReturn:
         raise SceneError(f"{key}: {reason}")
 
     _finite(s, "")

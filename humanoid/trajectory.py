@@ -7,6 +7,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, NoReturn
 
 import numpy as np
 import pinocchio as pin
@@ -70,7 +71,8 @@ class Trajectory:
         arrays |= {"energy": self.energy, "residual": self.residual}
         arrays |= {f"force/{k}": a for k, a in self.forces.items()}
         meta = RunMetadata.from_dict(self.metadata, f"trajectory {path}").to_npz()
-        np.savez_compressed(path, **meta, **arrays)
+        # numpy's stubs read any ** as possibly allow_pickle (a bool)
+        np.savez_compressed(path, **meta, **arrays)  # type: ignore[arg-type]
         return path
 
     @classmethod
@@ -105,7 +107,7 @@ def _check_run(path, t, q, v, tau, energy, residual, forces, meta) -> None:
     """The arrays of a saved run fit together; states are finite (forces may hold NaN: a
     released contact)."""
 
-    def bad(why):
+    def bad(why) -> NoReturn:
         raise TrajectoryError(f"trajectory {path} is inconsistent: {why}")
 
     if not isinstance(meta, dict):
@@ -134,7 +136,8 @@ class Progress:
     """A tqdm bar that appears only on a terminal, and only once a run takes > 2 s."""
 
     def __init__(self, total: int, quiet: bool) -> None:
-        self.total, self.bar = total, None
+        self.total = total
+        self.bar: Any = None  # a tqdm bar, once the run has lasted 2 s
         self.enabled = not quiet and sys.stderr.isatty()
         self.start = time.perf_counter()
 

@@ -211,8 +211,11 @@ class SceneView:
         self.data = h.model.createData()
         self.gdata = pin.GeometryData(h.visual_model)
         self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
-        self.pushes = []
-        self.markers = None  # (names, times (n,), positions (n, m, 3), model markers)
+        self.pushes: list[tuple[int, np.ndarray, float, float]] = []
+        # (names, times (n,), positions (n, m, 3), {name: (frame id, offset)} model markers)
+        self.markers: (
+            tuple[list[str], np.ndarray, np.ndarray, dict[str, tuple[int, np.ndarray]]] | None
+        ) = None
         self.present: set[str] = set()
         self.timeline = (0.0, 0.0, 1.0)  # (first record [s], animation length [s], speed)
         self.cameras: dict[str, CameraPose] = {}
@@ -329,7 +332,7 @@ class SceneView:
             warnings.warn(f"{measured.source or 'markers'}: " + "; ".join(said),
                           HiddenMarkerWarning, stacklevel=2)  # fmt: skip
         names = [names[k] for k in keep]
-        model = {}
+        model: dict[str, tuple[int, np.ndarray]] = {}
         for n in names:
             if n not in unplaced:
                 m = marker_set[n]
@@ -358,6 +361,8 @@ class SceneView:
         """The measured markers at time ``t`` [s]: (m, 3) world [m], linear between the
         recording's frames; NaN where missing (at either frame around ``t``) or outside the
         recording."""
+        if self.markers is None:
+            raise ViewerError("no recording to read: set_markers first")
         names, times, positions, _ = self.markers
         out = np.full((len(names), 3), np.nan)
         if t is None or len(times) == 0 or not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
@@ -467,7 +472,7 @@ class SceneView:
         return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
 
     # -- poses ---------------------------------------------------------------------------
-    def frame(self, q, forces: dict | None = None, t: float | None = None) -> dict[str, tuple]:
+    def frame(self, q, forces: dict | None = None, t: float | None = None) -> list[tuple]:
         """Transforms and properties of every animated node for one state (at time ``t``,
         which decides the pushes shown).
 
@@ -475,7 +480,7 @@ class SceneView:
             {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z]) or
             ("position", [x, y, z] world [m])}, as a list of (path, kind, value) tuples.
         """
-        out = []
+        out: list[tuple] = []
         pin.forwardKinematics(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
@@ -499,9 +504,9 @@ class SceneView:
                     self.present.add("footprint")
                     out.append((("footprints", side), "transform", sole.homogeneous))
             if ov.forces:
-                show = bool(attached and w[2] > 1e-6)
+                show = bool(attached and w is not None and w[2] > 1e-6)
                 out.append((("forces", side), "visible", show))
-                if show:
+                if show and w is not None:
                     self.present.add("force")
                     cop = cop_on_plane(np.asarray(w), sole.translation)
                     out += self._arrow_pose(("forces", side), np.asarray(w[:3]), tail=cop)
@@ -509,7 +514,7 @@ class SceneView:
             w = forces.get("ground")
             show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
             out.append((("forces", "ground"), "visible", bool(show)))
-            if show:
+            if show and w is not None:
                 self.present.add("force")
                 cop = cop_on_plane(np.asarray(w), np.zeros(3))
                 out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
@@ -529,9 +534,10 @@ class SceneView:
         """The recording's nodes at time t: measured and model markers' positions, the
         residual lines (from the model marker to the measured one: a unit line along +z turned
         and scaled to the residual), hidden where the measured marker is missing."""
+        assert self.markers is not None  # called only when a recording is set
         names, _, _, model = self.markers
         measured = self.measured_at(t)
-        out = []
+        out: list[tuple] = []
         for n, m in zip(names, measured, strict=True):
             key = _key(n)
             seen = bool(np.all(np.isfinite(m)))
@@ -623,13 +629,13 @@ def _listed(items, most: int = 8) -> str:
     return ", ".join(items[:most]) + more
 
 
-def _sample(model, traj, time_sim: float, feet):
+def _sample(model, traj, time_sim: float, feet) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """State and foot wrenches at a time, interpolated between records on the Lie group."""
     t = np.asarray(traj.t)
     i = int(np.clip(np.searchsorted(t, time_sim, side="right") - 1, 0, len(t) - 2))
     s = float(np.clip((time_sim - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0))
     q = pin.interpolate(model, traj.q[i], traj.q[i + 1], s)
-    forces = {}
+    forces: dict[str, np.ndarray] = {}
     for side in (*feet, "ground"):
         if side in traj.forces:
             a, b = traj.forces[side][i], traj.forces[side][i + 1]
@@ -942,6 +948,7 @@ class LiveViewer:
         watchdog.start()
         zmq_url = web_url = None
         try:
+            assert self.proc.stdout is not None  # opened with stdout=PIPE
             for line in self.proc.stdout:
                 if line.startswith("zmq_url="):
                     zmq_url = line.split("=", 1)[1].strip()
@@ -972,6 +979,7 @@ class LiveViewer:
         """Stop the server (closing its stdin makes it exit; then make sure)."""
         if self.proc.poll() is None:
             try:
+                assert self.proc.stdin is not None  # opened with stdin=PIPE
                 self.proc.stdin.close()
                 self.proc.wait(timeout=5)
             except Exception:  # noqa: BLE001 - make sure it is gone below

@@ -112,12 +112,14 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
     if traj.status == "completed" and len(traj.t) == len(ref.t):
         assert np.allclose(traj.t, ref.t), "runs must be recorded at the same instants"
         error = state_error(model, ref, traj.q, traj.v)
-    energy = momentum = np.nan  # invariants of the conservative scenes only
+    # invariants of the conservative scenes only
+    energy: float | np.floating = np.nan
+    momentum: float | np.floating = np.nan
     if conservative:
         e = traj.energy
         energy = abs(e[-1] - e[0]) / abs(e[0])
         L0, L1 = _momentum(h, traj.q[0], traj.v[0]), _momentum(h, q, v)
-        momentum = np.linalg.norm(L1 - L0) / max(np.linalg.norm(L0), 1e-12)
+        momentum = np.linalg.norm(L1 - L0) / max(float(np.linalg.norm(L0)), 1e-12)
     quats = [jm.idx_q + (3 if jm.nq == 7 else 0) for jm in model.joints[1:] if jm.nq in (4, 7)]
     qd = max(abs(np.linalg.norm(traj.q[:, i : i + 4], axis=1) - 1.0).max() for i in quats)
     # the coordinate formulation records normalised quaternions; its raw drift is kept apart
@@ -329,8 +331,8 @@ def _configuration_error(model, ref, qs) -> float:
 class _Records:
     """States of another engine's run, in the shape :func:`_measure` reads."""
 
-    q: list
-    v: list
+    q: list | np.ndarray  # (made arrays after init)
+    v: list | np.ndarray
     t: np.ndarray
     metadata: dict
     status: str = "completed"

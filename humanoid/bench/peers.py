@@ -28,6 +28,7 @@ from __future__ import annotations
 import csv
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -455,12 +456,13 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     h, he = sim.h, load_male("euler")
     qs, vs, wall, depth = mujoco_fall(scene, h, he, sim.q0, sim.v0, dt, every)
     t_mj = np.arange(len(qs)) * dt * every
-    out = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
+    out: dict[str, Any] = {"scene": name, "dt": dt, "duration": scene.duration, "steps": n,
            "humanoid": _fall_summary(h, traj.q, traj.v, traj.t),
            "mujoco": _fall_summary(he, np.array(qs), np.array(vs), t_mj)}  # fmt: skip
     out["humanoid"] |= {"step_time": traj.metadata["wall_time"] / traj.metadata["steps"],
                         "penetration": traj.metadata["max_penetration"]}  # fmt: skip
     out["mujoco"] |= {"step_time": wall / n, "penetration": depth}
+    assert h.fusion is not None  # the toolkit's body, its balls as quaternions
     final = h.fusion.to_euler(traj.q[-1])[0]  # our final posture as hinge angles
     diff = final[7:] - qs[-1][7:]  # the hinge angles (after the free flyer's 7)
     out["joint_rms_deg"] = float(np.degrees(np.sqrt(np.mean(np.angle(np.exp(1j * diff)) ** 2))))

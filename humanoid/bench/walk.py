@@ -16,11 +16,15 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from .common import load_male, pinocchio_contacts, write_rows
+
+if TYPE_CHECKING:
+    from ..walking.run import WalkResult
 
 __all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
 
@@ -53,7 +57,7 @@ class _Clock:
         setattr(owner, name, self.timed(getattr(owner, name), label))
 
 
-def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
+def _timed_walk(h, gait, control_dt: float) -> tuple[dict, WalkResult, list]:
     """One walk with its pieces timed; returns (seconds by piece, result, states for the bare
     plant: (q, v, welds) samples)."""
     from ..simulation.plant import Plant
@@ -61,7 +65,7 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
     from ..walking import run as walk_run
 
     clock = _Clock()
-    samples = []
+    samples: list[tuple[np.ndarray, np.ndarray, list]] = []
     original = Recorder.add
     record = clock.timed(original, "records")
 
@@ -83,22 +87,24 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, object, list]:
 
     monitor_cls = walk_run.WalkMonitor
 
-    class Monitor(monitor_cls):
+    class Monitor(walk_run.WalkMonitor):
         def __init__(self, *args) -> None:
             super().__init__(*args)
             clock.wrap(self, "observe", "checks")
             clock.wrap(self, "series_until", "checks")
 
     step = Plant.step  # (the plant the walk's run builds with its controller)
-    Recorder.add, walk_run.prepare, walk_run.WalkMonitor = add, prepared, Monitor
-    Plant.step = clock.timed(step, "plant")
+    # the run's pieces patched to time them (put back below): mypy forbids assigning to methods
+    # and classes
+    Recorder.add, walk_run.prepare, walk_run.WalkMonitor = add, prepared, Monitor  # type: ignore[method-assign, misc, assignment]
+    Plant.step = clock.timed(step, "plant")  # type: ignore[method-assign]
     try:
         start = time.perf_counter()
         result = walk_run.walk(h, gait, quiet=True, control_dt=control_dt)
         wall = time.perf_counter() - start
     finally:
-        Recorder.add, walk_run.prepare, walk_run.WalkMonitor = original, prepare, monitor_cls
-        Plant.step = step
+        Recorder.add, walk_run.prepare, walk_run.WalkMonitor = original, prepare, monitor_cls  # type: ignore[method-assign, misc]
+        Plant.step = step  # type: ignore[method-assign]
     seconds = dict(clock.total)
     seconds["wall"] = wall
     return seconds, result, samples

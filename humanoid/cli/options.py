@@ -101,6 +101,6 @@ def load_any(args, ball_joints: str | None = None):
     if not isinstance(name, str) or not name.strip():
         raise ModelError(f"no model named (got {name!r}): give a URDF file, a shipped body's "
                          "name or an example-robot-data robot's")  # fmt: skip
-    ball = ball_joints or getattr(args, "ball_joints", "quaternion")
+    ball = ball_joints if ball_joints else getattr(args, "ball_joints", "quaternion")
     feet = tuple(args.feet) if args.feet else None
     return load(name, ball_joints=ball, feet=feet, massless=args.massless)

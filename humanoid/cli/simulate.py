@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 
 from ..errors import HumanoidError
@@ -45,16 +46,18 @@ def run_summary(traj) -> str:
 
     m = RunMetadata.from_dict(traj.metadata)
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
-    wall = m.wall_time
+    # (a field the run did not record: no scene, no wall time, no events)
+    scene = m.scene or {}
+    wall = m.wall_time if m.wall_time is not None else math.nan
     drift = float(traj.energy[-1] - traj.energy[0]) if len(traj.energy) else float("nan")
     scale = max(abs(float(traj.energy[0])), 1.0) if len(traj.energy) else 1.0
     lines = [
-        f"scene        {m.scene.get('name', '?')} ({m.status})",
+        f"scene        {scene.get('name', '?')} ({m.status})",
         f"simulated    {sim_time:.3f} s in {m.steps} steps of {m.dt} s",
         f"wall time    {wall:.2f} s (real-time factor {sim_time / max(wall, 1e-9):.2f})",
         f"residual     {m.max_residual:.2e} (largest constraint position error, m or rad)",
-        f"energy       {_energy_word(m.scene)} {drift:+.3e} J ({drift / scale:+.2e} relative)",
-        f"events       {len(m.events)} contact events, violations {m.violations or 'none'}",
+        f"energy       {_energy_word(scene)} {drift:+.3e} J ({drift / scale:+.2e} relative)",
+        f"events       {len(m.events or ())} contact events, violations {m.violations or 'none'}",
     ]
     return "\n".join(lines)
 

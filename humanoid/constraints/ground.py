@@ -241,7 +241,9 @@ class Ground:
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
         pin.computeCollisions(gm, gd, False)
-        cms, cds, points = [], [], []
+        cms: list = []  # Pinocchio's contact models and datas
+        cds: list = []
+        points: list[np.ndarray] = []
         margin = self.settings.margin
         hidden = self._hidden(data)
         for pair, shape in enumerate(self.shapes):
@@ -263,8 +265,8 @@ class Ground:
                 cms.append(cm)
                 cds.append(cd)
                 points.append(p)
-        points = np.array(points).reshape(-1, 3)
-        return cms, cds, points[:, 2].copy(), points
+        found = np.array(points).reshape(-1, 3)
+        return cms, cds, found[:, 2].copy(), found
 
     def _hidden(self, data: pin.Data) -> dict:
         """{shape: indices of its points left out}: a parent's point within :data:`SHARED` of
@@ -275,7 +277,7 @@ class Ground:
         planned it on the toes', and flicked the light toes up 0.4 rad). Apart (the joint bent
         3.4 degrees) both are contacts: left out for good, the rearfoot's front sank 9 mm into
         the floor under toes bent up."""
-        out = {}
+        out: dict[int, list[int]] = {}
         for a, b, ia, ib in self.shared:
             pa, pb = self.shapes[a], self.shapes[b]
             wa, wb = pa.placed(data.oMi[pa.joint], ia), pb.placed(data.oMi[pb.joint], ib)

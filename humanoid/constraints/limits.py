@@ -110,7 +110,7 @@ class JointRanges:
         self._hJ[np.arange(2 * nh), np.concatenate([self.iv, self.iv])] = self._hsign
         self.model = model
         # (margin, the certified q, upper and lower bounds on q (-) q_c per velocity coordinate)
-        self._certificate = None
+        self._certificate: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
         self.skipped = False  # whether the last call to rows skipped the decomposition
         self._no_rows = (np.zeros(0), np.zeros((0, self.nv)))  # (read-only: shared)
         for a in self._no_rows:
@@ -210,6 +210,7 @@ class JointRanges:
             self._certify(q, th, margin)
         if not self.balls:
             return r[keep], J
+        assert th is not None  # the angles were read above: there are balls
         dist = np.stack([th - self._blo, self._bhi - th], axis=2)  # (n_balls, angle, lo/hi)
         locked = np.abs(np.cos(th[:, 1])) < LOCK
         near = dist < margin

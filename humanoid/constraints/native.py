@@ -118,7 +118,7 @@ class NativeSolution:
     def __init__(self, solve: NativeSolve) -> None:
         self._solve = solve
         self.a = solve.a
-        self._forces = None
+        self._forces: np.ndarray | None = None
 
     @property
     def forces(self) -> np.ndarray:

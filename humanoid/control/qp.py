@@ -14,6 +14,7 @@ Solved by ProxQP (proxsuite's dense solver), kept between ticks and warm-started
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -59,8 +60,8 @@ class WarmQP:
 
     def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float) -> None:
         self.eps_abs, self.max_iter, self.primal, self.dual = eps_abs, max_iter, primal, dual
-        self._qp = None
-        self._dims = None
+        self._qp: Any = None  # proxsuite's dense QP, built at the first solve
+        self._dims: tuple[int, int, int] | None = None
         self.iterations = 0
         self.why = ""  # why the last solve was refused
 

@@ -11,6 +11,7 @@ world axes at the frame (LOCAL_WORLD_ALIGNED), angular rows after linear ones.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -45,6 +46,10 @@ class Task:
         raise NotImplementedError
 
 
+# a task handed to TaskStack.add comes back as its own type
+T = TypeVar("T", bound=Task)
+
+
 class TaskStack:
     """The tasks of one control tick, evaluated as they are added (a later task may read what
     an earlier one measured) at the state (q, v) that ``data`` holds."""
@@ -55,7 +60,7 @@ class TaskStack:
         self.rhs: list[np.ndarray] = []
         self.weights: list[np.ndarray] = []
 
-    def add(self, task: Task) -> Task:
+    def add(self, task: T) -> T:
         J, a = task.compute(self.model, self.data, self.q, self.v)
         self.rows.append(J)
         self.rhs.append(a)

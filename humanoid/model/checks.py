@@ -160,7 +160,8 @@ def _check_tree(root, label: str) -> None:
     dup = sorted({n for n in links if links.count(n) > 1})
     if dup:
         raise ModelError(f"{label}: links defined twice: {', '.join(dup)}")
-    known, parent, names = set(links), {}, set()
+    known, names = set(links), set()
+    parent: dict[str, str] = {}
     children: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         name = joint.get("name")
@@ -171,11 +172,11 @@ def _check_tree(root, label: str) -> None:
         kind = joint.get("type")
         if kind not in JOINT_TYPES:
             raise ModelError(f"{where}: type {kind!r} is not one of {', '.join(JOINT_TYPES)}")
-        ends = []
+        ends: list[str] = []
         for end in ("parent", "child"):
             e = joint.find(end)
             link = e.get("link") if e is not None else None
-            if link not in known:
+            if link is None or link not in known:  # (no link is None: checked above)
                 raise ModelError(f"{where}: <{end} link={link!r}> is not a link of the file")
             ends.append(link)
         p, c = ends
@@ -237,7 +238,7 @@ def _check_shape(element, where: str) -> None:
 def check_built(model: pin.Model, declared: dict, label: str) -> None:
     """What Pinocchio built equals what the URDF declares: each joint's inertia is the sum of
     its links' declared inertias (a link that urdfdom dropped would be missing)."""
-    frames = {}
+    frames: dict[int, list] = {}
     for f in model.frames:
         if f.type == pin.FrameType.BODY:
             frames.setdefault(f.parentJoint, []).append(f)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pinocchio as pin
 from lxml import etree
@@ -156,7 +157,7 @@ def _load(source, example, ball_joints, feet, package_dirs, massless, srdf=None,
     text, path = _read(source)
     dirs = _package_dirs(path, package_dirs)
     label = str(path) if path else "<string>"
-    recipe = {"example": example} if example else {"urdf": text}
+    recipe: dict[str, Any] = {"example": example} if example else {"urdf": text}
     if path is not None and not example:
         recipe["path"] = str(path)
     recipe |= {"ball_joints": ball_joints, "massless": massless}

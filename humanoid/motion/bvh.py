@@ -182,7 +182,7 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
             f"{1.0 / MAX_RATE:g} s (a rate of at most {MAX_RATE:g} Hz)"
         )
     width = sum(len(j.channels) for j in joints)
-    rows = []
+    rows: list[list[float]] = []
     for line in lines[start:]:
         if not line.strip():
             continue
@@ -260,7 +260,8 @@ def read_bvh(path: str | Path, scale: float | None = None, y_up: bool = True) ->
     if y_up:
         pos = pos @ OPENSIM_TO_OURS.T
     names = [_marker_name(j.name) for j in joints]
-    seen, unique = set(), []
+    seen: set[str] = set()
+    unique: list[str] = []
     for n in names:  # a name twice (two 'Head' joints...): the second keeps its own
         unique.append(n if n not in seen else f"{n}_{len(unique)}")
         seen.add(n)
@@ -280,7 +281,7 @@ def write_bvh(path: str | Path, h, time, q, scale: float = 100.0) -> Path:
     if len(time) > 1 and not np.allclose(np.diff(time), time[1] - time[0], rtol=1e-6):
         raise MotionFileError("write_bvh needs uniform times")
     C = OPENSIM_TO_OURS.T  # ours to Y up
-    children = {j: [] for j in range(model.njoints)}
+    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
     for j in range(2, model.njoints):
         children[model.parents[j]].append(j)
     lines = ["HIERARCHY"]

@@ -545,6 +545,7 @@ def assign_contacts(plates: list[Plate], markers=None, sides: dict[int, str] | N
     side)`` (samples ``[start, stop)``; side ``"left"``, ``"right"`` or None), in the plates'
     order (see :func:`plate_loads`; it warns where it gives a contact to no foot)."""
     sides = dict(sides or {})
+    side: str | None  # a plate's foot (None: no foot's)
     for index, side in sides.items():
         if side not in ("left", "right"):
             raise MotionFileError(f"plate {index}: its side must be left or right, not {side!r}")
@@ -657,7 +658,7 @@ def _nearest_foot(p: Plate, i0: int, i1: int, markers, feet, margin, reach) -> s
         d = np.where(np.isfinite(d), d, np.inf).min(axis=1)
         d = d[np.isfinite(d)]
         dist[side] = float(d.mean()) if d.size else np.inf
-    best, other = sorted(dist, key=dist.get)
+    best, other = sorted(dist, key=dist.__getitem__)
     what = f"{p.source}: force plate {p.index} ({p.name}), contact {t0:.3f}-{t1:.3f} s"
     if not np.isfinite(dist[best]):
         warnings.warn(f"{what}: no foot marker seen then: given to no foot", PlateWarning,
@@ -685,7 +686,9 @@ def _nearest_foot(p: Plate, i0: int, i1: int, markers, feet, margin, reach) -> s
 
 def _normal(p: Plate) -> np.ndarray:
     """The plate's z axis (its corners span a rectangle: :func:`read_plates` kept it)."""
-    return _axes(p.corners)[:, 2]
+    axes = _axes(p.corners)
+    assert axes is not None  # read_plates kept only plates with axes
+    return axes[:, 2]
 
 
 def c3d_contacts(path: str | Path, threshold: float = 20.0,

@@ -307,7 +307,7 @@ def camera_keypoints(time, uv, confidence, layout: str, cameras, source: str = "
                             f"frames, {len(names)}, 2), got {uv.shape}")  # fmt: skip
     keep = [i for i, n in enumerate(names) if n is not None]
     conf = np.where(conf > threshold, conf, 0.0)
-    return CameraKeypoints(time, [names[i] for i in keep], list(cameras), uv[:, :, keep],
+    return CameraKeypoints(time, [n for n in names if n is not None], list(cameras), uv[:, :, keep],
                            conf[:, :, keep], source)  # fmt: skip
 
 

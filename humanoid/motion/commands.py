@@ -503,6 +503,7 @@ def run_ik(args) -> int:
           f"max {np.nanmax(frame) * 1e3:.1f} mm"
           + (" (from the cameras' rays)" if cameras else ""))  # fmt: skip
     if cameras:
+        assert r.pixels is not None  # a fit to views reports its reprojection
         px = np.sqrt(np.nanmean(r.pixels**2, axis=1))
         print(f"reprojected  {len(cameras)} camera{'s' if len(cameras) > 1 else ''}, RMS per "
               f"frame: mean {np.nanmean(px):.1f} px, max {np.nanmax(px):.1f} px")  # fmt: skip
@@ -514,6 +515,7 @@ def run_ik(args) -> int:
     print(f"time         {elapsed:.2f} s ({elapsed / len(r.time) * 1e3:.1f} ms per frame)")
     print(f"wrote        {written}")
     if args.save_markers:
+        assert r.marker_set is not None  # inverse_kinematics sets the set it used
         print(f"marker set   {write_markers(args.save_markers, r.marker_set)}")
     figure = Path(args.figure) if args.figure else out.with_suffix(".png")
     residual_figure(figure, r, f"{Path(args.markers).name}: {what}")
@@ -657,6 +659,7 @@ def run_track(args) -> int:
         res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor,
                     toes=getattr(args, "free_toes", False))  # fmt: skip
     again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
+    assert res.body is not None  # track() returns the body it tracked with
     h = res.body  # (its toes locked unless --toes)
     traj = res.trajectory
     path = traj.save(args.output)

@@ -203,7 +203,7 @@ _IGNORED = ("mtp_angle_r", "mtp_angle_l", "pro_sup_r", "pro_sup_l", "knee_angle_
 
 def _map(name: str, knee_sign: float, hips: tuple[float, float, float], mtp_sign: float):
     # hips: the hip centres' midpoint in the unscaled model's pelvis frame (theirs, Y up)
-    offset = tuple(float(x) for x in np.array([hips[0], -hips[2], hips[1]]))
+    offset = (float(hips[0]), float(-hips[2]), float(hips[1]))
     toes = tuple(JointMap((f"{_side(s)}_mtp",), (f"mtp_angle_{s}",), signs=(mtp_sign,))
                  for s in "rl")  # used only where the body has toes  # fmt: skip
     return CoordinateMap(
@@ -268,12 +268,13 @@ def read_map(path: str | Path) -> CoordinateMap:
     for key in ("rotation", "rotation_axes", "translation", "translation_axes"):
         if key not in root:
             raise CoordinateMapError(f"{path}: [root] needs {key!r}")
+    ox, oy, oz = _numbers(path, "root.offset", root.get("offset", (0.0, 0.0, 0.0)), 3)
     root_map = RootMap(
         _texts(path, "root.rotation", root["rotation"]),
         _texts(path, "root.rotation_axes", root["rotation_axes"]),
         _texts(path, "root.translation", root["translation"]),
         _texts(path, "root.translation_axes", root["translation_axes"]),
-        _numbers(path, "root.offset", root.get("offset", (0.0, 0.0, 0.0)), 3),
+        (ox, oy, oz),
     )
     joints = []
     table = spec.get("joints") or {}

@@ -82,8 +82,9 @@ class Floor:
         ty = math.degrees(math.atan2(n[0], n[2]))
         b = np.asarray(belt, dtype=float).reshape(3)
         b = b - (b @ n) * n
-        return cls(tuple(float(x) for x in n), float(height), tx, ty, int(points_used),
-                   float(rms), tuple(float(x) for x in b))  # fmt: skip
+        normal3 = (float(n[0]), float(n[1]), float(n[2]))
+        belt3 = (float(b[0]), float(b[1]), float(b[2]))
+        return cls(normal3, float(height), tx, ty, int(points_used), float(rms), belt3)
 
     @property
     def speed(self) -> float:

@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -52,6 +53,9 @@ import pinocchio as pin
 from ..errors import IKError
 from .inverse_dynamics import joint_labels
 from .markers import MAX_WEIGHT, Marker, MarkerTrajectories
+
+if TYPE_CHECKING:
+    from .monocular import DepthReport
 
 __all__ = [
     "IKResult",
@@ -150,14 +154,15 @@ class IKResult:
     coordinates: list[str] = field(default_factory=list)
     held: np.ndarray | None = None
     pixels: np.ndarray | None = None
-    depth: object = None
+    depth: DepthReport | None = None
 
     @property
     def unconstrained(self) -> list[str]:
         """The coordinates no marker saw in at least one frame (held there)."""
         if self.held is None:
             return []
-        return [c for c, h in zip(self.coordinates, self.held.any(axis=0), strict=True) if h]
+        held = np.asarray(self.held.any(axis=0))  # per coordinate
+        return [c for c, h in zip(self.coordinates, held, strict=True) if h]
 
     def marker_rms(self) -> dict[str, float]:
         """Each marker's RMS residual over the frames it was seen in [m]."""
@@ -245,7 +250,7 @@ def _ball_rows(balls, q, nv: int, margin: float) -> tuple[np.ndarray, np.ndarray
 def _ball_reports(balls, time, q, wanted) -> list[LimitReport]:
     """The ball joints' angles held at a bound in ``q`` where ``wanted`` (NaN in frames that
     needed no refit) goes past it, named by the hinges they replace."""
-    out = []
+    out: list[LimitReport] = []
     if balls is None or not balls.balls:
         return out
     rows = np.flatnonzero(np.all(np.isfinite(wanted), axis=1))
@@ -386,6 +391,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
                         smoothing, unseen, hold, result.q[-1], None, cameras, ball_ranges,
                         ground, root_smoothing, pins, backward=True)  # fmt: skip
+        assert result.depth is not None  # one view: the solve reported the depth
         result.depth = replace(result.depth, stances=tuple(found))
     result.marker_set = marker_set
     if result.depth is not None:
@@ -397,6 +403,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             r.describe(len(result.time)) for r in result.at_limit),
             RangeLimitWarning, stacklevel=2)  # fmt: skip
     if result.unconstrained:
+        assert result.held is not None  # unconstrained coordinates are held ones
         counts = result.held.sum(axis=0)
         named = [f"{c} ({counts[k]} of {len(result.time)} frames)"
                  for k, c in enumerate(result.coordinates) if counts[k]]  # fmt: skip
@@ -518,7 +525,7 @@ class _Views:
         self.single = len(self.cameras) == 1
         if not self.single:
             self.points = triangulate(keypoints, cameras).positions[:, cols]
-        self.pixels = None  # (n, m) the last fit's reprojection errors [px]
+        self.pixels: np.ndarray | None = None  # (n, m) the last fit's reprojection errors [px]
 
     def seen(self, i: int) -> np.ndarray:
         return (self.conf[:, i] > 0).any(axis=0) & (self.weights > 0)
@@ -610,6 +617,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     frames = [model.getFrameId(marker_set[n].frame) for n in names]
     offsets = np.array([marker_set[n].offset for n in names])
     weights = np.array([marker_set[n].weight for n in names])
+    obs: _Points | _Views
     if cameras is None:
         obs = _Points(markers, names, weights)
     else:
@@ -765,6 +773,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                     break
             wanted[i] = free
         if single:  # the root's depth: its sd for one pixel of noise, from the curvature
+            assert isinstance(obs, _Views)  # only views are single
             A, _ = system(q, frame)  # (data at q)
             J, _, w = obs.rows(i, seen, *model_markers(q))
             depth[i] = obs.root_depth(q, A, J, w)
@@ -784,6 +793,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     if single:
         from .monocular import DepthReport
 
+        assert isinstance(obs, _Views) and result.pixels is not None  # a view's reprojection
         px = float(np.sqrt(np.nanmean(result.pixels**2)))
         result.depth = DepthReport(obs.cameras[0].name, depth[:, 0], depth[:, 1], depth[:, 2],
                                    px)  # fmt: skip

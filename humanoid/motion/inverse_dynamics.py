@@ -234,7 +234,8 @@ def _checked(model, time, q) -> tuple[np.ndarray, np.ndarray]:
 
 def derivatives(model, time, q, *, cutoff: float | str | None = 6.0,
                 rate: float | None = None,
-                velocity: str = "central") -> tuple[np.ndarray, ...]:  # fmt: skip
+                velocity: str = "central",
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """A motion resampled, filtered and differentiated (steps 1-3 of the module docstring):
     (time, q, v, a) on a uniform grid. ``cutoff``: [Hz], None (unfiltered) or ``"auto"``
     (:func:`residual_cutoff` of the resampled motion)."""
@@ -293,13 +294,13 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
     """
     model = h.model
     time, q = _checked(model, time, q)
-    carried = []
+    carried: list[tuple] = []
     if recorded_feet:  # at the motion's own samples, where the recorded feet are given
         loads, carried = carry_loads(h, time, q, loads, recorded_feet)
     time, q, v, a = derivatives(model, time, q, cutoff=cutoff, rate=rate, velocity=velocity)
     rate = 1.0 / (time[1] - time[0])
     n = len(time)
-    wrenches = {}
+    wrenches: dict[str, tuple[int, np.ndarray]] = {}
     for load in loads:
         j = _load_joint(h, load.body)
         wrenches[load.body] = (j, wrenches.get(load.body, (j, 0.0))[1] + load.resampled(time))
@@ -312,7 +313,9 @@ def inverse_dynamics(h, time, q, loads: list[Load] | tuple = (), *, cutoff: floa
     fext = pin.StdVec_Force()
     for _ in range(model.njoints):
         fext.append(pin.Force.Zero())
-    per_joint = {}  # the loads on each joint, summed: world wrenches about the origin
+    per_joint: dict[
+        int, np.ndarray
+    ] = {}  # the loads on each joint, summed: world wrenches about the origin
     for j, w in wrenches.values():
         per_joint[j] = per_joint.get(j, 0.0) + w
     for i in range(n):

@@ -242,7 +242,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
             f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
         )
     path = Path(landmarks)
-    names, landmarks = _landmarks(path)
+    names, table = _landmarks(path)
     data = model.createData()
     q0 = h.standing_configuration()
     pin.framesForwardKinematics(model, data, q0)
@@ -285,7 +285,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
         heel, toe = ends
         attach(f"{s}_toes", f"{s}_foot", toe + np.array([-0.06, 0.0, 0.02]) * scale)
         centre = {"root": at("pelvis").translation, "heel": heel, "toe": toe}
-        for key, spec in landmarks.items():
+        for key, spec in table.items():
             if spec.get("sides", False) not in (True, s):
                 continue
             joint = spec["from"]
@@ -296,7 +296,7 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
             marker = names.format(side=letter, name=spec.get("name", key))
             attach(marker, _body_frame(model, s, spec["frame"]), origin + d,
                    anatomical=spec.get("anatomical", True))  # fmt: skip
-    for key, spec in landmarks.items():
+    for key, spec in table.items():
         if spec.get("sides", False) is not False:
             continue
         joint = spec["from"]
@@ -461,7 +461,7 @@ def keypoints(
     pts = points[:, keep]
     if y_up:
         pts = pts @ OPENSIM_TO_OURS.T
-    return MarkerTrajectories(time, [names[i] for i in keep], pts, source)
+    return MarkerTrajectories(time, [n for n in names if n is not None], pts, source)
 
 
 # -- C3D -----------------------------------------------------------------------------------
@@ -581,7 +581,8 @@ def read_trc(path: str | Path, y_up: bool = True) -> MarkerTrajectories:
             ) from None
         if count != len(names):
             raise MotionFileError(f"{path}:4: {len(names)} marker names for NumMarkers={count}")
-    times, rows = [], []
+    times: list[float] = []
+    rows: list[list[float]] = []
     for number, line in enumerate(lines[5:], start=6):
         if not line.strip():
             if rows:

@@ -347,12 +347,13 @@ class StancePins:
         frame placements up to date. None: no point pinned in the frame."""
         if not self.pins[i]:
             return None
-        J, r = [], []
+        rows: list[np.ndarray] = []
+        rhs: list[np.ndarray] = []
         for f, local, target in self.pins[i]:
             M = data.oMf[f]
             Jf = pin.getFrameJacobian(self.model, data, f, pin.LOCAL_WORLD_ALIGNED)
             world = M.act(local)
-            J.append((Jf[:3] - pin.skew(world - M.translation) @ Jf[3:])[:2])
-            r.append(target - world[:2])
-        J, r = np.vstack(J), np.concatenate(r)
+            rows.append((Jf[:3] - pin.skew(world - M.translation) @ Jf[3:])[:2])
+            rhs.append(target - world[:2])
+        J, r = np.vstack(rows), np.concatenate(rhs)
         return J, r, np.full(len(r), weight)

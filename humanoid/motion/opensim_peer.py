@@ -279,6 +279,14 @@ _SCALED_JOINTS = {
 }  # fmt: skip
 
 
+def _text(element, tag: str) -> str:
+    """The text of ``element``'s child ``tag`` in a file OpenSim wrote."""
+    text = element.findtext(tag)
+    if text is None:
+        raise OpenSimError(f"OpenSim's scale factors have a <Scale> without <{tag}>")
+    return text
+
+
 def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
                       folder: str | Path) -> tuple[dict[str, float], dict[str, float]]:  # fmt: skip
     """OpenSim 4's ScaleTool on a static trial: its ModelScaler with a MeasurementSet of the
@@ -307,11 +315,11 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
         joints = [j for j in _SCALED_JOINTS.get(m.name, ()) if model.existJointName(j)]
         pairs = "".join(f"<MarkerPair><markers>{a} {b}</markers></MarkerPair>"
                         for a, b, *_ in m.pairs)  # fmt: skip
-        bodies = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
+        scaled = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
                          for j in joints)  # fmt: skip
         measurements.append(f'<Measurement name="{m.name}"><apply>true</apply><MarkerPairSet>'
                             f"<objects>{pairs}</objects></MarkerPairSet><BodyScaleSet><objects>"
-                            f"{bodies}</objects></BodyScaleSet></Measurement>")  # fmt: skip
+                            f"{scaled}</objects></BodyScaleSet></Measurement>")  # fmt: skip
     tasks = "".join(f'<IKMarkerTask name="{n}"><apply>true</apply><weight>1</weight>'
                     "</IKMarkerTask>" for n in names)  # fmt: skip
     span = f"{float(static.time[0])!r} {float(static.time[-1])!r}"
@@ -338,8 +346,8 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
     tool = osim.ScaleTool(str(setup))
     if not tool.run():
         raise OpenSimError("OpenSim's ScaleTool failed")
-    factors = {}
-    scales = {x.findtext("segment").strip(): [float(v) for v in x.findtext("scales").split()]
+    factors: dict[str, float] = {}
+    scales = {_text(x, "segment").strip(): [float(v) for v in _text(x, "scales").split()]
               for x in ET.parse(folder / "scale_factors.xml").iter("Scale")}  # fmt: skip
     for m in measured:
         bodies = [f"{j}_body" for j in _SCALED_JOINTS.get(m.name, ()) if j + "_body" in scales]

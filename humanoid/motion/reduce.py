@@ -86,7 +86,7 @@ class Reduction:
     com_shift: np.ndarray
     change: dict = field(default_factory=dict)
     iterations: int = 0
-    model: object = None
+    model: pin.Model | None = None
     weight: float = 0.0
     translations: tuple = ()
     loads: list = field(default_factory=list)

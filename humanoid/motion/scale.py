@@ -41,6 +41,7 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -48,6 +49,10 @@ import pinocchio as pin
 from ..errors import ScalingError
 from .markers import Marker, MarkerTrajectories, default_markers, marker_positions
 from .scale_walk import MOVING, joint_centres, movement, pair_distances, picked
+
+if TYPE_CHECKING:
+    from ..anthropometry import BodyParameters
+    from ..model import Humanoid
 
 __all__ = [
     "MEASUREMENTS",
@@ -172,8 +177,8 @@ class ScaleResult:
             trial's label}, :func:`~humanoid.motion.scale_walk.joint_centres`).
     """
 
-    params: object
-    body: object
+    params: BodyParameters
+    body: Humanoid
     urdf: str
     marker_set: dict[str, Marker]
     measured: list[Measured]

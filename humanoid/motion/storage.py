@@ -162,7 +162,8 @@ def read_storage(path: str | Path) -> Table:
         raise MotionFileError(
             f"{path}: no 'endheader' line: not an OpenSim Storage file (.sto/.mot)"
         )
-    name, header = "", {}
+    name = ""
+    header: dict[str, str] = {}
     for i, line in enumerate(lines[:end]):
         key, sep, value = line.partition("=")
         if sep:

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -45,6 +46,11 @@ from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
 from .coordinates import lowest_sole_point
 from .inverse_dynamics import contact_schedule, derivatives, residual_cutoff
 from .loads import Load
+
+if TYPE_CHECKING:
+    from ..model import Humanoid
+    from ..trajectory import Trajectory
+    from .floor import Floor
 
 __all__ = [
     "MotionReference",
@@ -213,7 +219,8 @@ class MotionTracker(Effect):
         self.tau = np.zeros(model.nv)
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
         self.relaxed = 0
-        self.last = None
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -265,7 +272,8 @@ class MotionTracker(Effect):
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
-        loaded, free = [], []
+        loaded: list[int] = []
+        free: list[int] = []
         for i, s in enumerate(side_of):
             ok = False
             if s is not None and on[s] and phi[i] < g.touch:
@@ -359,7 +367,7 @@ def toes_on_floor(h, q, floor: float | None = None) -> tuple[np.ndarray, dict]:
     if floor is None:
         every = [h.frame_id(n) for s in SIDES for n in h.require_contact_points(s)]
         floor = float(np.median([lowest(qi, every) for qi in out]))
-    turned = {}
+    turned: dict[str, tuple[int, float]] = {}
     for name, iq, below in hinges:
         lo, hi = model.lowerPositionLimit[iq], model.upperPositionLimit[iq]
         for qi in out:
@@ -427,14 +435,14 @@ class Tracked:
             onto the floor (:func:`toes_on_floor`).
     """
 
-    trajectory: object
+    trajectory: Trajectory
     reference: tuple
     joint_error: np.ndarray
     contacts: dict
     wall_time: float
-    body: object = None
+    body: Humanoid | None = None
     cutoff: float | None = None
-    floor: object = None
+    floor: Floor | None = None
     toes: dict = field(default_factory=dict)
 
     @property
@@ -500,7 +508,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
             floor = fit_floor(h, time, q)
         q = floor.onto(model, time, q)
         gravity = floor.gravity(gravity)
-    turned = {}
+    turned: dict[str, tuple[int, float]] = {}
     if toes:
         q, turned = toes_on_floor(h, q, None if floor is None else 0.0)
     if cutoff == "auto":
@@ -511,7 +519,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     scene = Scene(
         name="track", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
         integrator="semi_implicit_euler", record_rate=record_rate,
-        effects=Effects(gravity=tuple(float(x) for x in gravity),
+        effects=Effects(gravity=tuple(float(x) for x in gravity),  # type: ignore[arg-type]  # (3 floats)
                         joint_limits=JointLimitSpec(kind="constraint"),
                         ground=GroundSpec(bodies="feet", mu=mu)),
     )  # fmt: skip
@@ -534,7 +542,18 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
         cause = _lost(traj.t, err, ctl)
         if cause:
             traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
-    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h, cutoff, floor, turned)
+    # (cutoff is a number or None here: "auto" was resolved above)
+    return Tracked(
+        traj,
+        (traj.t + t[0], ref_q),
+        err,
+        contacts,
+        wall,
+        h,
+        cutoff,  # type: ignore[arg-type]
+        floor,
+        turned,
+    )
 
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)

@@ -20,11 +20,15 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+
+if TYPE_CHECKING:
+    from ..model import Humanoid
 
 __all__ = ["OcpModel", "ROOT_NAMES", "build_ocp_model"]
 
@@ -51,7 +55,7 @@ class OcpModel:
 
     model: pin.Model
     names: tuple[str, ...]
-    body: object
+    body: Humanoid
     euler_index: np.ndarray
     locked: np.ndarray
     mirror: tuple[np.ndarray, np.ndarray]

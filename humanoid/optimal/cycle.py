@@ -241,6 +241,9 @@ def transition_phases(gait: GaitSolution, kind: str) -> list[Phase]:
     def free(d, lo=0.5, hi=2.0):
         return d, (lo * d, hi * d)
 
+    contacts: tuple  # per phase: the points in contact
+    spec: tuple  # per phase: (duration guess, its bounds)
+    nodes: tuple[int, ...]
     if kind == "start":  # two steps: the right, then the left to the cycle's left heel strike
         contacts = (right + left, left, left_toes, r["heel"] + left_toes, right, r_toes)
         spec = ((guess, bounds), free(d2), free(d3), free(d1), free(d2), free(d3))

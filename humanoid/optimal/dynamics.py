@@ -24,11 +24,12 @@ naming the joint.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelError
+from ..errors import ModelError, OptimalControlError
 from ._casadi import ca
 
 __all__ = ["Kinematics", "SymbolicModel"]
@@ -145,7 +146,8 @@ def _joint(jm, name: str) -> _Joint:
     S = np.array(jd.S).reshape(6, jm.nv)
     axis = None
     if jm.nv == 1:
-        axis = tuple(float(x) for x in (S[:3, 0] if kind == "prismatic" else S[3:, 0]))
+        a = S[:3, 0] if kind == "prismatic" else S[3:, 0]
+        axis = (float(a[0]), float(a[1]), float(a[2]))
     return _Joint(kind, jm.idx_q, jm.idx_v, jm.nq, jm.nv, axis, S)
 
 
@@ -160,8 +162,8 @@ class Kinematics:
     p: list
     R_parent: list
     p_parent: list
-    v: list
-    a: list
+    v: list | None  # None when the pass had no velocity
+    a: list | None  # None when the pass had no acceleration
 
 
 class SymbolicModel:
@@ -177,7 +179,8 @@ class SymbolicModel:
     def __init__(self, model: pin.Model) -> None:
         self.model = model
         self.nq, self.nv = model.nq, model.nv
-        self.joints = [None] + [
+        # index 0 is the universe, which has no joint
+        self.joints: list[_Joint | None] = [None] + [
             _joint(model.joints[i], model.names[i]) for i in range(1, model.njoints)
         ]
         self.parents = list(model.parents)
@@ -201,7 +204,7 @@ class SymbolicModel:
         if j.kind == "unbounded":
             return rotation(j.axis, qj[0], qj[1]), zero
         if j.kind == "prismatic":
-            return ca.SX.eye(3), qj[0] * ca.SX(np.reshape(j.axis, (3, 1)))
+            return ca.SX.eye(3), qj[0] * ca.SX(np.reshape(np.asarray(j.axis), (3, 1)))
         return ca.SX.eye(3), qj[:3]  # translation
 
     def integrate(self, q, v) -> ca.SX:
@@ -209,6 +212,7 @@ class SymbolicModel:
         time, on each joint's Lie group (pin.integrate)."""
         out = []
         for j in self.joints[1:]:
+            assert j is not None  # only the universe (index 0) has no joint
             qj, vj = q[j.idx_q : j.idx_q + j.nq], v[j.idx_v : j.idx_v + j.nv]
             if j.kind == "free":
                 dp, dquat = exp_se3(vj[:3], vj[3:])
@@ -227,12 +231,16 @@ class SymbolicModel:
     def kinematics(self, q, v=None, a=None) -> Kinematics:
         """The forward pass: placements, and velocities and accelerations when given."""
         n = len(self.joints)
-        R, p = [ca.SX.eye(3)] + [None] * (n - 1), [ca.SX.zeros(3, 1)] + [None] * (n - 1)
-        R_parent, p_parent = [None] * n, [None] * n
-        vel = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if v is not None else None
-        acc = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if a is not None else None
+        # filled below for every joint; index 0 is the universe
+        R: list[Any] = [ca.SX.eye(3)] + [None] * (n - 1)
+        p: list[Any] = [ca.SX.zeros(3, 1)] + [None] * (n - 1)
+        R_parent: list[Any] = [None] * n
+        p_parent: list[Any] = [None] * n
+        vel: list[Any] | None = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if v is not None else None
+        acc: list[Any] | None = [ca.SX.zeros(6, 1)] + [None] * (n - 1) if a is not None else None
         for i in range(1, n):
             j, lam = self.joints[i], self.parents[i]
+            assert j is not None  # only the universe (index 0) has no joint
             Rj, pj = self._joint_transform(j, q[j.idx_q : j.idx_q + j.nq])
             Rp, pp = self.placements[i]
             Rl, pl = ca.SX(Rp) @ Rj, ca.SX(Rp) @ pj + ca.SX(pp)  # liMi
@@ -270,6 +278,8 @@ class SymbolicModel:
     def frame_velocity(self, kin: Kinematics, frame) -> ca.SX:
         """The frame's spatial velocity in its world-aligned frame (linear: the velocity of its
         origin in world axes; angular: the world angular velocity)."""
+        if kin.v is None:
+            raise OptimalControlError("frame_velocity needs kinematics(q, v), at a velocity")
         i, Rf, pf = self.frame(frame)
         v = kin.v[i]
         lin = v[:3] + ca.cross(v[3:], ca.SX(pf))
@@ -278,6 +288,10 @@ class SymbolicModel:
     def frame_acceleration(self, kin: Kinematics, frame) -> ca.SX:
         """The classical (second time derivative) acceleration of the frame's origin, in world
         axes."""
+        if kin.v is None or kin.a is None:
+            raise OptimalControlError(
+                "frame_acceleration needs kinematics(q, v, a), at an acceleration"
+            )
         i, Rf, pf = self.frame(frame)
         v, a = kin.v[i], kin.a[i]
         P = ca.SX(pf)
@@ -295,9 +309,10 @@ class SymbolicModel:
                 frame's origin (a contact point).
         """
         kin = self.kinematics(q, v, a)
+        assert kin.v is not None and kin.a is not None  # given v and a, the pass fills both
         n = len(self.joints)
         g = ca.SX(np.reshape(self.gravity, (3, 1)))
-        f = [None] * n
+        f: list[Any] = [None] * n
         for i in range(1, n):
             m, c, Ic = self.inertias[i]
             ag = kin.a[i] + ca.vertcat(-kin.R[i].T @ g, ca.SX.zeros(3, 1))
@@ -308,9 +323,10 @@ class SymbolicModel:
             i, _, pf = self.frame(frame)
             fl = kin.R[i].T @ force
             f[i] = f[i] - ca.vertcat(fl, ca.cross(ca.SX(pf), fl))
-        tau = [None] * n
+        tau: list[Any] = [None] * n
         for i in range(n - 1, 0, -1):
             j, lam = self.joints[i], self.parents[i]
+            assert j is not None  # only the universe (index 0) has no joint
             tau[i] = ca.SX(j.S).T @ f[i]
             if lam > 0:
                 f[lam] = f[lam] + force_act(kin.R_parent[i], kin.p_parent[i], f[i])

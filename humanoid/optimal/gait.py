@@ -310,7 +310,7 @@ def _kinematic_guess(om, cycle, c, durations):
     return xs, vs, np.gradient(vs, t_nodes, axis=0)
 
 
-def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, standing,
+def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict | None, standing,
                     first: bool = False, heading=None) -> dict:  # fmt: skip
     """The objective's terms (``standing``: the posture the untracked joints stay near: a
     fixed target, so that the optimum does not depend on the initial guess; ``first``: the
@@ -338,6 +338,8 @@ def objective_terms(c: Collocation, om: OcpModel, objective: str, gait: dict, st
         level = [om.index("root_roll"), om.index("root_yaw")]
         terms["pelvis"] = W_PELVIS_PREDICTIVE * _squares(c, level, standing) / T
         return terms
+    if gait is None:
+        raise OptimalControlError("the tracking objective needs the gait it tracks")
     terms.update(_tracking_terms(c, om, gait, standing, first, heading))
     return terms
 

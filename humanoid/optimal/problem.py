@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -80,13 +81,14 @@ class Collocation:
         self.X = opti.variable(self.n, N + 1)
         self.V = opti.variable(self.n, N + 1)
         self.A = opti.variable(self.n, N + 1)
-        self.durations = []
-        self.F = {}  # (node, point) -> 3-vector [N]
-        self._f = {}  # (node, point) -> its variable [body weights]
-        self.anchors = {}  # (point, first phase of its stay, axis) -> scalar variable
-        self.tau = []  # per node: the joints' torques (expressions)
+        self.durations: list = []  # per phase: its duration [s] (a variable or a number)
+        self.F: dict[tuple, Any] = {}  # (node, point) -> 3-vector [N]
+        self._f: dict[tuple, Any] = {}  # (node, point) -> its variable [body weights]
+        # (point, first phase of its stay, axis) -> scalar variable
+        self.anchors: dict[tuple, Any] = {}
+        self.tau: list = []  # per node: the joints' torques (expressions)
         self._reference = om.from_body(om.body.standing_configuration())
-        self._row_cache = {}
+        self._row_cache: dict = {}
         self._build()
 
     # -- the model's functions -------------------------------------------------------------
@@ -162,6 +164,7 @@ class Collocation:
                 else:
                     opti.subject_to(pos[axis, i] == self._anchor(p, stay, axis))
                 if p in landing:
+                    assert vel is not None  # computed when a point lands
                     opti.subject_to(vel[axis, i] == 0)
             for p in self.clearance:
                 if p not in down and p not in {q for q, _ in held}:
@@ -278,7 +281,7 @@ class Collocation:
             for d, T in zip(durations, self.durations, strict=True):
                 if isinstance(T, ca.MX):
                     self.opti.set_initial(T, d)
-        count = {}
+        count: dict[int, int] = {}
         for k, _ in self._f:
             count[k] = count.get(k, 0) + 1
         for (k, _), f in self._f.items():
@@ -300,7 +303,11 @@ class Collocation:
         the objective whose values the solution reports."""
         opti = self.opti
         opti.minimize(objective)
-        opts = {"ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-8}
+        opts: dict[str, Any] = {
+            "ipopt.max_iter": max_iter,
+            "ipopt.tol": tol,
+            "ipopt.constr_viol_tol": 1e-8,
+        }
         opts |= {"ipopt.print_level": 5 if verbose else 0, "print_time": False}
         opts |= {"ipopt.sb": "yes", "expand": True}
         opts |= dict(options or {})

@@ -128,6 +128,7 @@ def _swing(c: Collocation, gait: GaitSolution, kind: str):
     T = float(gait.solution.t[-1])
     d1, d2, d3 = (float(d) for d in gait.solution.durations)
     # (phase, side, the cycle's time at the phase's start, the cycle's phase's duration)
+    segments: tuple[tuple[int, str, float, float], ...]
     if kind == "start":
         segments = ((1, "right", T + d1, d2), (2, "right", T + d1 + d2, d3),
                     (4, "left", d1, d2), (5, "left", d1 + d2, d3))  # fmt: skip

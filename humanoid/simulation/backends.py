@@ -40,7 +40,7 @@ class Native:
 
     def __init__(self, plant) -> None:
         self.plant = plant
-        self.solve = None
+        self.solve: NativeSolve | None = None
 
     @staticmethod
     def supports(setup) -> bool:

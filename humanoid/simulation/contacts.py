@@ -112,7 +112,7 @@ class ContactBook:
                 if t >= c.spec.end or (problems and c.spec.unilateral):
                     why = "end of window" if t >= c.spec.end else "; ".join(problems)
                     self.release(c, t, why)
-        landing = {"scheduled": [], "touchdown": []}
+        landing: dict[str, list] = {"scheduled": [], "touchdown": []}
         for c in self.contacts:
             if not c.attached and c.spec.start <= t < c.spec.end:
                 self.kinematics(q, v)

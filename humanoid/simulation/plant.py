@@ -8,6 +8,8 @@ scene's integrator, or the ground contact's velocity-level step.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
 
@@ -16,6 +18,12 @@ from .contacts import ContactBook
 from .ground import GroundStep
 from .plugins import Controller, StepResult
 from .setup import Setup
+
+if TYPE_CHECKING:
+    from ..constraints.solve import ConstrainedAcceleration
+
+    # a solve: (joint torques, constrained solution or None)
+    Solved = tuple[np.ndarray, ConstrainedAcceleration | NativeSolution | None]
 
 __all__ = ["Plant"]
 
@@ -47,12 +55,12 @@ class Plant:
         self.space, self.integrator = formulation.space, integrator
         self.ground = GroundStep(self, setup.ground) if setup.ground is not None else None
         self.constrained = setup.backend(self)
-        self.last = None  # the last solve: (joint torques, constrained solution or None)
+        self.last: Solved | None = None  # the last solve
         self._tick = 0.0
         self._zero = np.zeros(self.model.nv)
         self._zero.flags.writeable = False
         self.joint_torque = self._zero
-        self._first = None
+        self._first: Solved | None = None
         self._frozen = False
         self._dynamics = formulation.dynamics(self)
         # semi-implicit Euler on the Lie group without the ground's velocity-level solve: one
@@ -144,6 +152,7 @@ class Plant:
                 self.last = (self._zero, None)
             else:
                 a = self.acceleration(t, q, v)
+            assert self.last is not None  # set by aba or acceleration just above
             torque, solution = self.last
             v_new = v + dt * a
             return StepResult(t + dt, pin.integrate(self.model, q, dt * v_new), v_new, torque,

@@ -6,10 +6,14 @@ never set on the simulation; ``sim``, in their methods, is that
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import pinocchio as pin
+
+if TYPE_CHECKING:
+    from ..constraints.native import NativeSolution
+    from ..constraints.solve import ConstrainedAcceleration
 
 __all__ = ["Controller", "Monitor", "Schedule", "StepResult"]
 
@@ -29,7 +33,8 @@ class StepResult:
     __slots__ = ("t", "q", "v", "torque", "solution")
 
     def __init__(self, t: float, q: np.ndarray, v: np.ndarray, torque: np.ndarray,
-                 solution: object | None) -> None:  # fmt: skip
+                 solution: ConstrainedAcceleration | NativeSolution | None,
+                 ) -> None:  # fmt: skip
         self.t, self.q, self.v, self.torque, self.solution = t, q, v, torque, solution
 
 

@@ -17,7 +17,15 @@ from ..constraints import Baumgarte, JointLock, update_kinematics
 from ..constraints.ground import ContactSolver, Ground, GroundSettings
 from ..constraints.limits import JointRanges
 from ..contacts import ContactState
-from ..effects import JointDamping, JointLimits, JointSprings, PostureController, Push, joint_mask
+from ..effects import (
+    Effect,
+    JointDamping,
+    JointLimits,
+    JointSprings,
+    PostureController,
+    Push,
+    joint_mask,
+)
 from ..errors import ConfigurationError, HumanoidError, ModelError, SceneError
 from ..model import Humanoid, check_configuration, load
 from ..scene import Contact, Scene
@@ -157,7 +165,7 @@ def scene_effects(setup: Setup, limits) -> list:
     """The scene's effects in the order their forces add up: damping, springs, the joint
     limits' springs, pushes."""
     model, e = setup.model, setup.scene.effects
-    effects = []
+    effects: list[Effect] = []
     if e.damping > 0:
         effects.append(JointDamping(model, e.damping))
     if e.springs > 0:
@@ -171,6 +179,7 @@ def scene_effects(setup: Setup, limits) -> list:
 
 def _spring_limits(setup: Setup) -> tuple[JointLimits, None]:
     spec = setup.scene.effects.joint_limits
+    assert spec is not None  # chosen for a scene with joint limits
     return JointLimits(setup.h, spec.stiffness, spec.damping), None
 
 
@@ -212,6 +221,7 @@ def ground_solver(setup: Setup) -> ContactSolver:
     """The ground contact of the bodies the scene names, with the joint ranges as
     constraints if it asks for them."""
     h, spec = setup.h, setup.scene.effects.ground
+    assert spec is not None  # built for a scene with a ground
     geometry = h.collision_model if h.collision_model.ngeoms else h.visual_model
     if isinstance(spec.bodies, str):
         chosen = GROUND_BODIES[spec.bodies](setup, geometry)

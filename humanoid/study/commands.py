@@ -52,9 +52,9 @@ def run_sweep(args) -> int:
     folder = Path(args.output) if args.output else default_folder(study)
     runs = study.runs()
     if args.list:
-        rows = {r["run"]: r for r in read_table(folder)}
+        done = {r["run"]: r for r in read_table(folder)}
         for run in runs:
-            r = rows.get(run.id)
+            r = done.get(run.id)
             state = f"{r['status']:<10} {r['wall_time']:7.2f} s" if r else "pending"
             params = ", ".join(f"{k}={v}" for k, v in run.params.items())
             print(f"{run.index:5d} {run.id} {state:<20} {params}")

@@ -91,12 +91,13 @@ def _scene_run(payload: dict, params: dict):
     if not math.isnan(fell_at):
         status = "fell"
     model, data = h.model, h.model.createData()
-    com, vcom = [], []
+    coms: list[np.ndarray] = []
+    vcoms: list[np.ndarray] = []
     for q, v in zip(traj.q, traj.v, strict=True):
         pin.centerOfMass(model, data, q, v)
-        com.append(data.com[0].copy())
-        vcom.append(data.vcom[0].copy())
-    com, vcom = np.array(com), np.array(vcom)
+        coms.append(data.com[0].copy())
+        vcoms.append(data.vcom[0].copy())
+    com, vcom = np.array(coms), np.array(vcoms)
     z0 = float(traj.q[0, 2])
     push = scene.effects.pushes
     values = {
@@ -135,7 +136,8 @@ def _walk_run(params: dict):
         q = {**PUSH_DEFAULTS, **p}
         f = push_vector(q, h.mass * G)
         force = float(np.linalg.norm(f))
-        pushes = [PushSpec(q.get("push.frame", h.model.names[1]), tuple(float(x) for x in f),
+        fx, fy, fz = (float(x) for x in f)
+        pushes = [PushSpec(q.get("push.frame", h.model.names[1]), (fx, fy, fz),
                            float(q["push.start"]), float(q["push.duration"]))]  # fmt: skip
     walk = walk_on_ground(h, float(speed), steps=int(p["walk.steps"]), cycle=cycle,
                           dt=float(p["walk.dt"]), mu=float(p["walk.mu"]),

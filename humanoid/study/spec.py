@@ -60,6 +60,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -154,7 +155,7 @@ class Study:
         keys = list(self.grid)
         combos = list(itertools.product(*(self.grid[k] for k in keys))) or [()]
         samples = self._draws()
-        out = []
+        out: list[Run] = []
         base = self.fingerprint
         for i, draw in enumerate(samples):
             for combo in combos:
@@ -226,7 +227,7 @@ def parse_study(doc: dict, source: str = "<study>", base: Path | None = None,
                 text: str = "") -> Study:  # fmt: skip
     """A :class:`Study` from the TOML structure (scene files resolve from ``base``)."""
 
-    def bad(key: str, why: str):
+    def bad(key: str, why: str) -> NoReturn:
         raise StudyError(f"{source}: {key}: {why}")
 
     unknown = set(doc) - {"study", "set", "grid", "sample", "figure"}

@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 import pinocchio as pin
@@ -57,6 +58,9 @@ from .clinical import ANGLES, arm_chains, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
 from .tracking import OTHER, GaitController, TrackingGains
 from .transitions import start_stop
+
+if TYPE_CHECKING:
+    from ..model import Humanoid
 
 __all__ = [
     "GaitAnalysis", "GaitRecord", "GaitRecorder", "GroundWalk", "PushTrials", "analyse",
@@ -174,8 +178,9 @@ class GaitRecorder:
                 if i in c.joints:
                     self.side_of[j] = s
         self.fall_height = fall_height
-        self.rows = []
-        self.qs, self.vs = [], []
+        self.rows: list[list[float]] = []
+        self.qs: list[np.ndarray] = []
+        self.vs: list[np.ndarray] = []
 
     def observe(self, sim, k: int, t: float, q, v, step) -> None:
         model, d = self.model, self.data
@@ -245,7 +250,9 @@ class GaitRecorder:
         width = 3 + 2 + 2 + 2 + len(_MOMENTS)
         # (a run that failed at its first step recorded nothing)
         rows = np.array(self.rows, dtype=float).reshape(len(self.rows), 1 + 2 * width)
-        out = {k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")}
+        out: dict[str, dict[str, np.ndarray]] = {
+            k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")
+        }
         for i, s in enumerate(SIDES):
             c = 1 + i * width
             out["force"][s] = rows[:, c : c + 3]
@@ -271,7 +278,7 @@ class GroundWalk:
     relaxed: int
     wall_time: float
     steps: int
-    body: object = None
+    body: Humanoid | None = None
 
     @property
     def completed(self) -> bool:
@@ -553,7 +560,8 @@ class GaitAnalysis:
         0.165 and 0.151 BW, their mean curve's 0.11)."""
         out = {k: float(np.mean(v)) if len(v) else float("nan") for k, v in self.table.items()}
         stance = out["stance"] * 100.0 if math.isfinite(out["stance"]) else 60.0
-        sides = [s for s in SIDES if len(self.curves[s]["grf_vertical"])] or [None]
+        sides: list[str | None] = [s for s in SIDES if len(self.curves[s]["grf_vertical"])]
+        sides = sides or [None]
         peaks = [self._peaks(s, stance) for s in sides]
         out.update({k: float(np.mean([p[k] for p in peaks])) for k in peaks[0]})
         # the pelvis's and the arms' motion (each side's own curves, averaged)
@@ -713,15 +721,21 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
                      "off": [off for _, off in contacts[s] if np.isfinite(off)]}  # fmt: skip
     both = loaded["left"] & loaded["right"]
     names = (*ANGLES, *ARM_ANGLES) if arms else ANGLES
-    curves = {s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES}
-    table = {k: [] for k in ("speed", "cadence", "step_length", "stride_length", "stance",
-                             "double_support", "com_vertical", "com_lateral")}  # fmt: skip
-    cycles = {s: [] for s in SIDES}
+    # lists per cycle, made arrays at the end
+    curves: dict[str, dict[str, Any]] = {
+        s: {n: [] for n in (*ANGLES, *ARM_ANGLES, *KINETICS)} for s in SIDES
+    }
+    table: dict[str, Any] = {
+        k: []
+        for k in ("speed", "cadence", "step_length", "stride_length", "stance",
+                  "double_support", "com_vertical", "com_lateral")
+    }  # fmt: skip
+    cycles: dict[str, list[tuple[float, float]]] = {s: [] for s in SIDES}
 
     def at(x, times, tt):
         return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
 
-    def covers(series, t0, t1):
+    def covers(series: tuple | None, t0, t1) -> TypeGuard[tuple]:
         return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
 
     def bears(s, t0, off):
@@ -781,7 +795,7 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
     if speed is None:
         speed = float(np.mean(table["speed"])) if len(table["speed"]) else 0.0
     v_hat = speed / math.sqrt(g * leg_length(h))
-    feet = {s: [] for s in SIDES}
+    feet: dict[str, list[dict]] = {s: [] for s in SIDES}
     return GaitAnalysis(events, cycles, curves, table, feet, v_hat, mass, source, percent)
 
 
@@ -827,7 +841,7 @@ def analyse(h, walk: GroundWalk | GaitRecord, skip: float | None = None) -> Gait
     # forces, moments and powers low-passed before the cycles are sampled
     force = {s: low_pass(rec.force[s], t) for s in SIDES}
     kinetics = {s: low_pass(rec.kinetics[s], t) for s in SIDES}
-    feet = {s: [] for s in SIDES}
+    feet: dict[str, list[dict]] = {s: [] for s in SIDES}
     for s in SIDES:
         for a, b in contacts[s]:  # every complete stance: the foot's rocker sequence
             if a == 0 or b == len(t):

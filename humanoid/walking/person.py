@@ -278,7 +278,8 @@ class CycleTracker(Effect):
 
         self.h, self.model, self.ref = h, model, reference
         self.ground, self.dt, self.t0 = ground, dt, t0
-        self.tc, self.t_last = t0, None  # the cycle's time, and the last control time
+        self.tc = t0  # the cycle's time
+        self.t_last: float | None = None  # the last control time
         self.gains = gains or CycleGains()
         self.data = model.createData()
         self.rdata = model.createData()
@@ -297,17 +298,18 @@ class CycleTracker(Effect):
         self.tau = np.zeros(model.nv)
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
         self.relaxed = 0
-        self.last = None
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
         self.offset = np.zeros(2)  # the reference moved to the last footstep actually made
         self.offset_from, self.offset_to, self.offset_t = np.zeros(2), np.zeros(2), -1.0
         self.landed = dict.fromkeys(SIDES, True)
         self.heels = {s: [p for p in self.points[s] if "heel" in p] for s in SIDES}
         z = pin.centerOfMass(model, self.data, reference.state(t0)[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
-        self.loaded_before = set()
+        self.loaded_before: set[int] = set()
         # the last step's reference centre of mass: (x, y) [m], the direction of travel, and
         # the speed along it [m/s]
-        self.com_ref = None
+        self.com_ref: tuple[np.ndarray, np.ndarray, float] | None = None
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -343,6 +345,7 @@ class CycleTracker(Effect):
         dc_r, ddc_r = rd.vcom[0].copy(), rd.acom[0].copy()
         com = tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, g.com_kp, g.com_kd, g.w_com))
         c, dc = com.c, com.dc
+        assert c is not None and dc is not None  # computed by tasks.add
         heading = ref.heading(tc)
         ahead = np.array([math.cos(heading), math.sin(heading)])
         self.com_ref = (c_r[:2].copy(), ahead, float(dc_r[:2] @ ahead))
@@ -389,7 +392,7 @@ class CycleTracker(Effect):
         point's shared among the corners matched to it, and their vertical upper bounds: the
         cycle's plus a margin that fades to zero before the cycle lifts the point."""
         g, ref = self.gains, self.ref
-        count = {}
+        count: dict[int, int] = {}
         for m in match:
             count[m] = count.get(m, 0) + 1
         target = np.zeros(3 * len(match))
@@ -409,6 +412,7 @@ class CycleTracker(Effect):
             rate = 1.0
             if g.phase_time > 0:
                 c = pin.centerOfMass(self.model, self.data, q)[:2]
+                assert self.com_ref is not None  # set by the update that set t_last
                 c_p, ahead, dc_p = self.com_ref
                 lead = float((c - c_p) @ ahead)  # along the direction of travel
                 rate = float(np.clip(1.0 + lead / (max(dc_p, 0.3) * g.phase_time), 0.3, 2.0))
@@ -524,7 +528,7 @@ def walk_from_standing(h, gait, strides: int = 2, *, start=None, stop=None, dt: 
     for i, kind in enumerate(KINDS):
         if ends[i] is None:
             ends[i] = stored_transition(gait, kind) or _optimised_transition(gait, kind, quiet)
-    ref = CycleReference.through(gait, *ends, strides)
+    ref = CycleReference.through(gait, ends[0], ends[1], strides)
     return _walk(h, ref, 0.0, ref.period + rest, 2 * strides + 5, dt, mu, gains, quiet, (),
                  record_rate)  # fmt: skip
 

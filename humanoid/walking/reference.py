@@ -38,6 +38,7 @@ import json
 import math
 import warnings
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,7 +154,8 @@ class _Fitter:
             self.edge[s] = (pts[order[:2]].mean(axis=0), pts[order[2:]].mean(axis=0))
         self.thorax = torso_frame(self.model, self.arms.values())
         self.ranges = JointRanges(h)
-        self.com_target = None  # phi -> the centre of mass's target (NaN: free)
+        # phi -> the centre of mass's target (NaN: free)
+        self.com_target: Callable[[float], np.ndarray] | None = None
         # the legs carry the centre of mass where it must go, not a swing of the arms
         self.w_posture = leg_joint_weights(self.model, self.chains, W_POSTURE, W_UPPER)
 
@@ -166,7 +168,7 @@ class _Fitter:
         return np.array([self.norm(k, psi) for k in ANGLES])
 
     # -- the residual ----------------------------------------------------------------------
-    def wants(self, phi: float) -> tuple[dict, tuple | None, dict]:
+    def wants(self, phi: float) -> tuple[dict, np.ndarray | None, dict]:
         """What the fit aims at, at the cycle's phase phi: each side's normative angles [deg],
         the centre of mass [m] (NaN where free) if it has a plan, and each arm's swing [deg]."""
         psi = {s: phi + (0.5 if s == "left" else 0.0) for s in SIDES}
@@ -496,7 +498,8 @@ def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
     # pass 1: stance feet only; the swing foot goes where the normative angles carry it
     q = fitter.q0.copy()
     q[0] += 1.5 * L  # between the footsteps of the second lap
-    qs1, free = [], {s: [] for s in SIDES}
+    qs1: list[np.ndarray] = []
+    free: dict[str, list[pin.SE3]] = {s: [] for s in SIDES}
     back = pin.SE3(np.eye(3), np.array([-2 * L, 0.0, 0.0]))  # one stride back
     for phi in phase + 1.0:  # the second lap (footsteps k = 1, 2), from the standing posture
         targets, _ = targets_at(phi)
@@ -551,7 +554,10 @@ def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
     z_mean = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs1]))
     plan = plan_com(gait, feet_plan, z_mean)
     fitter.com_target = lambda phi: plan.at(phi)[0] * np.array([1.0, 1.0, np.nan])
-    qs, feet, contact, worst = [], {s: [] for s in SIDES}, {s: [] for s in SIDES}, 0.0
+    qs: list[np.ndarray] = []
+    feet: dict[str, list[np.ndarray]] = {s: [] for s in SIDES}
+    contact: dict[str, list[int]] = {s: [] for s in SIDES}
+    worst = 0.0
     q = qs1[0].copy()
     q[0] -= 2 * L  # pass 1 ran one stride on
     for phi in phase:

@@ -253,14 +253,14 @@ GAIT_ROWS = (
 def gait_table(analysis) -> list[tuple[str, str, str, bool | None]]:
     """The report's rows: (label, this walk, the adult norm, whether it is within it)."""
     s = analysis.summary
-    rows = []
+    rows: list[tuple[str, str, str, bool | None]] = []
     for key, label, unit, scale, norm, source in GAIT_ROWS:
         value = s.get(key, float("nan")) * scale
         text = f"{value:.3g} {unit}".rstrip() if np.isfinite(value) else "-"
         if norm is None or not np.isfinite(value):  # no norm, or no complete cycle to measure
             rows.append((label, text, "", None))
             continue
-        if norm == "curve":
+        if isinstance(norm, str):  # "curve"
             mean, sd = norms().curve(key, analysis.dimensionless_speed)
             norm = (float(np.ptp(mean) - sd.mean()), float(np.ptp(mean) + sd.mean()))
         lo, hi = norm

@@ -288,7 +288,7 @@ class WalkMonitor:
         self.h, self.sim, self.ctl = h, sim, ctl
         self.ranges = JointRanges(h)
         self.weight = h.mass * 9.81
-        self.z_start = None
+        self.z_start: float | None = None  # the pelvis' height at the first step [m]
         self.t = np.full(n, np.nan)
         self.q = np.zeros((n, sim.model.nq))
         self.tilt = np.full(n, np.nan)

@@ -315,15 +315,17 @@ class GaitController(Effect):
             flat = cycle.contact[s] == 2
             self.step_x0[s] = float(np.mean(cycle.feet[s][flat, 0] - cycle.stride * k[flat]))
         # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
-        self.anchors = {s: {} for s in SIDES}
+        self.anchors: dict[str, dict[int, np.ndarray]] = {s: {} for s in SIDES}
         if transitions is not None:  # the standing feet are footsteps 0
             for s in SIDES:
                 self.anchors[s][0] = np.array(transitions.anchors[s], dtype=float)
         self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
-        self.lift = {}  # side -> (footstep it left, its pose and velocity errors there, u0)
-        self.last = None
+        # side -> (footstep it left, its pose and velocity errors there, u0)
+        self.lift: dict[str, tuple[int, np.ndarray, np.ndarray, np.ndarray, float]] = {}
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
         self.relaxed = 0  # steps solved without the range dampers and floor rows
-        self.down = {}  # side -> whether it was a stance foot at the last step
+        self.down: dict[str, bool] = {}  # side -> whether it was a stance foot at the last step
         z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
         self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
         # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
@@ -558,7 +560,9 @@ class GaitController(Effect):
                     back = self.ends.moved.get((s, k + 1), 0.0)
                     self.anchors[s][k + 1][:2] -= (_rot(base) @ [back, 0.0, 0.0])[:2]
         # contacts, split into loaded (sticking) and free points
-        loaded, free, bearing = [], [], set()
+        loaded: list[int] = []
+        free: list[int] = []
+        bearing: set[str] = set()
         for i, side in enumerate(side_of):
             ok = False
             if near[i]:

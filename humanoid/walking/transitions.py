@@ -150,10 +150,11 @@ class ComPiece:
     k: int
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return tuple(
+        c, dc, ddc = (
             np.array([np.interp(t, self.t, x[:, i]) for i in range(3)])
             for x in (self.c, self.dc, self.ddc)
         )
+        return c, dc, ddc
 
 
 @dataclass

@@ -136,7 +136,7 @@ def force_contacts(t: np.ndarray, fz: np.ndarray, threshold: float = THRESHOLD,
     raw = contact_runs(hysteresis(fz, threshold, release), t, 0.0)
     found = contact_runs(hysteresis(low_pass(fz, t, cutoff), threshold, release), t, MIN_CONTACT)
     reach = 0.5 / cutoff
-    runs = []
+    runs: list[tuple[int, int]] = []
     for a, b in found:
         hits = [(c, d) for c, d in raw if t[c] < t[b - 1] + reach and t[d - 1] > t[a] - reach]
         if hits:
@@ -191,7 +191,7 @@ def event_contacts(events, span: tuple[float, float], source: str = "") -> dict:
     next foot off (``-inf`` before a first foot off, ``inf`` after a last strike, NaN where an
     event is missing: two strikes in a row). Events outside ``span`` [s] (the motion's times)
     and events that are no foot's strike or off are left out with a :class:`TrialWarning`."""
-    per = {s: [] for s in SIDES}
+    per: dict[str, list[tuple[float, str | None]]] = {s: [] for s in SIDES}
     outside, unknown = [], []
     for time, context, label in events:
         side, kind = _kind(context, label)
@@ -278,7 +278,7 @@ def _foot_loads(loads, span) -> tuple[np.ndarray, dict] | None:
     if not feet:
         return None
     time = feet[0].time
-    force = {}
+    force: dict[str, np.ndarray] = {}
     for x in feet:
         force[x.body] = force.get(x.body, 0.0) + x.resampled(time)[:, :3]
     if time[-1] < span[0] or time[0] > span[1]:
@@ -467,9 +467,9 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
     for s in SIDES:
         n = len(analysis.cycles[s])
         if n == 0:
-            strikes = ", ".join(f"{x:.3f}" for x in analysis.events[s]["strike"]) or "none"
+            listed = ", ".join(f"{x:.3f}" for x in analysis.events[s]["strike"]) or "none"
             warnings.warn(f"{source}: the {s} side has fewer than one full cycle (heel strikes "
-                          f"at {strikes} s, from {where.get(s, 'no source')}): nothing of it "
+                          f"at {listed} s, from {where.get(s, 'no source')}): nothing of it "
                           "is drawn or tabled", TrialWarning, stacklevel=2)  # fmt: skip
             continue
         for what, names, present in (("moments and powers", "hip_power", kinetics),

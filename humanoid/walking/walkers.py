@@ -68,11 +68,11 @@ def ground_walker(h, gait: str, speed=None, *, dt: float, mu: float, quiet: bool
 
         cycle = fit_cycle(h, speed)
 
-        def walk(steps, pushes, **kw):
+        def walk_human(steps, pushes, **kw):
             return walk_on_ground(h, steps=steps, cycle=cycle, dt=dt, mu=mu, pushes=pushes,
                                   **kw)  # fmt: skip
 
-        return cycle, walk
+        return cycle, walk_human
     from .person import walk_cycle, walk_from_standing
 
     cycle = person_gait(h, speed, quiet=quiet)
