@@ -18,6 +18,7 @@ import numpy as np
 from fuzz_tools import finite, outcome
 
 from humanoid.motion.c3d import read_events, read_plates
+from humanoid.motion.c3d_file import parameter_table
 from humanoid.motion.markers import read_c3d
 
 
@@ -31,29 +32,10 @@ def _read(path):
     )
 
 
-def parameters(buf: bytes) -> list[tuple[str, int, int, int]]:
-    """(GROUP:NAME, type, data offset, data bytes) of every parameter (Intel files)."""
-    start = (buf[0] - 1) * 512
-    i, groups, out = start + 4, {}, []
-    while True:
-        length, gid = struct.unpack_from("bb", buf, i)
-        if length == 0:
-            break
-        name = bytes(buf[i + 2 : i + 2 + abs(length)]).decode()
-        j = i + 2 + abs(length)
-        step = struct.unpack_from("<h", buf, j)[0]
-        if gid < 0:
-            groups[-gid] = name
-        else:
-            kind, ndim = struct.unpack_from("bB", buf, j + 2)
-            dims = list(buf[j + 4 : j + 4 + ndim])
-            n = abs(kind) * int(np.prod(dims)) if dims else abs(kind)
-            out.append((f"{gid}:{name}", kind, j + 4 + ndim, n))
-        if step == 0:
-            break
-        i = j + step
-    return [(f"{groups.get(int(g), g)}:{n}", k, a, b)
-            for (gn, k, a, b) in out for g, n in [gn.split(":", 1)]]  # fmt: skip
+def parameters(path) -> list[tuple[str, int, int, int]]:
+    """(GROUP:NAME, type, data offset, data bytes) of every parameter, in the file's order."""
+    return [(f"{group}:{name}", p.kind, p.data, p.values * abs(p.kind))
+            for (group, name), p in parameter_table(path).items()]  # fmt: skip
 
 
 NUMBERS = [np.nan, np.inf, -np.inf, 1e30, -1.0, 0.0, 1e9, 1e-30, 3.0, 255.0]
@@ -100,7 +82,7 @@ def mutated(blob: bytes, params, rng) -> tuple[bytes, str]:
 
 def main(base: str, n: int, out: str) -> None:
     blob = Path(base).read_bytes()
-    params = parameters(blob)
+    params = parameters(base)
     rng = np.random.default_rng(38)
     out = Path(out)
     case, path = out.with_suffix(".case"), out.with_suffix(".c3d")

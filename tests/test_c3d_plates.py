@@ -34,6 +34,7 @@ from humanoid.motion.c3d import (
     read_events,
     read_plates,
 )
+from humanoid.motion.c3d_file import parameter_table
 from humanoid.motion.loads import OPENSIM_TO_OURS, read_loads
 from humanoid.motion.markers import read_c3d
 
@@ -118,30 +119,6 @@ def _channels(p):
     return np.hstack([F, MO * per_nm]), ["N"] * 3 + [moment] * 3
 
 
-def _parameters(buf):
-    """{(group, parameter): (type, dims, data offset)} of a C3D file's parameter section."""
-    start = (buf[0] - 1) * 512
-    assert buf[start + 3] == 84  # Intel
-    i, groups, out = start + 4, {}, {}
-    while True:
-        length, gid = struct.unpack_from("bb", buf, i)
-        if length == 0:
-            break
-        name = bytes(buf[i + 2 : i + 2 + abs(length)]).decode()
-        j = i + 2 + abs(length)
-        step = struct.unpack_from("<h", buf, j)[0]
-        if gid < 0:
-            groups[-gid] = name
-        else:
-            ndim = buf[j + 3]
-            out[(gid, name)] = (struct.unpack_from("b", buf, j + 2)[0],
-                                list(buf[j + 4 : j + 4 + ndim]), j + 4 + ndim)  # fmt: skip
-        if step == 0:
-            break
-        i = j + step
-    return {(groups[g], n): v for (g, n), v in out.items()}
-
-
 def _write(path, plates, markers=None, y_up=False, events=(), gen_scale=0.5, patch=None,
            edit=None):  # fmt: skip
     """Write the trial (``plates``: :func:`_plate` specs; ``markers``: {name: (frames, 3) or
@@ -211,12 +188,12 @@ def _write(path, plates, markers=None, y_up=False, events=(), gen_scale=0.5, pat
         patch(c)
     c.write(str(path))
     buf = bytearray(Path(path).read_bytes())
-    found = _parameters(buf)
-    kind, dims, at = found[("ANALOG", "OFFSET")]
-    assert kind == 2 and dims == [n_channels]
+    assert buf[(buf[0] - 1) * 512 + 3] == 84  # Intel: packed little-endian below
+    found = parameter_table(path)
+    kind, dims, at = found[("ANALOG", "OFFSET")][2:]
+    assert kind == 2 and dims == (n_channels,)
     struct.pack_into(f"<{n_channels}h", buf, at, *offset.tolist())
-    kind, dims, at = found[("ANALOG", "GEN_SCALE")]
-    struct.pack_into("<f", buf, at, gen_scale)
+    struct.pack_into("<f", buf, found[("ANALOG", "GEN_SCALE")].data, gen_scale)
     Path(path).write_bytes(bytes(buf))
     read = ezc3d.c3d(str(path))["data"]["analogs"][0]
     np.testing.assert_allclose(read, signals, atol=1e-5 * np.abs(signals).max())

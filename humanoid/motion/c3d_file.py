@@ -22,11 +22,12 @@ from __future__ import annotations
 import re
 import struct
 from pathlib import Path
+from typing import NamedTuple
 
 from ..errors import require
 from .storage import MotionFileError
 
-__all__ = ["check_c3d", "open_c3d"]
+__all__ = ["Parameter", "check_c3d", "open_c3d", "parameter_table"]
 
 BLOCK = 512  # [bytes] the C3D file's unit
 PROCESSORS = {84: "<", 85: "<", 86: ">"}  # Intel, DEC (little-endian integers), MIPS
@@ -36,9 +37,28 @@ MAX_ENTRIES = 10_000  # a parameter section of more entries is corrupt (a loop o
 MAX_RATIO = 100  # ezc3d's ROTATION:RATIO above this allocated without end (a hang)
 
 
+class Parameter(NamedTuple):
+    """A parameter entry of a C3D file: its number of ``values``, the first of them if an integer
+    (``first``), its type (``kind``: -1 char, 1 byte, 2 integer, 4 float), its dimensions and
+    the byte offset of its data in the file."""
+
+    values: int
+    first: int | None
+    kind: int
+    dims: tuple[int, ...]
+    data: int
+
+
 def check_c3d(path: str | Path) -> None:
     """Raise :class:`MotionFileError` naming ``path`` and the field unless the file's header
     and parameter section describe what the file holds (module docstring)."""
+    parameter_table(path)
+
+
+def parameter_table(path: str | Path) -> dict[tuple[str, str], Parameter]:
+    """{(GROUP, NAME): :class:`Parameter`} of the file's parameter section, in the file's
+    order, once the header and the section are checked (:func:`check_c3d`; a
+    :class:`MotionFileError` if they do not describe what the file holds)."""
     path = Path(path)
     try:
         buf = path.read_bytes()
@@ -99,11 +119,12 @@ def check_c3d(path: str | Path) -> None:
             if count < need:
                 raise MotionFileError(f"{path}: ANALOG:{name} has {count} values for "
                                       f"{channels} channels: corrupt or missing")  # fmt: skip
+    return params
 
 
 def _parameters(path, buf: bytes, start: int, end: int, order: str) -> dict:
-    """{(group, parameter): (its number of values, its first if an integer)}, after checking
-    that every entry lies inside the section."""
+    """{(group, parameter): :class:`Parameter`}, after checking that every entry lies inside
+    the section."""
     groups, ints = {}, {}
     i, count = start + 4, 0
     while i + 2 <= end:
@@ -149,7 +170,7 @@ def _parameters(path, buf: bytes, start: int, end: int, order: str) -> dict:
                 raise MotionFileError(f"{path}: parameter {name!r}'s data ({n} bytes) or "
                                       f"description runs past the parameter section")  # fmt: skip
             first = struct.unpack_from(order + "h", buf, data)[0] if kind == 2 and n else None
-            ints[(gid, name)] = (n // abs(kind), first)
+            ints[(gid, name)] = Parameter(n // abs(kind), first, kind, tuple(dims), data)
         if step == 0:
             break
         if step < 0 or j + step <= i:
