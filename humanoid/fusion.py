@@ -164,7 +164,8 @@ class Fusion:
             Rs = Gt @ (R12 @ exp3(a3 * th[2])) @ G
             q[jq : jq + 4] = pin.Quaternion(Rs).coeffs()
             if v is not None:
-                cols = np.column_stack([a1, R1 @ a2, R12 @ a3])
+                cols = np.empty((3, 3))  # (np.column_stack's, C order)
+                cols[:, 0], cols[:, 1], cols[:, 2] = a1, R1 @ a2, R12 @ a3
                 v[jv : jv + 3] = ((G @ Rs).T @ cols) @ v_euler[iv]
         return q, v
 

@@ -437,12 +437,15 @@ class CycleTracker(Effect):
         each loaded one is (see the module)."""
         g, data = self.gains, self.data
         loaded, free, match = [], [], []
+        at: dict[str, np.ndarray] = {}  # the cycle's points' places, read once
         for i, joint in enumerate(joint_of):
             side = self.side_of_joint.get(joint)
             best = None
             if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
-                d = [np.linalg.norm(data.oMf[self.point_id[p]].translation - pts[i])
-                     if self.point_joint[p] == joint else np.inf
+                for p in self.points[side]:
+                    if p not in at and self.point_joint[p] == joint:
+                        at[p] = data.oMf[self.point_id[p]].translation
+                d = [np.linalg.norm(at[p] - pts[i]) if self.point_joint[p] == joint else np.inf
                      for p in self.points[side]]  # fmt: skip
                 k = int(np.argmin(d)) if d else -1
                 best = self.points[side][k] if d and d[k] < MATCH else None
