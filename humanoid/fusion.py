@@ -22,6 +22,7 @@ that vector in the child frame.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,27 +116,57 @@ class Fusion:
     balls: tuple[BallJoint, ...]
     copied: tuple[tuple[int, int], ...]  # (euler joint id, fused joint id) for other joints
 
+    @functools.cached_property
+    def _plan(self):
+        """The index arrays of :meth:`to_quaternion`: the copied joints' coordinates (Euler
+        model, fused model) and each ball's (hinges' q and v, its q and v start, axes, G).
+        Reading ``model.joints[j]`` copies a joint model: a map per control step read them
+        hundreds of times."""
+        em, fm = self.euler_model, self.model
+        src_q, dst_q, src_v, dst_v = [], [], [], []
+        for je, jf in self.copied:
+            a, b = em.joints[je], fm.joints[jf]
+            src_q += range(a.idx_q, a.idx_q + a.nq)
+            dst_q += range(b.idx_q, b.idx_q + b.nq)
+            src_v += range(a.idx_v, a.idx_v + a.nv)
+            dst_v += range(b.idx_v, b.idx_v + b.nv)
+        balls = []
+        for ball in self.balls:
+            jf = fm.joints[ball.joint_id]
+            iq = np.array([em.joints[j].idx_q for j in ball.hinge_ids])
+            iv = np.array([em.joints[j].idx_v for j in ball.hinge_ids])
+            axes = tuple(ball.axes[:, i].copy() for i in range(3))
+            balls.append((iq, iv, jf.idx_q, jf.idx_v, axes, ball.G, ball.G.T.copy()))
+        index = [np.array(x, dtype=int) for x in (src_q, dst_q, src_v, dst_v)]
+        return (*index, balls)
+
     def to_quaternion(self, q_euler, v_euler=None):
-        """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given)."""
+        """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given).
+
+        Each ball's rotation and velocity map as :meth:`BallJoint.rotation` and
+        :meth:`BallJoint.velocity_map` compute them (the same products in the same order), its
+        three hinge rotations computed once."""
         em, fm = self.euler_model, self.model
         q_euler = finite_vector(q_euler, em.nq, "q", "nq")
         q = np.zeros(fm.nq)
         v = None if v_euler is None else np.zeros(fm.nv)
         if v is not None:
             v_euler = finite_vector(v_euler, em.nv, "v", "nv")
-        for je, jf in self.copied:
-            a, b = em.joints[je], fm.joints[jf]
-            q[b.idx_q : b.idx_q + b.nq] = q_euler[a.idx_q : a.idx_q + a.nq]
-            if v is not None:
-                v[b.idx_v : b.idx_v + b.nv] = v_euler[a.idx_v : a.idx_v + a.nv]
-        for ball in self.balls:
-            iq = [em.joints[j].idx_q for j in ball.hinge_ids]
+        src_q, dst_q, src_v, dst_v, balls = self._plan
+        q[dst_q] = q_euler[src_q]
+        if v is not None:
+            v[dst_v] = v_euler[src_v]
+        exp3 = pin.exp3
+        for iq, iv, jq, jv, (a1, a2, a3), G, Gt in balls:
             th = q_euler[iq]
-            jf = fm.joints[ball.joint_id]
-            q[jf.idx_q : jf.idx_q + 4] = pin.Quaternion(ball.rotation(th)).coeffs()
+            R1 = exp3(a1 * th[0])
+            R12 = R1 @ exp3(a2 * th[1])
+            Rs = Gt @ (R12 @ exp3(a3 * th[2])) @ G
+            q[jq : jq + 4] = pin.Quaternion(Rs).coeffs()
             if v is not None:
-                iv = [em.joints[j].idx_v for j in ball.hinge_ids]
-                v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th) @ v_euler[iv]
+                cols = np.empty((3, 3))  # (np.column_stack's, C order)
+                cols[:, 0], cols[:, 1], cols[:, 2] = a1, R1 @ a2, R12 @ a3
+                v[jv : jv + 3] = ((G @ Rs).T @ cols) @ v_euler[iv]
         return q, v
 
     def to_euler(self, q, v=None, hint=None):

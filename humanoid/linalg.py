@@ -10,7 +10,12 @@ __all__ = ["cholesky_lapack", "cross", "one_thread", "spd_solve"]
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b over the last axis (3) of arrays that broadcast, e.g. (n, 3) by (n, 3) or (3,)."""
+    """a x b over the last axis (3) of arrays that broadcast, e.g. (n, 3) by (n, 3) or (3,).
+    Two vectors are crossed in Python floats (the same products and differences)."""
+    if a.ndim == 1 and b.ndim == 1:
+        x0, x1, x2 = a.tolist()
+        y0, y1, y2 = b.tolist()
+        return np.array([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0])
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
@@ -35,14 +40,26 @@ def cholesky_lapack():
     return lapack.dpotrf, lapack.dpotrs
 
 
-def spd_solve(A: np.ndarray, b: np.ndarray, ridge: float = 0.0) -> np.ndarray:
+def spd_solve(A: np.ndarray, b: np.ndarray, ridge: float = 0.0,
+              overwrite: bool = False) -> np.ndarray:  # fmt: skip
     """x with (A + ridge * trace(A) / n * I) x = b for a symmetric positive (semi)definite A,
-    by Cholesky; least squares if A is numerically singular."""
+    by Cholesky; least squares if A is numerically singular. ``overwrite``: A is the caller's
+    scratch (the ridge is added in place)."""
     if ridge:
-        A = A.copy()
+        if not overwrite:
+            A = A.copy()
         A.flat[:: len(A) + 1] += ridge * np.trace(A) / len(A)
-    potrf, potrs = cholesky_lapack()
+    potrf, potrs = _lapack or _load_lapack()
     factor, info = potrf(A)
     if info == 0:
         return potrs(factor, b)[0]
     return np.linalg.lstsq(A, b, rcond=1e-12)[0]
+
+
+_lapack: tuple = ()  # (dpotrf, dpotrs) once loaded
+
+
+def _load_lapack() -> tuple:
+    global _lapack
+    _lapack = cholesky_lapack()
+    return _lapack

@@ -303,3 +303,25 @@ def test_a_qp_without_solution_fails_the_run_with_a_typed_error_naming_when_and_
         checked(np.array([0.0, np.nan]), "tracking", 0.0, solver)
     x = np.ones(3)
     assert checked(x, "walking", 0.0, solver) is x
+
+
+def test_the_cached_pyramids_and_the_identity_force_task_are_the_products():
+    """pyramid_rows is built once per shape and an identity ForceTask skips its products by
+    I: the same numbers as the loop and the products (the walks' QPs do not move)."""
+    from humanoid.control.qp import pyramid_rows
+    from humanoid.control.tasks import ForceTask
+
+    for mu, k, n, off in ((0.6, 8, 65, 41), (0.45, 3, 50, 41), (0.8, 0, 41, 41)):
+        m = mu / np.sqrt(2.0)
+        pyramid = np.array([[0, 0, -1.0], [1, 0, -m], [-1, 0, -m], [0, 1, -m], [0, -1, -m]])
+        want = np.zeros((5 * k, n))
+        for i in range(k):
+            want[5 * i : 5 * i + 5, off + 3 * i : off + 3 * i + 3] = pyramid
+        got = pyramid_rows(mu, k, n, off)
+        assert np.array_equal(got, want)
+        got[:] = 1.0  # a copy: the cached one is not the caller's
+        assert np.array_equal(pyramid_rows(mu, k, n, off), want)
+    rng = np.random.default_rng(7)
+    target, S = rng.normal(size=24), np.eye(24)
+    P, q = ForceTask(target, 0.01).terms(24)
+    assert np.array_equal(P, 0.01 * S.T @ S) and np.array_equal(q, -0.01 * S.T @ target)

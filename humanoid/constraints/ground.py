@@ -245,11 +245,12 @@ class Ground:
         cds: list = []
         points: list[np.ndarray] = []
         margin = self.settings.margin
-        hidden = self._hidden(data)
+        placements: dict[int, pin.SE3] = {}  # the joints' placements, read once
+        hidden = self._hidden(data, placements)
         for pair, shape in enumerate(self.shapes):
             if not gd.collisionResults[pair].isCollision():
                 continue
-            oMi = data.oMi[shape.joint]
+            oMi = _placement(data, shape.joint, placements)
             pts = shape.lowest(oMi)
             keep = pts[:, 2] < margin
             if pair in hidden:
@@ -268,7 +269,7 @@ class Ground:
         found = np.array(points).reshape(-1, 3)
         return cms, cds, found[:, 2].copy(), found
 
-    def _hidden(self, data: pin.Data) -> dict:
+    def _hidden(self, data: pin.Data, placements: dict | None = None) -> dict:
         """{shape: indices of its points left out}: a parent's point within :data:`SHARED` of
         its child's now. There the two are one point of the body (at an MTP angle of zero the
         rearfoot's front corners are the toes' rear ones): as two contacts they are a
@@ -280,11 +281,21 @@ class Ground:
         out: dict[int, list[int]] = {}
         for a, b, ia, ib in self.shared:
             pa, pb = self.shapes[a], self.shapes[b]
-            wa, wb = pa.placed(data.oMi[pa.joint], ia), pb.placed(data.oMi[pb.joint], ib)
+            placements = {} if placements is None else placements
+            wa = pa.placed(_placement(data, pa.joint, placements), ia)
+            wb = pb.placed(_placement(data, pb.joint, placements), ib)
             near = ia[np.linalg.norm(wa - wb, axis=1) < SHARED]
             if len(near):
                 out.setdefault(a, []).extend(near.tolist())
         return out
+
+
+def _placement(data: pin.Data, joint: int, placements: dict) -> pin.SE3:
+    """``data.oMi[joint]``, kept in ``placements`` (each read copies it)."""
+    M = placements.get(joint)
+    if M is None:
+        M = placements[joint] = data.oMi[joint]
+    return M
 
 
 @dataclass(frozen=True)

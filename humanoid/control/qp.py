@@ -13,6 +13,7 @@ Solved by ProxQP (proxsuite's dense solver), kept between ticks and warm-started
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -113,11 +114,20 @@ def pyramid_rows(mu: float, points: int, columns: int, offset: int) -> np.ndarra
     """G rows (G x <= 0) keeping each point's force (x[offset + 3 i : offset + 3 i + 3], world
     axes, z up) in a friction pyramid inscribed in the cone of coefficient ``mu``:
     f_z >= 0 and |f_x|, |f_y| <= (mu / sqrt 2) f_z."""
+    return _pyramids(float(mu), points, columns, offset).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _pyramids(mu: float, points: int, columns: int, offset: int) -> np.ndarray:
+    """:func:`pyramid_rows`, built once per shape (a controller asks for the same few)."""
     m = mu / np.sqrt(2.0)
     pyramid = np.array([[0, 0, -1.0], [1, 0, -m], [-1, 0, -m], [0, 1, -m], [0, -1, -m]])
     G = np.zeros((5 * points, columns))
-    for i in range(points):
-        G[5 * i : 5 * i + 5, offset + 3 * i : offset + 3 * i + 3] = pyramid
+    if points:
+        rows = 5 * np.arange(points)[:, None, None] + np.arange(5)[None, :, None]
+        cols = offset + 3 * np.arange(points)[:, None, None] + np.arange(3)[None, None, :]
+        G[rows, cols] = pyramid
+    G.flags.writeable = False
     return G
 
 
@@ -301,7 +311,9 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
     Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
     depth = np.where(phi >= 0.0, phi, correction * phi)
     gap = depth / dt
-    Jc = np.vstack([Jall[3 * i : 3 * i + 3] for i in loaded]) if loaded else np.zeros((0, nv))
+    # the loaded points' three rows each, and the free points' normal rows (gathered)
+    rows = (3 * np.asarray(loaded, dtype=int)[:, None] + np.arange(3)).ravel()
+    Jc = Jall[rows] if loaded else np.zeros((0, nv))
     motion, U = [], None
     if loaded:
         target = -Jc @ v
@@ -315,7 +327,7 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
         motion.append((U.T @ Jc, U.T @ rate))
     bounds = []
     if free:
-        Jn = np.vstack([Jall[3 * i + 2] for i in free])
+        Jn = Jall[3 * np.asarray(free, dtype=int) + 2]
         bounds.append((-Jn, (Jn @ v + depth[free] / g.horizon) / g.horizon))
     Jr, bound = range_damper(ranges, q, v, g.horizon, range_margin, range_time)
     bounds.append((-Jr, bound))

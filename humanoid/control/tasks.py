@@ -64,7 +64,11 @@ class TaskStack:
         J, a = task.compute(self.model, self.data, self.q, self.v)
         self.rows.append(J)
         self.rhs.append(a)
-        self.weights.append(np.broadcast_to(np.asarray(task.weight, dtype=float), J.shape[0]))
+        w = task.weight
+        if isinstance(w, float | int):  # (np.broadcast_to costs more than the task)
+            self.weights.append(np.full(J.shape[0], float(w)))
+        else:
+            self.weights.append(np.broadcast_to(np.asarray(w, dtype=float), J.shape[0]))
         return task
 
     def stacked(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -242,7 +246,10 @@ class ForceTask:
 
     def terms(self, nf: int) -> tuple[np.ndarray, np.ndarray]:
         """(P, q) of the cost over the nf force variables."""
-        S = np.eye(nf) if self.rows is None else np.atleast_2d(self.rows)
+        if self.rows is None:  # S = I: the same numbers without the products by I
+            target = np.broadcast_to(np.asarray(self.target, dtype=float), nf)
+            return np.diag(np.full(nf, float(self.weight))), -self.weight * target
+        S = np.atleast_2d(self.rows)
         target = np.broadcast_to(np.asarray(self.target, dtype=float), S.shape[0])
         return self.weight * S.T @ S, -self.weight * S.T @ target
 

@@ -115,8 +115,15 @@ class WalkingController(Effect):
         # nearest its that the state allows: held_torques) or "torques" (its torques held)
         self.hold = "forces"
         self._held = None
+        # the hinges' range rows (JointRanges.hinge_rows): constant, +-1 on one velocity each
+        self._hinge_J = self.ranges.hinge_rows(q_posture)[1]
+        self._hinge_v = np.argmax(np.abs(self._hinge_J), axis=1)
+        self._hinge_sign = self._hinge_J[np.arange(len(self._hinge_J)), self._hinge_v]
+        self._rows_for: tuple | None = None  # the welds' rows' arrays, by stance
         self.fresh = False  # whether the QP was solved at this tick's state
-        self._solved_for = None  # the stance set of the last solve
+        self._solved_for: set | None = None  # the stance set of the last solve
+        # (the plant's active constraints, the welds by side, in order, the sides) of this tick
+        self._stance: tuple | None = None
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
         self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
@@ -143,13 +150,18 @@ class WalkingController(Effect):
     def before_step(self, sim, k: int, t: float, q, v) -> None:
         """The run loop's hook: a new QP at every control tick, and whenever a foot lands or
         lifts off, with the plant's stance welds (and the locks of the feet's own hinges)."""
-        welds = {c.side: c.constraints for c in sim.contacts if c.attached}
-        self.fresh = k % self.every == 0 or set(welds) != self._solved_for
+        active = sim.active_constraints()  # the same list while no foot lands or lifts
+        if self._stance is None or self._stance[0] is not active:
+            welds = {c.side: c.constraints for c in sim.contacts if c.attached}
+            held = [w for s in SIDES if s in welds for w in welds[s]]
+            self._stance = (active, welds, held, set(welds))
+        _, welds, held, sides = self._stance
+        self.fresh = k % self.every == 0 or sides != self._solved_for
         if self.fresh:
             self.update(t, q, v, welds)
-            self._solved_for = set(welds)
+            self._solved_for = sides
         elif self.hold == "forces":
-            self.tau = self.held_torques(q, v, [w for s in SIDES if s in welds for w in welds[s]])
+            self.tau = self.held_torques(q, v, held)
 
     def held_torques(self, q, v, welds) -> np.ndarray:
         """Between control ticks: the torques under which the plant's feet carry exactly the
@@ -163,27 +175,68 @@ class WalkingController(Effect):
         external wrenches (held in the feet's joint frames, which the welds keep still) and a
         small least-squares."""
         model, data = self.model, self.data
-        dv, fext, Jr = self._held
+        dv, fext, Jr, Jh_dv = self._held
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
-        for w in welds:  # the welds' residuals read their soles' placements (only theirs)
-            if isinstance(w, Weld):
-                pin.updateFramePlacement(model, data, w.frame_id)
-        J, gamma = stack(model, data, welds, v, self.baumgarte)
+        J, gamma = self._weld_rows(welds, v)
         M = pin.crba(model, data, q)  # both triangles (tests/test_dynamics.py)
         tau = pin.rnea(model, data, q, v, dv, fext)
         # hinges that dv would drive through their damper in the next step get the damper's
-        # bound as their acceleration (r' + dt r'' >= -r / RANGE_TIME; J is constant on a hinge)
-        r, Jh = self.ranges.hinge_rows(q)
-        floor = (-r / RANGE_TIME - Jh @ v) * (self.every / self.period)
-        short = Jh @ dv < floor
-        A = np.vstack([M[:6], J, Jr, Jh[short]])
-        rhs = np.concatenate([tau[:6], J @ dv - gamma, np.zeros(len(Jr)),
-                              Jh[short] @ dv - floor[short]])  # fmt: skip
-        d = A.T @ spd_solve(A @ A.T, rhs, ridge=1e-12)  # (the rows may be dependent)
+        # bound as their acceleration (r' + dt r'' >= -r / RANGE_TIME; J is constant on a hinge:
+        # +-1 on its velocity, so J v is a signed gather of v, and J dv was taken at the solve)
+        r, _ = self.ranges.hinge_rows(q)
+        floor = (-r / RANGE_TIME - self._hinge_sign * v[self._hinge_v]) * (self.every / self.period)
+        short = Jh_dv < floor
+        m, nr = len(J), len(Jr)
+        ns = int(np.count_nonzero(short))
+        A = np.empty((6 + m + nr + ns, model.nv))  # the rows, stacked
+        A[:6] = M[:6]
+        A[6 : 6 + m] = J
+        rhs = np.zeros(len(A))
+        rhs[:6] = tau[:6]
+        rhs[6 : 6 + m] = J @ dv - gamma
+        if nr:
+            A[6 + m : 6 + m + nr] = Jr
+        if ns:
+            Jh = self._hinge_J[short]
+            A[6 + m + nr :] = Jh
+            rhs[6 + m + nr :] = Jh @ dv - floor[short]
+        d = A.T @ spd_solve(A @ A.T, rhs, ridge=1e-12, overwrite=True)  # (rows may be dependent)
         tau -= M @ d
         tau[:6] = 0.0
         return tau
+
+    def _weld_rows(self, welds, v) -> tuple[np.ndarray, np.ndarray]:
+        """J and gamma of the stance welds at the kinematics in ``self.data`` (placements,
+        velocities, drift accelerations at dv = 0, joint Jacobians), as
+        :func:`~humanoid.constraints.solve.stack` gives them (the same rows and arithmetic),
+        into arrays sized once per stance: a weld's residual reads its sole's placement (only
+        that frame's is updated)."""
+        model, data, baumgarte = self.model, self.data, self.baumgarte
+        if self._rows_for is None or self._rows_for[0] is not welds:  # (kept: never reused)
+            m = sum(w.size for w in welds)
+            spans = []
+            i = 0
+            for w in welds:
+                spans.append((w, i, i + w.size, w.frame_id if isinstance(w, Weld) else None))
+                i += w.size
+            self._rows_for = (welds, spans, np.zeros((m, model.nv)), np.zeros(m), np.zeros(m))
+        _, spans, J, drift, e = self._rows_for
+        if not spans:
+            return np.zeros((0, model.nv)), np.zeros(0)
+        for w, i, j, frame in spans:
+            if frame is not None:
+                pin.updateFramePlacement(model, data, frame)
+            J[i:j] = w.jacobian(model, data)
+            drift[i:j] = w.drift(model, data)
+        gamma = -drift
+        if baumgarte.active:
+            gamma -= 2.0 * baumgarte.alpha * (J @ v)
+            if baumgarte.beta:
+                for w, i, j, _ in spans:
+                    e[i:j] = w.residual(model, data)
+                gamma -= baumgarte.beta**2 * e
+        return J, gamma
 
     # -- references ----------------------------------------------------------------------
     def com_reference(self, t):
@@ -234,7 +287,7 @@ class WalkingController(Effect):
         if self.every > 1:
             # the range rows the solve holds at their damper's bound keep their acceleration
             tight = -Jr @ dv >= bound - 1e-6 * np.maximum(1.0, np.abs(bound))
-            self._held = (dv, self._external(stance, f.ravel()), Jr[tight])
+            self._held = (dv, self._external(stance, f.ravel()), Jr[tight], self._hinge_J @ dv)
         return self.tau
 
     def _external(self, stance, f) -> pin.StdVec_Force:

@@ -51,6 +51,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RunFailed, WalkError
+from ..linalg import cross
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
 from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
@@ -163,6 +164,10 @@ class GaitRecorder:
         self.h, self.model = h, model
         self.data = model.createData()
         self.next = model.createData()
+        self._fext = pin.StdVec_Force()  # the ground's wrenches on the joints (RNEA's)
+        for _ in range(model.njoints):
+            self._fext.append(pin.Force.Zero())
+        self._loaded: list[int] = []  # the joints the last step's ground forces act on
         self.chains = leg_chains(h)
         self.sole = {s: h.sole_id(s) for s in SIDES}
         self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
@@ -187,9 +192,10 @@ class GaitRecorder:
         dt = sim.scene.dt
         a = (step.v - v) / dt
         pin.forwardKinematics(model, d, q)
-        fext = pin.StdVec_Force()
-        for _ in range(model.njoints):
-            fext.append(pin.Force.Zero())
+        fext = self._fext  # kept between steps: the joints loaded last step are zeroed
+        for j in self._loaded:
+            fext[j] = pin.Force.Zero()
+        self._loaded = []
         force = {s: np.zeros(3) for s in SIDES}
         moment = {s: np.zeros(3) for s in SIDES}
         heel = dict.fromkeys(SIDES, False)
@@ -200,15 +206,24 @@ class GaitRecorder:
         if gs is not None and len(gs.impulses):
             pin.forwardKinematics(model, self.next, step.q)
             soles = {s: pin.updateFramePlacement(model, d, self.sole[s]) for s in SIDES}
-            for p, imp, j in zip(gs.points, gs.impulses, gs.joints.tolist(), strict=True):
-                f = imp / dt
-                fext[j] = fext[j] + d.oMi[j].actInv(pin.Force(f, np.cross(p, f)))
+            # every point's force, its moment about the origin and about the origin's
+            # vertical (the centre of pressure's), at once
+            points = np.asarray(gs.points)
+            forces = np.asarray(gs.impulses) / dt
+            moments = cross(points, forces)
+            flat = cross(points * (1.0, 1.0, 0.0), forces)
+            joints = gs.joints.tolist()
+            self._loaded = joints
+            for i, j in enumerate(joints):
+                f = forces[i]
+                fext[j] = fext[j] + d.oMi[j].actInv(pin.Force(f, moments[i]))
                 s = self.side_of.get(j)
                 if s is None:
                     continue
                 force[s] += f
-                moment[s] += np.cross(p * (1.0, 1.0, 0.0), f)
+                moment[s] += flat[i]
                 if f[2] > POINT_LOAD:
+                    p = points[i]
                     if soles[s].actInv(p)[0] < self.middle[s]:
                         heel[s] = True
                     else:

@@ -34,6 +34,7 @@ the optimum's.
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from dataclasses import dataclass
@@ -59,6 +60,7 @@ from ..control.tasks import (
 )
 from ..effects import Effect
 from ..errors import WalkError
+from ..linalg import cross
 from ..model import SIDES
 from ..optimal.cycle import (
     KINDS,
@@ -194,8 +196,17 @@ class CycleReference:
             tau = t - lap * self.period
         else:
             lap, tau = 0, min(max(t, 0.0), self.period)
-        k = int(np.clip(np.searchsorted(self.t, tau, side="right") - 1, 0, len(self.t) - 2))
+        times = self._times()
+        # (np.searchsorted(t, tau, side="right") - 1, clipped to the intervals)
+        k = min(max(bisect.bisect_right(times, tau) - 1, 0), len(times) - 2)
         return lap, k, tau - self.t[k]
+
+    def _times(self) -> list[float]:
+        """The nodes' times as a list (bisect on it), made again when ``t`` is replaced."""
+        cached = getattr(self, "_t_list", None)
+        if cached is None or cached[0] is not self.t:
+            cached = self._t_list = (self.t, self.t.tolist())
+        return cached[1]
 
     def coordinates(self, t: float):
         """(x, v, a) of the OCP model at t."""
@@ -292,6 +303,7 @@ class CycleTracker(Effect):
         self.points = {s: [f.name for f in om.model.frames if f.name.startswith(s)
                            and f.name in set(reference.forces)] for s in SIDES}  # fmt: skip
         self.point_id = {p: model.getFrameId(p) for s in SIDES for p in self.points[s]}
+        self.point_joint = {p: model.frames[f].parentJoint for p, f in self.point_id.items()}
         self.side_of_joint = {
             j: s for s in SIDES for j in model.subtrees[model.frames[self.sole[s]].parentJoint]
         }
@@ -423,14 +435,17 @@ class CycleTracker(Effect):
     def _corners(self, joint_of, phi, pts, in_contact):
         """The detected corners split into loaded and free (indices), and the cycle's point
         each loaded one is (see the module)."""
-        g, data, model = self.gains, self.data, self.model
+        g, data = self.gains, self.data
         loaded, free, match = [], [], []
+        at: dict[str, np.ndarray] = {}  # the cycle's points' places, read once
         for i, joint in enumerate(joint_of):
             side = self.side_of_joint.get(joint)
             best = None
             if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
-                d = [np.linalg.norm(data.oMf[self.point_id[p]].translation - pts[i])
-                     if model.frames[self.point_id[p]].parentJoint == joint else np.inf
+                for p in self.points[side]:
+                    if p not in at and self.point_joint[p] == joint:
+                        at[p] = data.oMf[self.point_id[p]].translation
+                d = [np.linalg.norm(at[p] - pts[i]) if self.point_joint[p] == joint else np.inf
                      for p in self.points[side]]  # fmt: skip
                 k = int(np.argmin(d)) if d else -1
                 best = self.points[side][k] if d and d[k] < MATCH else None
@@ -485,9 +500,10 @@ class CycleTracker(Effect):
         c = cm.extract()
         j, r = c.joint2_id, c.joint2_placement.translation
         vj, aj = self.data.v[j], self.data.a[j]
-        lin = aj.linear + np.cross(aj.angular, r)
-        vel = vj.linear + np.cross(vj.angular, r)
-        return self.data.oMi[j].rotation @ (lin + np.cross(vj.angular, vel))
+        w = vj.angular
+        lin = aj.linear + cross(aj.angular, r)
+        vel = vj.linear + cross(w, r)
+        return self.data.oMi[j].rotation @ (lin + cross(w, vel))
 
 
 def smooth(u: float) -> float:

@@ -292,12 +292,30 @@ class WalkMonitor:
         self.t = np.full(n, np.nan)
         self.q = np.zeros((n, sim.model.nq))
         self.tilt = np.full(n, np.nan)
-        self.tau_base = np.full(n, np.nan)
+        self.base = np.full((n, 6), np.nan)  # the torques on the free flyer
         self.consistency = np.full(n, np.nan)
         self.wrench = {s: np.full((n, 6), np.nan) for s in SIDES}  # the welds' (LOCAL axes)
         self.anchor = {s: np.full(n, -1) for s in SIDES}  # index into self.anchors
         self.anchors: list[pin.SE3] = []
         self.welds: dict = {}  # (weld, its anchor's index) of each side, the last seen
+        # the active set's layout: (its constraints' list, [(side, first row, anchor index)])
+        self._layout: tuple[list, list] | None = None
+
+    def _rows(self, sim: Simulation, active: list) -> list:
+        """Where each attached foot's weld is in the plant's forces, and its anchor's index
+        (a new weld's anchor kept); computed once per active set."""
+        if self._layout is None or self._layout[0] is not active:
+            rows, i = [], 0
+            for c in sim.contacts:
+                if c.attached:
+                    weld = c.constraints[0]
+                    if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
+                        self.welds[c.side] = (weld, len(self.anchors))
+                        self.anchors.append(weld.anchor)
+                    rows.append((c.side, i, self.welds[c.side][1]))
+                    i += sum(con.size for con in c.constraints)  # the weld, then its locks
+            self._layout = (active, rows)
+        return self._layout[1]
 
     def observe(self, sim: Simulation, k: int, t: float, q, v, step: StepResult) -> None:
         if self.z_start is None:
@@ -308,22 +326,17 @@ class WalkMonitor:
         self.tilt[k] = tilt = math.degrees(
             math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
         )
-        self.tau_base[k] = np.abs(step.torque[:6]).max()
+        self.base[k] = step.torque[:6]
         sol = step.solution
-        if sol is not None and sim.active_constraints():
+        active = sim.active_constraints()
+        if sol is not None and active:
             if self.ctl.fresh:  # the QP was solved at this very state
                 dv = self.ctl.last[0]
                 self.consistency[k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
-            forces, i = sol.forces, 0
-            for c in sim.contacts:
-                if c.attached:
-                    weld = c.constraints[0]
-                    self.wrench[c.side][k] = forces[i : i + 6]
-                    i += sum(con.size for con in c.constraints)  # the weld, then its locks
-                    if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
-                        self.welds[c.side] = (weld, len(self.anchors))
-                        self.anchors.append(weld.anchor)
-                    self.anchor[c.side][k] = self.welds[c.side][1]
+            forces = sol.forces
+            for side, i, anchor in self._rows(sim, active):
+                self.wrench[side][k] = forces[i : i + 6]
+                self.anchor[side][k] = anchor
         z = step.q[2]
         if z < 0.8 * self.z_start or tilt > 30.0:
             raise RunFailed(
@@ -336,7 +349,8 @@ class WalkMonitor:
         model, sim, ctl, weight = self.sim.model, self.sim, self.ctl, self.weight
         data = model.createData()
         s = {k: np.full(n, np.nan) for k in SERIES}
-        s["t"], s["tilt"], s["tau_base"] = self.t[:n], self.tilt[:n], self.tau_base[:n]
+        s["t"], s["tilt"] = self.t[:n], self.tilt[:n]
+        s["tau_base"] = np.abs(self.base[:n]).max(axis=1)
         s["consistency"], s["pelvis_z"] = self.consistency[:n], self.q[:n, 2]
         com = np.zeros((n, 3))
         rotation = {side: np.zeros((n, 3, 3)) for side in SIDES}

@@ -77,6 +77,7 @@ from ..control.tasks import (
     TaskStack,
 )
 from ..effects import Effect
+from ..linalg import cross
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
@@ -461,17 +462,17 @@ class GaitController(Effect):
         # every curve fell after a few metres)
         turn = np.array([0.0, 0.0, step[2]])
         Rp, Rv = Rz @ M_r.translation, Rz @ v_r[:3]
-        v = Rv + ds5 * down - ds5 * e_p + D * dh1 * e_v + db * up + ds5 * np.cross(turn, Rp)
+        v = Rv + ds5 * down - ds5 * e_p + D * dh1 * e_v + db * up + ds5 * cross(turn, Rp)
         acc = (Rz @ a_r[:3] + dds5 * down - dds5 * e_p + D * ddh1 * e_v + ddb * up
-               + dds5 * np.cross(turn, Rp) + 2 * ds5 * np.cross(turn, Rv)
-               + ds5**2 * np.cross(turn, np.cross(turn, Rp)))  # fmt: skip
+               + dds5 * cross(turn, Rp) + 2 * ds5 * cross(turn, Rv)
+               + ds5**2 * cross(turn, cross(turn, Rp)))  # fmt: skip
         E = pin.exp3((1 - s5) * e_R) @ Rz  # R = E R_r: w = E w_r - s5' e_R (+ the anchor's turn)
         R = E @ M_r.rotation
         w_r = E @ v_r[3:]
         spin = pin.exp3((1 - s5) * e_R) @ turn
         w = w_r - ds5 * e_R + ds5 * spin
-        dw = (E @ a_r[3:] - dds5 * e_R + ds5 * np.cross(spin - e_R, w_r) + dds5 * spin
-              - ds5**2 * np.cross(e_R, spin))  # fmt: skip
+        dw = (E @ a_r[3:] - dds5 * e_R + ds5 * cross(spin - e_R, w_r) + dds5 * spin
+              - ds5**2 * cross(e_R, spin))  # fmt: skip
         return pin.SE3(R, p), np.concatenate([v, w]), np.concatenate([acc, dw])
 
     def load_share(self, steps, kinds, side_of, loaded) -> np.ndarray | None:
