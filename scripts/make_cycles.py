@@ -12,7 +12,6 @@ from humanoid.data import BODIES
 from humanoid.model import lock_foot_hinges
 from humanoid.walking.reference import CYCLES, FRAMES, cycle_file, fit_cycle, write_cycle
 
-
 ROBOTS = (("g1", 0.6), ("human", 0.8))
 
 
