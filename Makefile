@@ -25,8 +25,12 @@ demo: $(STAMP)
 	@echo "demo: results in results/: walk.npz, walk.html, gait_report.png (the person's walk), welded.npz, welded.png, welded.html (open the HTML in a browser)"
 
 # pytest-xdist: a worker per core (at most 4); the optimal-control checks run in chunks of
-# their own processes, which the workers share out (tests/conftest.py)
+# their own processes, which the workers share out (tests/conftest.py). One BLAS/OpenMP thread
+# per worker: a worker's second thread only fights the other worker for its core (the library
+# runs its own steps on one thread whatever the environment says; the tests' own algebra and
+# the solvers outside the steps do not; the tests of the thread limits set their own pools)
 test: $(STAMP) lint
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	$(PY) -m pytest -q -n auto --maxprocesses 4 --dist worksteal
 
 # The documentation site (docs/*.md, MyST, and the API reference from the docstrings), warnings

@@ -4,6 +4,10 @@ system (6 us, LAPACK's Cholesky 2 us)."""
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 
 __all__ = ["cholesky_lapack", "cross", "one_thread", "spd_solve"]
@@ -21,15 +25,44 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
-def one_thread():
+@contextmanager
+def one_thread() -> Iterator[None]:
     """A context in which every BLAS, LAPACK and OpenMP pool runs one thread (threadpoolctl):
     on a body's 39 x 39 matrices threads only cost (the balance scene's step took 2.3 times
-    longer with two). scipy.linalg, whose own BLAS the solves load on first use, is loaded
-    first: a pool loaded after the limit is set is not limited."""
-    import scipy.linalg  # noqa: F401
-    from threadpoolctl import threadpool_limits
+    longer with two; a run of implicit steps used 4.3 times the CPU). Nested, it is free; at
+    the outermost it sets each pool and puts it back (about 10 us: the pools are found once,
+    and again whenever a module was imported since, as a pool loaded after the limit is set is
+    not limited; scipy.linalg, whose own BLAS the solves load on first use, is loaded first)."""
+    global _depth
+    if _depth:
+        yield
+        return
+    pools = _pools()
+    before = [pool.get_num_threads() for pool in pools]
+    for pool in pools:
+        pool.set_num_threads(1)
+    _depth += 1
+    try:
+        yield
+    finally:
+        _depth -= 1
+        for pool, n in zip(pools, before, strict=True):
+            if n is not None:
+                pool.set_num_threads(n)
 
-    return threadpool_limits(limits=1)
+
+_depth = 0  # how many one_thread contexts are open
+_found: list = [-1, ()]  # (len(sys.modules) when the pools were found, threadpoolctl's pools)
+
+
+def _pools() -> tuple:
+    if _found[0] != len(sys.modules):
+        import scipy.linalg  # noqa: F401
+        from threadpoolctl import ThreadpoolController
+
+        pools = tuple(ThreadpoolController().lib_controllers)
+        _found[:] = [len(sys.modules), pools]
+    return _found[1]
 
 
 def cholesky_lapack():

@@ -83,10 +83,14 @@ class Simulation:
 
     # -- the plant (:class:`~.plant.Plant`) ----------------------------------------------
     def step(self, t: float, q, v, dt: float) -> StepResult:
-        return self.plant.step(t, q, v, dt)
+        """One step from (q, v) at time t (:meth:`.plant.Plant.step`), its dense algebra on
+        one thread as in :meth:`run`."""
+        with one_thread():
+            return self.plant.step(t, q, v, dt)
 
     def evaluate(self, t: float, q, v) -> StepResult:
-        return self.plant.evaluate(t, q, v)
+        with one_thread():
+            return self.plant.evaluate(t, q, v)
 
     # -- the loop ------------------------------------------------------------------------
     def run(
