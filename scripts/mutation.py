@@ -73,6 +73,7 @@ RANGES = tuple("tests/test_ground.py::test_" + t for t in (
     "range_rows_match_finite_differences", "range_certificates_skip_only_what_is_clear",
     "joint_ranges_hold_in_the_fall"))  # fmt: skip
 TS = "tests/test_simulate.py::test_"
+FORCES = "tests/test_forces.py::test_"
 TV = "tests/test_viewer.py::test_"
 C3D = ("tests/test_bad_input.py::test_a_truncated_c3d_is_refused_before_ezc3d_reads_it",
        "tests/test_bad_input.py::test_a_c3d_parameter_of_too_many_dimensions_is_refused",
@@ -861,6 +862,93 @@ MUTATIONS: tuple[Mutation, ...] = (
         ),
         "the ZMP reference under the swinging foot, not the stance foot",
     ),
+    # --- effects, the ball-joint fusion, the MuJoCo export, the scene's checks ---
+    M(
+        "E01",
+        "effects.py",
+        "return -self.k * pin.difference(model, self.rest, q)",
+        "return -self.k * pin.difference(model, q, self.rest)",
+        (P + "::test_joint_springs_pull_towards_their_rest_posture", "tests/test_forces.py"),
+        "joint springs pushing away from their rest posture",
+    ),
+    M(
+        "E02",
+        "effects.py",
+        "f = -self.k * r - self.c * np.minimum(J @ v, 0.0)",
+        "f = -self.k * r - self.c * np.maximum(J @ v, 0.0)",
+        (
+            FORCES + "joint_limit_forces_push_back_inside",
+            FORCES + "joint_range_springs_conserve_momentum_and_energy",
+        ),
+        "the joint-limit damper resisting the way back in, not the way further out",
+    ),
+    M(
+        "E05",
+        "effects.py",
+        "return self.start <= t + TIME_EPS and t + TIME_EPS < self.end",
+        "return self.start <= t and t < self.end",
+        (
+            P + "::test_a_push_of_0_1_plus_0_2_s_acts_on_exactly_200_steps_of_1_ms",
+            FORCES + "a_push_changes_momentum_by_its_impulse",
+        ),
+        "a push's window compared without its tolerance (0.1 + 0.2 s acts on 201 steps)",
+    ),
+    M(
+        "E04",
+        "effects.py",
+        "model, data, q, self.frame_id, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED",
+        "model, data, q, self.frame_id, pin.ReferenceFrame.LOCAL",
+        (FORCES + "a_push_changes_momentum_by_its_impulse",),
+        "a push's world force applied through the frame's local Jacobian",
+    ),
+    M(
+        "F03",
+        "fusion.py",
+        "W = W @ _rot(self.axes[:, 2], angles[2])",
+        "W = _rot(self.axes[:, 2], angles[2]) @ W",
+        ("tests/test_fusion.py",),
+        "a fused ball joint's third hinge composed first, not last",
+    ),
+    M(
+        "F02",
+        "fusion.py",
+        "v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th) @ v_euler[iv]",
+        "v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th).T @ v_euler[iv]",
+        ("tests/test_fusion.py",),
+        "hinge rates mapped to a ball's angular velocity by the transposed map",
+    ),
+    M(
+        "EX1",
+        "export.py",
+        "return np.array([c[3], c[0], c[1], c[2]])",
+        "return np.array([c[0], c[1], c[2], c[3]])",
+        ("tests/test_export.py",),
+        "MuJoCo quaternions written x y z w, not w x y z",
+    ),
+    M(
+        "EX2",
+        "export.py",
+        "size = _fmt(np.asarray(shape.halfSide))",
+        "size = _fmt(2.0 * np.asarray(shape.halfSide))",
+        ("tests/test_export.py",),
+        "MuJoCo boxes written with their full sizes (MuJoCo's size is half)",
+    ),
+    M(
+        "SV1",
+        "scene.py",
+        "if e.damping < 0 or e.springs < 0:",
+        "if e.damping < 0:",
+        ("tests/test_scene.py", "tests/test_robustness.py"),
+        "a scene's negative joint springs accepted",
+    ),
+    M(
+        "SV2",
+        "scene.py",
+        "if not (math.isfinite(g.margin) and 0 < g.margin <= 0.1):",
+        "if not (math.isfinite(g.margin) and 0 < g.margin <= 1.0):",
+        ("tests/test_scene.py", "tests/test_ground.py::test_ground_scene_errors_name_the_key"),
+        "a ground contact margin up to 1 m accepted (valid up to 0.1 m)",
+    ),
     # --- the viewer's HTML export ---
     M(
         "VW1",
@@ -1063,6 +1151,8 @@ def markdown(measured: dict) -> str:
         ]
     else:
         lines.append(f"Harness wall time {measured['wall_seconds'] / 60:.0f} min.")
+    for h in measured.get("history", ()):  # earlier whole runs, on earlier tables and tests
+        lines += ["", f"Earlier: {h['note']}"]
     lines += ["", "| id | file | bug | status | before | s | killed by |",
               "|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in results:
@@ -1089,6 +1179,7 @@ def merged(old: dict, new: dict) -> dict:
             results.append(previous[m.id])
     return {"baseline": old["baseline"] | new["baseline"], "results": results,
             "wall_seconds": old["wall_seconds"], "first": old.get("first") or old["summary"],
+            "history": old.get("history", []),
             "reruns": [*old.get("reruns", []), {"ids": sorted(rerun),
                                                 "wall_seconds": new["wall_seconds"]}]}  # fmt: skip
 

@@ -477,3 +477,30 @@ def test_a_lognormal_sample_has_the_median_and_geometric_sd_asked():
     x = np.array([r.params["body.height"] for r in parse_study(doc).runs()])
     assert np.median(x) == pytest.approx(1.7, rel=0.01)
     assert np.exp(np.std(np.log(x))) == pytest.approx(1.05, rel=0.01)
+
+
+def test_joint_springs_pull_towards_their_rest_posture(male):
+    """tau = -k (q (-) q_rest) on the joints: the right knee 0.1 rad past its rest gets
+    -k 0.1 and nothing else moves (the root's rows masked)."""
+    from humanoid.effects import JointSprings
+
+    h = male
+    model = h.model
+    rest = h.standing_configuration()
+    knee = model.joints[model.getJointId("right_knee")]
+    q = rest.copy()
+    q[knee.idx_q] += 0.1
+    tau = JointSprings(model, 50.0, rest).force(model, None, 0.0, q, np.zeros(model.nv))
+    assert tau[knee.idx_v] == pytest.approx(-5.0, rel=1e-12)
+    assert np.abs(np.delete(tau, knee.idx_v)).max() < 1e-12
+
+
+def test_a_push_of_0_1_plus_0_2_s_acts_on_exactly_200_steps_of_1_ms(male):
+    """A window whose end (0.1 + 0.2 = 0.30000000000000004 s) lies a rounding past a step's
+    time covers the steps 0.1 <= k dt < 0.3: 200, not 201 (its impulse would be 0.5 % too
+    large without the comparisons' tolerance)."""
+    from humanoid.effects import Push
+
+    push = Push(male.sole_id("left"), np.array([10.0, 0.0, 0.0]), 0.1, 0.2)
+    active = [k for k in range(1000) if push.active(k * 1e-3)]
+    assert len(active) == 200 and (active[0], active[-1]) == (100, 299)
