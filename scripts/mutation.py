@@ -1150,15 +1150,17 @@ def markdown(measured: dict) -> str:
             "where the bug changed nothing, replaced) and run again: `before` below.",
         ]
     else:
-        lines.append(f"Harness wall time {measured['wall_seconds'] / 60:.0f} min.")
+        lines += ["", f"Harness wall time {measured['wall_seconds'] / 60:.0f} min."]
     for h in measured.get("history", ()):  # earlier whole runs, on earlier tables and tests
         lines += ["", f"Earlier: {h['note']}"]
-    lines += ["", "| id | file | bug | status | before | s | killed by |",
-              "|---|---|---|---|---|---|---|"]  # fmt: skip
+    before = any("before" in r for r in results)  # (a rerun merged: each one's earlier status)
+    head = ["id", "file", "bug", "status", *(["before"] if before else []), "s", "killed by"]
+    lines += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in results:
         by = r["killed_by"].replace("|", "\\|")
-        lines.append(f"| {r['id']} | {r['file']} | {r['bug']} | {r['status']} | "
-                     f"{r.get('before', '')} | {r['seconds']:.0f} | {by} |")  # fmt: skip
+        cells = [r["id"], r["file"], r["bug"], r["status"],
+                 *([r.get("before", "")] if before else []), f"{r['seconds']:.0f}", by]  # fmt: skip
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
