@@ -148,6 +148,26 @@ def test_measured_lengths_that_leave_too_little_for_the_chain():
         BodyParameters(1.75, 70.0, segment_lengths={"thigh": 0.1, "shank": 0.1})
 
 
+@pytest.mark.parametrize("scale, valid", [(0.79, False), (0.81, True), (1.24, True), (1.26, False)])
+def test_the_chain_scale_is_bounded_at_0_8_and_1_25(scale, valid):
+    """Measured thigh and shank that leave the other chain elements ``scale`` times their de
+    Leva share: refused just outside 0.8-1.25, accepted just inside (a planted bound of 1.5
+    passed the test above, whose short legs ask 1.6)."""
+    h = 1.75
+    d = body_dimensions(BodyParameters(h, 70.0))
+    raw = {k: d[k] / d["chain_scale"] for k in CHAIN}  # the unscaled chain elements
+    free = sum(raw[k] for k in CHAIN if k not in ("thigh", "shank"))
+    fixed = h - scale * free
+    legs = raw["thigh"] + raw["shank"]
+    lengths = {k: fixed * raw[k] / legs for k in ("thigh", "shank")}
+    if valid:
+        got = body_dimensions(BodyParameters(h, 70.0, segment_lengths=lengths))
+        assert got["chain_scale"] == pytest.approx(scale, rel=1e-9)
+    else:
+        with pytest.raises(BodyParameterError, match=rf"would scale them by {scale:.2f}; valid"):
+            BodyParameters(h, 70.0, segment_lengths=lengths)
+
+
 def test_fully_measured_chain_must_sum_to_the_height():
     lengths = {
         "ankle_height": 0.07,

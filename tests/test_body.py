@@ -494,3 +494,22 @@ def test_built_trunk_segments_put_their_com_from_de_levas_upper_landmark(height,
         c = com(name)
         assert c[2] < top[2]
         assert top[2] - c[2] == pytest.approx(s.com_fraction * s.length, abs=1e-9), name
+
+
+def test_peak_torques_and_passive_damping_scale_with_the_body_mass():
+    """A 100 kg body's joint torque limits and passive damping are twice a 50 kg one's, its
+    speed limits and ranges the same (planted bugs left them at the 75 kg adult's)."""
+    light, heavy = (_robot(_key(1.75, m, "male", {}, toes=True)) for m in (50.0, 100.0))
+    damped = 0
+    for jl, jh in zip(light.joints, heavy.joints, strict=True):
+        assert jl.name == jh.name
+        if jl.type != "revolute":
+            continue
+        assert jh.limit.effort == pytest.approx(2.0 * jl.limit.effort, rel=1e-12), jl.name
+        assert jh.limit.velocity == jl.limit.velocity, jl.name
+        assert (jh.limit.lower, jh.limit.upper) == (jl.limit.lower, jl.limit.upper), jl.name
+        if jl.dynamics is not None and float(jl.dynamics.damping):  # (parsed as text)
+            damped += 1
+            assert float(jh.dynamics.damping) == pytest.approx(2.0 * float(jl.dynamics.damping),
+                                                              rel=1e-12)  # fmt: skip
+    assert damped > 0

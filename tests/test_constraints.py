@@ -316,6 +316,30 @@ def test_coordinate_map_velocity_and_norm_constraint():
     assert np.abs(norm.jacobian(x) @ xd).max() < 1e-12  # unit-norm preserving velocity
 
 
+def test_the_quaternion_norms_jacobian_and_drift_match_finite_differences():
+    """e = |Q|^2 - 1: J = de/dx = 2 Q^T and the drift J' x' = 2 |Q'|^2, checked by central
+    differences off the unit sphere and with an x' that changes the norm (on it, J x' = 0
+    hides a J off by any factor; planted, J = Q^T and a drift of |Q'|^2 passed the test
+    above)."""
+    h = get_model("male", "quaternion")
+    cm = CoordinateMap(h.model)
+    norm = QuaternionNorm(cm)
+    rng = np.random.default_rng(25)
+    q, v = random_state(h, rng)
+    x, _ = cm.from_tangent(q, v)
+    x = x + 0.05 * rng.normal(size=len(x))  # off the unit sphere
+    xd = rng.normal(size=len(x))
+    eps = 1e-6
+    J = norm.jacobian(x)
+    fd = np.column_stack([(norm.residual(x + eps * d) - norm.residual(x - eps * d)) / (2 * eps)
+                          for d in np.eye(len(x))])  # fmt: skip
+    np.testing.assert_allclose(J, fd, atol=1e-8)
+    # d/dt (J(x + t x') x') at t = 0
+    fd_drift = (norm.jacobian(x + eps * xd) @ xd - norm.jacobian(x - eps * xd) @ xd) / (2 * eps)
+    np.testing.assert_allclose(norm.drift(xd), fd_drift, rtol=1e-7, atol=1e-8)
+    assert np.abs(norm.drift(xd)).min() > 0.1
+
+
 @pytest.mark.parametrize("name", ["male", "human"])
 def test_weld_wrench_is_in_world_axes_on_a_tilted_foot(name):
     """The weld's lambda (LOCAL axes) and its world wrench do the same work: J_local^T lambda

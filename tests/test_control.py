@@ -59,6 +59,26 @@ def test_a_frame_task_without_feedback_gives_the_frame_its_reference_acceleratio
     assert np.abs(got - a_ref).max() < TOL
 
 
+def test_a_frame_tasks_orientation_error_is_in_world_axes(state):
+    """At rest, a reference turned by w (world axes) from the frame's orientation asks the
+    angular acceleration kp w, in world axes (a planted error log3(R^T R_ref), the frame's
+    own axes, used as world, passed the tests whose frames were level or that converged)."""
+    h, _, q, _ = state
+    model = h.model
+    data = model.createData()
+    v = np.zeros(model.nv)
+    dynamics_terms(model, data, q, v)
+    fid = h.sole_id("left")
+    M = data.oMf[fid]
+    assert np.abs(M.rotation - np.eye(3)).max() > 0.1  # the sole is turned
+    w = np.array([0.1, -0.2, 0.15])
+    target = pin.SE3(pin.exp3(w) @ M.rotation, M.translation.copy())
+    kp = 25.0
+    _, a = FrameTask(fid, target, kp, 0.0, 1.0).compute(model, data, q, v)
+    np.testing.assert_allclose(a[3:], kp * w, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a[:3], 0.0, rtol=0, atol=1e-9)
+
+
 def test_a_frame_tasks_local_angular_rows_are_pinocchios_local_jacobian(state):
     h, data, q, v = state
     fid = h.sole_id("right")

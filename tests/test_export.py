@@ -120,3 +120,18 @@ def test_the_exported_body_falls_in_mujoco_as_ours(name, tmp_path):
     assert abs(theirs - ours) < 0.15 * (start - ours), (start, ours, theirs)
     assert traj.metadata["max_penetration"] < 1e-4
     assert 0.005 < depth < 0.04, depth
+
+
+@pytest.mark.parametrize("ground", [None, 0.0])
+def test_the_exported_boxes_are_the_bodys_half_sizes(ground):
+    """MuJoCo's box size is its half-sizes, as Pinocchio's halfSide: the male body's boxes
+    (visual, or the collision boxes with a ground) come back the same from MuJoCo's own
+    parse (a planted export of the full sizes passed the mechanics and the fall)."""
+    h = get_model("male", "quaternion")
+    m = mujoco.MjModel.from_xml_string(to_mjcf(h, ground=ground))
+    model = h.visual_model if ground is None else h.collision_model
+    ours = sorted(tuple(np.round(np.sort(g.geometry.halfSide), 9)) for g in model.geometryObjects
+                  if type(g.geometry).__name__ == "Box")  # fmt: skip
+    theirs = sorted(tuple(np.round(np.sort(m.geom_size[i]), 9)) for i in range(m.ngeom)
+                    if m.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX)  # fmt: skip
+    assert ours and theirs == ours

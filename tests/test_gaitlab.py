@@ -254,3 +254,17 @@ def test_a_curve_in_band_and_its_roughness():
     assert b.in_band("hip_flexion") < 0.9
     variation = np.abs(np.diff(moment)).sum()  # 2.5 N m/kg
     assert b.roughness("knee_extension_moment") > (variation + 1.8) / variation
+
+
+def test_in_band_is_as_wide_as_it_is_asked():
+    """in_band(sds): the norm's mean + 1.5 SD is inside +- 2 SD and outside +- 1 SD (a
+    planted width of 1 SD whatever ``sds`` says passed the test above)."""
+    n = norms()
+    v = 0.46
+    mean, sd = n.curve("knee_extension_moment", v, pelvis="level")
+    assert sd.min() > 0
+    a = _analysis_of({"knee_extension_moment": mean + 1.5 * sd})
+    assert a.in_band("knee_extension_moment") == 1.0
+    assert a.in_band("knee_extension_moment", sds=1.0) == 0.0
+    assert a.in_band("knee_extension_moment", sds=1.4) == 0.0
+    assert a.in_band("knee_extension_moment", sds=1.6) == 1.0

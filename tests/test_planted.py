@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_model
+from conftest import BODIES, get_model
 
 import humanoid as hm
 from humanoid.constraints import Baumgarte
@@ -267,3 +267,240 @@ def test_a_weld_wrench_turns_with_its_sole():
 
 
 _ = hm  # (the package's import registers the body paths conftest uses)
+
+
+# --- the survivors of the measurement by scripts/mutation.py (docs/development.md) ---------
+
+
+def test_a_load_is_zero_outside_its_times():
+    """Bug: a load held at its first and last values outside its samples (np.interp's ends):
+    a plate's force before and after its recording is none, not the last one measured."""
+    from humanoid.motion.loads import Load
+
+    t = np.array([0.1, 0.2])
+    f = np.array([[0.0, 0.0, 500.0], [0.0, 0.0, 700.0]])
+    load = Load("right", t, f, np.zeros((2, 3)), np.zeros((2, 3)))
+    w = load.resampled(np.array([0.0, 0.15, 0.3]))
+    assert np.allclose(w[[0, 2]], 0.0)
+    assert w[1, 2] == pytest.approx(600.0)
+
+
+def test_y_up_keypoints_turn_to_our_z_up():
+    """Bug: the Y-up keypoints turned with the transposed rotation: OpenSim's up (+y) must be
+    our up (+z), its +z (to the right of a walk along +x) our -y."""
+    from humanoid.motion.markers import KEYPOINT_LAYOUTS, keypoints
+
+    names = KEYPOINT_LAYOUTS["coco17"]
+    pts = np.zeros((1, len(names), 3))
+    pts[0, :, 1] = 1.0  # every point 1 m up
+    pts[0, 0, 2] = 0.5  # the first 0.5 m along their +z
+    m = keypoints(np.zeros(1), pts, "coco17", y_up=True)
+    first = m.names.index(next(n for n in names if n is not None))
+    assert np.allclose(m.positions[0, :, 2], 1.0)
+    assert m.positions[0, first, 1] == pytest.approx(-0.5)
+
+
+def _short_scene(**kw):
+    from humanoid.scene import Scene
+
+    return Scene(**({"body": str(BODIES / "adult_male.urdf"), "duration": 0.1, "dt": 1e-3} | kw))
+
+
+def test_a_run_takes_the_nearest_whole_number_of_steps_and_records():
+    """Bugs: the steps and the recording interval truncated, not rounded: 0.7 s of 1 ms steps
+    is 700 steps (0.7 / 0.001 = 699.99...), and 60 Hz at 1 ms records every 17 steps (58.8 Hz,
+    the nearest to 60; every 16 is 62.5 Hz)."""
+    from humanoid.simulation import Simulation, simulate
+
+    assert Simulation(_short_scene(duration=0.7)).n_steps == 700
+    assert Simulation(_short_scene(duration=0.3, dt=1e-4)).n_steps == 3000
+    traj = simulate(_short_scene(duration=0.05, record_rate=60.0), quiet=True)
+    assert traj.t[1] - traj.t[0] == pytest.approx(0.017, abs=1e-12)
+
+
+def test_the_plants_inlined_euler_step_moves_q_with_the_new_velocity():
+    """Bug: the plant's semi-implicit Euler step (written out, the hot path) moved q with the
+    velocity before the step: q+ = q (+) dt v+, v+ = v + dt a(q, v)."""
+    from humanoid.simulation import Simulation
+
+    sim = Simulation(_short_scene(integrator="semi_implicit_euler"))
+    model = sim.model
+    rng = np.random.default_rng(5)
+    q0, v0 = sim.q0.copy(), rng.normal(size=model.nv)
+    dt = 1e-3
+    r = sim.plant.step(0.0, q0, v0, dt)
+    a = pin.aba(model, model.createData(), q0, v0, np.zeros(model.nv))
+    np.testing.assert_allclose(r.v, v0 + dt * a, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(r.q, pin.integrate(model, q0, dt * r.v), rtol=0, atol=1e-12)
+
+
+class _PushesEverywhere:
+    """A controller whose force is 10 on every velocity row, the root's six too."""
+
+    def before_step(self, sim, k, t, q, v):
+        pass
+
+    def force(self, model, data, t, q, v):
+        return np.full(model.nv, 10.0)
+
+    def implicit(self, nv):
+        return None
+
+
+def test_a_controllers_force_on_the_root_is_masked_off():
+    """Bug: the joint efforts not masked off the free flyer: a controller's rows for the root
+    would push the body as an external force. Masked, the root's rows are zero and the joints'
+    are the controller's."""
+    from humanoid.simulation import Simulation
+
+    traj = Simulation(_short_scene(duration=0.01)).run(quiet=True, controller=_PushesEverywhere())
+    assert traj.status == "completed"
+    assert np.all(traj.tau[:, :6] == 0.0)
+    assert np.all(traj.tau[1:, 6:] == 10.0)
+
+
+def _c3d_from_frame_100(path):
+    """Two markers over five frames at 100 Hz, the first of them frame 100 (1.0 s)."""
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    c["parameters"]["POINT"]["RATE"]["value"] = [100]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "B")
+    pts = np.zeros((4, 2, 5))
+    pts[3] = 1.0
+    pts[0, 0], pts[1, 1] = 100.0, 1000.0
+    c["data"]["points"] = pts
+    c["header"]["points"]["first_frame"] = 100
+    c.write(str(path))
+    return path
+
+
+def test_a_c3d_starting_at_frame_100_starts_at_1_s(tmp_path):
+    """Bug: a C3D's times started at 0 whatever its first frame (its plates' and events'
+    times, which start at the first frame's, were then 1 s off its markers')."""
+    from humanoid.motion.markers import read_c3d
+
+    m = read_c3d(_c3d_from_frame_100(tmp_path / "t.c3d"))
+    np.testing.assert_allclose(m.time, [1.0, 1.01, 1.02, 1.03, 1.04], rtol=0, atol=1e-12)
+
+
+def test_a_c3d_character_parameter_counts_its_characters(tmp_path):
+    """Bug: a character parameter (type -1) sized with its sign: -2 values for two one-letter
+    labels. The table counts every parameter's values: POINT:LABELS 1 x 2 characters, UNITS
+    "mm" 2, USED one integer (2)."""
+    from humanoid.motion.c3d_file import parameter_table
+
+    table = parameter_table(_c3d_from_frame_100(tmp_path / "t.c3d"))
+    labels, units, used = (table[("POINT", k)] for k in ("LABELS", "UNITS", "USED"))
+    assert (labels.kind, labels.dims, labels.values) == (-1, (1, 2), 2)
+    assert (units.kind, units.values) == (-1, 2)
+    assert (used.kind, used.values, used.first) == (2, 1, 2)
+    assert all(p.values >= 0 for p in table.values())
+
+
+def test_the_gait_table_reports_each_value_in_its_unit():
+    """Bug: the CoM's vertical excursion in the table m x 10, not x 100 (cm). A walk whose
+    summary says 4 cm up and down, 3 cm of sway, 60 % stance, 12 % double support and a
+    1 mm slide reads so, each against its norm."""
+    from humanoid.walking.report import gait_table
+
+    class Walk:
+        summary = {"com_vertical": 0.04, "com_lateral": 0.03, "stance": 0.6,
+                   "double_support": 0.12, "slip": 0.001}  # fmt: skip
+        dimensionless_speed = 0.4
+
+    rows = {label: (value, ok) for label, value, _, ok in gait_table(Walk())}
+    assert rows["CoM vertical excursion"] == ("4 cm", True)
+    assert rows["CoM lateral sway"] == ("3 cm", True)
+    assert rows["stance"] == ("60 % cycle", True)
+    assert rows["double support"][0] == "12 % cycle"
+    assert rows["largest slide in stance"] == ("1 mm", True)
+    assert rows["cadence"] == ("-", None)  # not measured
+
+
+def test_ik_smoothing_holds_a_joint_towards_the_frame_before(male):
+    """Bug: the smoothing's pull with the wrong sign (away from the frame before). Markers of
+    the standing body, then of it with its right knee bent 30 deg: without smoothing the
+    second frame's knee is 30 deg; with smoothing 1e-6 it lags towards the first frame's
+    0 deg (about 11 deg), never past 30."""
+    h = male
+    full = default_markers(h)
+    names = ["R.ASIS", "L.ASIS", "V.Sacral", "R.Knee.Lat", "L.Knee.Lat", "R.Heel", "L.Heel",
+             "R.Toe.Tip", "L.Toe.Tip", "R.Acromium", "L.Acromium", "Top.Head"]  # fmt: skip
+    marker_set = {k: full[k] for k in names if k in full}
+    names = list(marker_set)
+    knee = h.model.joints[h.model.getJointId("right_knee")].idx_q
+    q = np.tile(h.standing_configuration(), (2, 1))
+    q[1, knee] = np.radians(30.0)
+    markers = MarkerTrajectories(np.arange(2) * 0.01, names,
+                                 marker_positions(h, q, marker_set, names))  # fmt: skip
+
+    def bent(smoothing):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = inverse_kinematics(h, markers, marker_set, smoothing=smoothing)
+        assert abs(r.q[0, knee]) < 1e-3
+        return r.q[1, knee]
+
+    free = bent(0.0)
+    assert free == pytest.approx(np.radians(30.0), abs=2e-3)
+    held = bent(1e-6)
+    assert 0.05 < held < 0.6 * free, (held, free)
+
+
+def test_a_studys_fixed_parameters_are_in_its_fingerprint():
+    """Bug: the fingerprint blind to the ``[set]`` table: a study edited to another fixed
+    value would find the old results under the same run ids and run nothing."""
+    from humanoid.study.spec import parse_study
+
+    def study(bmi):
+        return parse_study({"study": {"name": "s", "run": "walk"},
+                            "set": {"body.bmi": bmi, "body.sex": "male"},
+                            "grid": {"body.height": [1.6, 1.8]}})  # fmt: skip
+
+    a, b = study(22.0), study(24.0)
+    assert a.fingerprint != b.fingerprint
+    assert not {r.id for r in a.runs()} & {r.id for r in b.runs()}
+    assert study(22.0).fingerprint == a.fingerprint
+
+
+def test_a_lognormal_sample_has_the_median_and_geometric_sd_asked():
+    """Bug: the geometric standard deviation used as the log's standard deviation (a
+    lognormal of 1.05 spread by e^1.05, a factor 2.9). 4000 seeded draws: median 1.7 and
+    geometric SD 1.05 within 1 %."""
+    from humanoid.study.spec import parse_study
+
+    doc = {"study": {"name": "s", "run": "walk", "seed": 3},
+           "set": {"body.bmi": 22.0, "body.sex": "male"},
+           "sample": {"n": 4000, "body.height": {"lognormal": [1.7, 1.05]}}}  # fmt: skip
+    x = np.array([r.params["body.height"] for r in parse_study(doc).runs()])
+    assert np.median(x) == pytest.approx(1.7, rel=0.01)
+    assert np.exp(np.std(np.log(x))) == pytest.approx(1.05, rel=0.01)
+
+
+def test_joint_springs_pull_towards_their_rest_posture(male):
+    """tau = -k (q (-) q_rest) on the joints: the right knee 0.1 rad past its rest gets
+    -k 0.1 and nothing else moves (the root's rows masked)."""
+    from humanoid.effects import JointSprings
+
+    h = male
+    model = h.model
+    rest = h.standing_configuration()
+    knee = model.joints[model.getJointId("right_knee")]
+    q = rest.copy()
+    q[knee.idx_q] += 0.1
+    tau = JointSprings(model, 50.0, rest).force(model, None, 0.0, q, np.zeros(model.nv))
+    assert tau[knee.idx_v] == pytest.approx(-5.0, rel=1e-12)
+    assert np.abs(np.delete(tau, knee.idx_v)).max() < 1e-12
+
+
+def test_a_push_of_0_1_plus_0_2_s_acts_on_exactly_200_steps_of_1_ms(male):
+    """A window whose end (0.1 + 0.2 = 0.30000000000000004 s) lies a rounding past a step's
+    time covers the steps 0.1 <= k dt < 0.3: 200, not 201 (its impulse would be 0.5 % too
+    large without the comparisons' tolerance)."""
+    from humanoid.effects import Push
+
+    push = Push(male.sole_id("left"), np.array([10.0, 0.0, 0.0]), 0.1, 0.2)
+    active = [k for k in range(1000) if push.active(k * 1e-3)]
+    assert len(active) == 200 and (active[0], active[-1]) == (100, 299)

@@ -19,6 +19,7 @@ from humanoid.integrators import DormandPrince, LieGroupSpace
 from humanoid.model.checks import check_built, validate_urdf
 
 PELVIS, HIP = '<parent link="pelvis"/>', '    <child link="left_hip_flexion_link"/>'
+SKIN, RGBA = '<color rgba="0.87 0.72 0.6 1.0"', r"rgba must be in \[0, 1\]"
 FIRST_ORIGIN = re.compile(r'(<inertial>\s*<origin xyz=")[^"]*')
 
 
@@ -39,6 +40,9 @@ FIRST_ORIGIN = re.compile(r'(<inertial>\s*<origin xyz=")[^"]*')
         (lambda t: t.replace('type="revolute"', 'type="hinge"', 1), r"type 'hinge' is not one of"),
         (lambda t: t.replace('<box size="', '<box size="0 ', 1), r"3 finite number"),
         (lambda t: t.replace('<link name="head">', '<link name="pelvis">'), r"links defined twice"),
+        # a colour on 0-255 (a planted check against 255 passed every case above)
+        (lambda t: t.replace(SKIN, '<color rgba="222 184 153 1.0"', 1), RGBA),
+        (lambda t: t.replace(SKIN, '<color rgba="0.87 0.72 0.6 1.5"', 1), RGBA),
     ],
 )  # fmt: skip
 def test_a_urdf_that_urdfdom_would_misread_is_refused(male_urdf, edit, message):

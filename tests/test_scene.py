@@ -97,6 +97,9 @@ def _write(tmp_path, text: str) -> Path:
             r"initial.base_velocity\[3\]: must be a finite number, got inf",
         ),
         ("dt = true\n", r"dt: expected a number, got bool"),
+        # (planted, a check of the damping alone and a margin bound of 1 m passed the rest)
+        ("[effects]\nsprings = -1.0\n", r"effects: damping and springs must be >= 0"),
+        ("[effects.ground]\nmargin = 0.2\n", r"effects.ground.margin: must be in \(0, 0.1\] m"),
         ("= broken", r"bad.toml: not valid TOML"),
     ],
 )

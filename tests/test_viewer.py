@@ -122,6 +122,35 @@ def test_animation_frames_follow_the_trajectory_at_the_chosen_speed(landing):
         view.animate(landing, speed=0.0)
 
 
+def test_animation_keys_are_the_trajectory_interpolated_at_their_times(landing):
+    """Key k of an animation at ``speed`` and ``fps`` shows the run at t0 + k speed / fps,
+    interpolated between its records on the Lie group: at half speed and 30 fps, key 1 is
+    at 16.7 ms, two thirds of the way from the 10 ms record to the 20 ms one (planted, the
+    speed ignored and the interpolation turned round each passed the test above)."""
+    h = get_model("male", "quaternion")
+    rec, view = _recorded(h)
+    speed, fps = 0.5, 30.0
+    view.animate(landing, speed=speed, fps=fps)
+    anim = next(c for c in rec.commands if c["type"] == "set_animation")
+    clips = {a["path"]: a["clip"] for a in anim["animations"]}
+    track = next(t for t in clips["/meshcat/humanoid/body/left_foot_0"]["tracks"]
+                 if t["name"] == ".position")  # fmt: skip
+    g = h.visual_model.getGeometryId("left_foot_0")
+    data, gdata = h.model.createData(), pin.GeometryData(h.visual_model)
+    t = np.asarray(landing.t)
+    for k in (1, 2, 4, 7, 20):
+        time_k = t[0] + k * speed / fps
+        i = int(np.searchsorted(t, time_k, side="right")) - 1
+        s = (time_k - t[i]) / (t[i + 1] - t[i])
+        q = pin.interpolate(h.model, landing.q[i], landing.q[i + 1], s)
+        pin.forwardKinematics(h.model, data, q)
+        pin.updateGeometryPlacements(h.model, data, h.visual_model, gdata)
+        np.testing.assert_allclose(track["keys"][k]["value"], gdata.oMg[g].translation,
+                                   rtol=0, atol=1e-6, err_msg=str(k))  # fmt: skip
+    moved = np.ptp([k["value"][2] for k in track["keys"][:8]])
+    assert moved > 1e-3  # the foot falls over these keys: they tell the times apart
+
+
 def test_html_export_is_self_contained(tmp_path, landing):
     h = get_model("male", "quaternion")
     path = viewer.export_html(h, tmp_path / "run.html", traj=landing, title="landing")
