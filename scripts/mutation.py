@@ -912,10 +912,10 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "F02",
         "fusion.py",
-        "v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th) @ v_euler[iv]",
-        "v[jf.idx_v : jf.idx_v + 3] = ball.velocity_map(th).T @ v_euler[iv]",
+        "v[jv : jv + 3] = ((G @ Rs).T @ cols) @ v_euler[iv]",
+        "v[jv : jv + 3] = ((G @ Rs) @ cols) @ v_euler[iv]",
         ("tests/test_fusion.py",),
-        "hinge rates mapped to a ball's angular velocity by the transposed map",
+        "hinge rates mapped to a ball's angular velocity without the rotation's transpose",
     ),
     M(
         "EX1",
