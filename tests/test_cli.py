@@ -261,20 +261,26 @@ def test_view_live_prints_a_loopback_url_and_stops_on_ctrl_c():
     assert not viewer_servers()
 
 
-@pytest.fixture(scope="module")
-def accuracy_run(tmp_path_factory):
-    """One quick `bench accuracy` run shared by the tests below (about 10 s)."""
+def _accuracy_run(out):
+    """One quick `bench accuracy` run: (exit code, folder, printed text). Shared by the two
+    checks below in one test: as a fixture, pytest-xdist's workers each ran it (3 minutes of
+    CPU each)."""
     import contextlib
     import io
 
-    out = tmp_path_factory.mktemp("bench")
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
         code = main(["bench", "accuracy", "--quick", "-o", str(out)])
     return code, out, text.getvalue()
 
 
-def test_bench_accuracy_quick_measures_the_orders(accuracy_run):
+def test_bench_accuracy_quick_measures_the_orders_and_runs_the_peers(tmp_path):
+    run = _accuracy_run(tmp_path)
+    _assert_the_orders(run)
+    _assert_the_peers(run)
+
+
+def _assert_the_orders(accuracy_run):
     """The work-precision sweep (quick): files written, and the errors behave as the schemes
     say (RK4 shrinks ~16x per halving of dt, the Euler schemes ~2x)."""
     import csv
@@ -312,7 +318,7 @@ def test_bench_accuracy_quick_measures_the_orders(accuracy_run):
     assert "reference convergence" in text
 
 
-def test_peer_comparison_runs_the_same_scenes_in_mujoco(accuracy_run):
+def _assert_the_peers(accuracy_run):
     """Written by `bench accuracy` when MuJoCo is installed (it is, in the test extras): the
     free scenes, the controlled and the passive welded scenes and the walk, in both engines."""
     import csv

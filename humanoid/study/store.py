@@ -104,11 +104,18 @@ def _array(pa, values: list):
 
 
 def read_table(path: str | Path) -> list[dict]:
-    """The rows of a results table (none if there is no table yet)."""
+    """The rows of a results table (none if there is no table yet). The file is read whole
+    through one handle, then parsed: a running study replaces its table every few seconds, and
+    pyarrow's reader, which opens a path twice (its size, then its pages), read the new file
+    with the old one's size ("Page was smaller than expected")."""
     path = Path(path)
     if path.is_dir():
         path = path / TABLE
-    if not path.is_file():
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read()
+    except (FileNotFoundError, IsADirectoryError):
         return []
+    pa = require("pyarrow", "a study's results table")
     pq = require("pyarrow.parquet", "a study's results table")
-    return pq.read_table(path).to_pylist()
+    return pq.read_table(pa.BufferReader(data)).to_pylist()
