@@ -119,7 +119,7 @@ class WalkingController(Effect):
         self._hinge_J = self.ranges.hinge_rows(q_posture)[1]
         self._hinge_v = np.argmax(np.abs(self._hinge_J), axis=1)
         self._hinge_sign = self._hinge_J[np.arange(len(self._hinge_J)), self._hinge_v]
-        self._rows_for: tuple | None = None  # the welds' rows' arrays, by stance
+        self._rows_for: tuple | None = None  # (the welds, their soles' frames), by stance
         self.fresh = False  # whether the QP was solved at this tick's state
         self._solved_for: set | None = None  # the stance set of the last solve
         # (the plant's active constraints, the welds by side, in order, the sides) of this tick
@@ -207,36 +207,15 @@ class WalkingController(Effect):
         return tau
 
     def _weld_rows(self, welds, v) -> tuple[np.ndarray, np.ndarray]:
-        """J and gamma of the stance welds at the kinematics in ``self.data`` (placements,
-        velocities, drift accelerations at dv = 0, joint Jacobians), as
-        :func:`~humanoid.constraints.solve.stack` gives them (the same rows and arithmetic),
-        into arrays sized once per stance: a weld's residual reads its sole's placement (only
-        that frame's is updated)."""
-        model, data, baumgarte = self.model, self.data, self.baumgarte
-        if self._rows_for is None or self._rows_for[0] is not welds:  # (kept: never reused)
-            m = sum(w.size for w in welds)
-            spans = []
-            i = 0
-            for w in welds:
-                spans.append((w, i, i + w.size, w.frame_id if isinstance(w, Weld) else None))
-                i += w.size
-            self._rows_for = (welds, spans, np.zeros((m, model.nv)), np.zeros(m), np.zeros(m))
-        _, spans, J, drift, e = self._rows_for
-        if not spans:
-            return np.zeros((0, model.nv)), np.zeros(0)
-        for w, i, j, frame in spans:
-            if frame is not None:
-                pin.updateFramePlacement(model, data, frame)
-            J[i:j] = w.jacobian(model, data)
-            drift[i:j] = w.drift(model, data)
-        gamma = -drift
-        if baumgarte.active:
-            gamma -= 2.0 * baumgarte.alpha * (J @ v)
-            if baumgarte.beta:
-                for w, i, j, _ in spans:
-                    e[i:j] = w.residual(model, data)
-                gamma -= baumgarte.beta**2 * e
-        return J, gamma
+        """J and gamma of the stance welds (:func:`~humanoid.constraints.solve.stack`) at the
+        kinematics in ``self.data``: a weld's residual reads its sole's placement, so only
+        those frames are updated (their ids found once per stance)."""
+        model, data = self.model, self.data
+        if self._rows_for is None or self._rows_for[0] is not welds:
+            self._rows_for = (welds, [w.frame_id for w in welds if isinstance(w, Weld)])
+        for frame in self._rows_for[1]:
+            pin.updateFramePlacement(model, data, frame)
+        return stack(model, data, welds, v, self.baumgarte)
 
     # -- references ----------------------------------------------------------------------
     def com_reference(self, t):
