@@ -49,6 +49,7 @@ class ContactState:
         # sole rectangle in the sole frame, for the centre-of-pressure check
         lo, hi = h.sole_box(self.side)
         self.cop_box = lo[:2], hi[:2]
+        self._cop_limits = (*lo[:2].tolist(), *hi[:2].tolist())  # (x, y low, x, y high)
 
     def attach(self, data: pin.Data) -> None:
         """Attach where the foot is in ``data`` (its placements), with its kind's constraints
@@ -76,21 +77,23 @@ class ContactState:
             self.wrench = np.concatenate([f.sum(axis=0), np.cross(arms, f).sum(axis=0)])
 
     def check(self, data) -> list[str]:
-        """Violations of unilaterality, friction and the centre of pressure."""
+        """Violations of unilaterality, friction and the centre of pressure (in Python floats:
+        a welded stance checks both feet every step)."""
         out = []
-        fz = self.wrench[2]
         mu = self.spec.mu
-        loads = [self.wrench[:3]] if self.spec.kind == "weld" else list(self.point_forces)
-        if min(f[2] for f in loads) < 0:
-            out.append(f"normal force {min(f[2] for f in loads):.1f} N < 0")
-        for f in loads:
-            if f[2] > 0 and math.hypot(f[0], f[1]) > mu * f[2] * (1 + 1e-9) + 1e-9:
-                out.append(f"friction |f_t| {math.hypot(f[0], f[1]):.1f} N > mu f_n")
+        weld = self.spec.kind == "weld"
+        loads = [self.wrench[:3].tolist()] if weld else self.point_forces.tolist()
+        lowest = min(f[2] for f in loads)
+        if lowest < 0:
+            out.append(f"normal force {lowest:.1f} N < 0")
+        for fx, fy, fz in loads:
+            if fz > 0 and math.hypot(fx, fy) > mu * fz * (1 + 1e-9) + 1e-9:
+                out.append(f"friction |f_t| {math.hypot(fx, fy):.1f} N > mu f_n")
                 break
-        if self.spec.kind == "weld" and fz > 1e-9:
+        if weld and self.wrench[2] > 1e-9:
             cop = cop_in_sole(self.wrench, data.oMf[self.sole].rotation)
-            lo, hi = self.cop_box
-            if np.any(cop < lo - 1e-9) or np.any(cop > hi + 1e-9):
+            (x, y), (lx, ly, hx, hy) = cop.tolist(), self._cop_limits
+            if x < lx - 1e-9 or y < ly - 1e-9 or x > hx + 1e-9 or y > hy + 1e-9:
                 out.append(f"centre of pressure {cop.round(3)} outside the sole")
         return out
 

@@ -34,6 +34,7 @@ __all__ = ["BallJoint", "Fusion", "fuse_ball_joints"]
 
 REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned"}
 TOL = 1e-9
+_EYE = np.eye(3)
 
 
 def joint_axis(jmodel) -> np.ndarray:
@@ -119,9 +120,10 @@ class Fusion:
     @functools.cached_property
     def _plan(self):
         """The index arrays of :meth:`to_quaternion`: the copied joints' coordinates (Euler
-        model, fused model) and each ball's (hinges' q and v, its q and v start, axes, G).
-        Reading ``model.joints[j]`` copies a joint model: a map per control step read them
-        hundreds of times."""
+        model, fused model), the balls' hinge coordinates (nb, 3) and their own starts, and
+        the balls' axes (nb, 3 hinges, 3), their cross-product matrices and outer products
+        (nb, 3, 3, 3), G and G^T (nb, 3, 3). Reading ``model.joints[j]`` copies a joint model:
+        a map per control step read them hundreds of times."""
         em, fm = self.euler_model, self.model
         src_q, dst_q, src_v, dst_v = [], [], [], []
         for je, jf in self.copied:
@@ -130,43 +132,61 @@ class Fusion:
             dst_q += range(b.idx_q, b.idx_q + b.nq)
             src_v += range(a.idx_v, a.idx_v + a.nv)
             dst_v += range(b.idx_v, b.idx_v + b.nv)
-        balls = []
-        for ball in self.balls:
-            jf = fm.joints[ball.joint_id]
-            iq = np.array([em.joints[j].idx_q for j in ball.hinge_ids])
-            iv = np.array([em.joints[j].idx_v for j in ball.hinge_ids])
-            axes = tuple(ball.axes[:, i].copy() for i in range(3))
-            balls.append((iq, iv, jf.idx_q, jf.idx_v, axes, ball.G, ball.G.T.copy()))
         index = [np.array(x, dtype=int) for x in (src_q, dst_q, src_v, dst_v)]
-        return (*index, balls)
+        balls = self.balls
+        iq = np.array([[em.joints[j].idx_q for j in b.hinge_ids] for b in balls], dtype=int)
+        iv = np.array([[em.joints[j].idx_v for j in b.hinge_ids] for b in balls], dtype=int)
+        jq = np.array([fm.joints[b.joint_id].idx_q for b in balls], dtype=int)
+        jv = np.array([fm.joints[b.joint_id].idx_v for b in balls], dtype=int)
+        axes = np.array([b.axes.T for b in balls]).reshape(len(balls), 3, 3)
+        cross = np.array([[pin.skew(a) for a in b.axes.T] for b in balls]).reshape(-1, 3, 3, 3)
+        outer = axes[..., :, None] * axes[..., None, :]
+        G = np.array([b.G for b in balls]).reshape(-1, 3, 3)
+        # the quaternions' and velocities' places in q and v, (nb, 4) and (nb, 3)
+        qcols, vcols = jq[:, None] + np.arange(4), jv[:, None] + np.arange(3)
+        return (*index, iq, iv, qcols, vcols, axes, cross, outer, G,
+                G.transpose(0, 2, 1).copy())  # fmt: skip
 
     def to_quaternion(self, q_euler, v_euler=None):
         """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given).
 
-        Each ball's rotation and velocity map as :meth:`BallJoint.rotation` and
-        :meth:`BallJoint.velocity_map` compute them (the same products in the same order), its
-        three hinge rotations computed once."""
+        The balls' rotations and velocities are :meth:`BallJoint.rotation` and
+        :meth:`BallJoint.velocity_map`'s, computed for all balls at once (each hinge's
+        rotation by Rodrigues' formula, cos I + sin [a]x + (1 - cos) a a^T; equal to the
+        per-ball products to 1e-15), the quaternions by Eigen's own formula where the trace is
+        positive (w > 0, the same sign) and by Pinocchio elsewhere."""
         em, fm = self.euler_model, self.model
         q_euler = finite_vector(q_euler, em.nq, "q", "nq")
         q = np.zeros(fm.nq)
         v = None if v_euler is None else np.zeros(fm.nv)
         if v is not None:
             v_euler = finite_vector(v_euler, em.nv, "v", "nv")
-        src_q, dst_q, src_v, dst_v, balls = self._plan
+        (src_q, dst_q, src_v, dst_v, iq, iv, qcols, vcols,
+         axes, cross, outer, G, Gt) = self._plan  # fmt: skip
         q[dst_q] = q_euler[src_q]
         if v is not None:
             v[dst_v] = v_euler[src_v]
-        exp3 = pin.exp3
-        for iq, iv, jq, jv, (a1, a2, a3), G, Gt in balls:
-            th = q_euler[iq]
-            R1 = exp3(a1 * th[0])
-            R12 = R1 @ exp3(a2 * th[1])
-            Rs = Gt @ (R12 @ exp3(a3 * th[2])) @ G
-            q[jq : jq + 4] = pin.Quaternion(Rs).coeffs()
-            if v is not None:
-                cols = np.empty((3, 3))  # (np.column_stack's, C order)
-                cols[:, 0], cols[:, 1], cols[:, 2] = a1, R1 @ a2, R12 @ a3
-                v[jv : jv + 3] = ((G @ Rs).T @ cols) @ v_euler[iv]
+        if not len(iq):
+            return q, v
+        th = q_euler[iq]
+        c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
+        R = c * _EYE + s * cross + (1.0 - c) * outer  # (nb, 3 hinges, 3, 3)
+        R1 = R[:, 0]
+        R12 = R1 @ R[:, 1]
+        Rs = Gt @ (R12 @ R[:, 2]) @ G
+        trace = Rs[:, 0, 0] + Rs[:, 1, 1] + Rs[:, 2, 2]
+        t = np.sqrt(np.maximum(trace, 0.0) + 1.0)
+        k = 0.5 / t
+        quat = np.stack([(Rs[:, 2, 1] - Rs[:, 1, 2]) * k, (Rs[:, 0, 2] - Rs[:, 2, 0]) * k,
+                         (Rs[:, 1, 0] - Rs[:, 0, 1]) * k, 0.5 * t], axis=1)  # fmt: skip
+        for i in np.flatnonzero(trace <= 0.0):  # Eigen's other branches
+            quat[i] = pin.Quaternion(Rs[i]).coeffs()
+        q[qcols] = quat
+        if v is not None:
+            cols = np.stack([axes[:, 0], (R1 @ axes[:, 1, :, None])[..., 0],
+                             (R12 @ axes[:, 2, :, None])[..., 0]], axis=2)  # fmt: skip
+            E = (G @ Rs).transpose(0, 2, 1) @ cols
+            v[vcols] = (E @ v_euler[iv][..., None])[..., 0]
         return q, v
 
     def to_euler(self, q, v=None, hint=None):

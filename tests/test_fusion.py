@@ -187,3 +187,32 @@ def test_to_euler_and_back_take_sequences_of_states():
     assert np.allclose(back_v, vs, atol=1e-9)
     empty_q, empty_v = h.to_euler(np.zeros((0, h.nq)))
     assert empty_q.shape == (0, h.euler_model.nq) and empty_v is None
+
+
+def test_the_balls_quaternions_and_velocities_are_their_rotations_and_maps_at_any_angle():
+    """:meth:`Fusion.to_quaternion` (all balls at once) against each ball's own
+    :meth:`BallJoint.rotation` and :meth:`BallJoint.velocity_map`, at random angles over the
+    whole circle (rotations past 90 degrees, where the trace is negative and Eigen's other
+    branches give the quaternion): equal to 1e-14, the quaternion's w the same sign."""
+    rng = np.random.default_rng(7)
+    for name in ("male", "human"):
+        h = get_model(name, "quaternion")
+        f = h.fusion
+        em = f.euler_model
+        negative = 0
+        for _ in range(200):
+            qe = pin.neutral(em)
+            qe[7:] = rng.uniform(-np.pi, np.pi, em.nq - 7)
+            ve = rng.normal(size=em.nv)
+            q, v = f.to_quaternion(qe, ve)
+            for ball in f.balls:
+                jm = f.model.joints[ball.joint_id]
+                th = qe[[em.joints[j].idx_q for j in ball.hinge_ids]]
+                Rs = ball.rotation(th)
+                negative += np.trace(Rs) <= 0.0
+                want = pin.Quaternion(Rs).coeffs()
+                np.testing.assert_allclose(q[jm.idx_q : jm.idx_q + 4], want, atol=1e-14)
+                rates = ve[[em.joints[j].idx_v for j in ball.hinge_ids]]
+                np.testing.assert_allclose(v[jm.idx_v : jm.idx_v + 3],
+                                           ball.velocity_map(th) @ rates, atol=1e-13)  # fmt: skip
+        assert negative > 50  # the other branches were taken

@@ -375,3 +375,33 @@ def test_a_foot_and_its_toes_share_no_ground_point():
     _, near = touching(q)
     for corner in front:
         assert np.linalg.norm(near - corner, axis=1).min() < 1e-9, corner
+
+
+def test_a_detection_at_the_last_configuration_is_the_last_one_and_any_other_is_made_anew():
+    """``Ground.detect(..., at=q)``: a second call at the same model and configuration (a
+    controller's, then its plant's) returns the first's contacts; a call at another
+    configuration, or without ``at``, detects them, and a call back at the first is detected
+    again (only the last call is kept)."""
+    h = hm.load(BODIES / "adult_male.urdf")
+    model = h.model
+    roots = [model.frames[h.frame_id(f)].parentJoint for f in h.feet]
+    feet = {j for root in roots for j in model.subtrees[root]}
+    geometry = h.collision_model
+    chosen = [i for i, g in enumerate(geometry.geometryObjects) if g.parentJoint in feet]
+    ground, fresh = Ground(model, geometry, chosen), Ground(model, geometry, chosen)
+    data = model.createData()
+    standing = h.standing_configuration()
+    pin.framesForwardKinematics(model, data, standing)
+    heels = [h.frame_id(f"{s}_heel_inner") for s in ("left", "right")]
+    standing[2] -= min(data.oMf[f].translation[2] for f in heels)
+    tilted = standing.copy()
+    tilted[2] += 0.004  # 4 mm up: inside the margin, other distances
+    for q in (standing, standing, tilted, standing, tilted, tilted):
+        pin.framesForwardKinematics(model, data, q)
+        _, _, phi, points = ground.detect(model, data, at=q)
+        _, _, phi0, points0 = fresh.detect(model, data)
+        np.testing.assert_array_equal(phi, phi0)
+        np.testing.assert_array_equal(points, points0)
+    # the same configuration on a data not brought to it: the last contacts, as documented
+    _, _, phi, _ = ground.detect(model, model.createData(), at=tilted)
+    np.testing.assert_array_equal(phi, phi0)

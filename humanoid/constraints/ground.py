@@ -219,6 +219,7 @@ class Ground:
             req.security_margin = settings.margin
         self._pool: list[tuple[pin.ConstraintModel, pin.ConstraintData]] = []
         self._model = model
+        self._last: tuple | None = None  # ((model, configuration), contacts) of the last call
 
     def _contact(self, k: int):
         """The k-th pooled contact model (created on first use)."""
@@ -231,13 +232,30 @@ class Ground:
             self._pool.append((cm, cm.createData()))
         return self._pool[k]
 
-    def detect(self, model: pin.Model, data: pin.Data):
+    def detect(self, model: pin.Model, data: pin.Data, at=None):
         """Contacts of the current placements (``data.oMi`` must be up to date).
+
+        ``at``: the configuration the placements are at. Given, a call at the same model and
+        configuration as the last one returns its contacts again without detecting them: a
+        controller and its plant detect at the same state every tick (a person's walk spent
+        0.37 ms a tick in each).
 
         Returns:
             (models, datas, phi, points): the active contact constraints, their signed distances
             [m] (negative below the floor) and their world points on the body, (n, 3).
         """
+        key = None if at is None else (model, np.asarray(at, dtype=float).tobytes())
+        last = self._last
+        if key is not None and last is not None and last[0][0] is model and last[0][1] == key[1]:
+            cms, cds, phi, points = last[1]
+            return list(cms), list(cds), phi.copy(), points.copy()
+        found = self._detect(model, data)
+        self._last = None if key is None else (key, found)
+        cms, cds, phi, points = found
+        return list(cms), list(cds), phi.copy(), points.copy()
+
+    def _detect(self, model: pin.Model, data: pin.Data):
+        """:meth:`detect`'s contacts, found."""
         gm, gd = self.geometry_model, self.geometry_data
         pin.updateGeometryPlacements(model, data, gm, gd)
         pin.computeCollisions(gm, gd, False)
@@ -387,7 +405,7 @@ class ContactSolver:
         phi = points = np.zeros((0,))
         n_ground = 0
         if self.ground is not None:
-            cms, cds, phi, points = self.ground.detect(model, data)
+            cms, cds, phi, points = self.ground.detect(model, data, at=q)
             n_ground = len(cms)
             if n_ground:
                 for cm, cd in zip(cms, cds, strict=True):

@@ -152,12 +152,13 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
     return M, pin.nle(model, data, q, v)  # (Pinocchio's binding fills both triangles)
 
 
-def feet_contacts(ground, model, data, foot_joint: dict):
+def feet_contacts(ground, model, data, foot_joint: dict, q=None):
     """The plant's own ground detection (constraint models and datas, signed distances, world
     points) and, per point, the side whose foot it is on (None: another body). ``foot_joint``:
     side -> the foot's joint, or a set of joints (a foot with free toes: its rearfoot's and its
-    toes')."""
-    cms, cds, phi, points = ground.ground.detect(model, data)
+    toes'). ``q``: the configuration of ``data``'s placements (the plant's step at the same
+    state then finds these contacts without detecting them again)."""
+    cms, cds, phi, points = ground.ground.detect(model, data, at=q)
     joints = {s: {j} if isinstance(j, int) else set(j) for s, j in foot_joint.items()}
     side_of = [next((s for s, js in joints.items() if cm.extract().joint2_id in js), None)
                for cm in cms]  # fmt: skip

@@ -266,7 +266,7 @@ class MotionTracker(Effect):
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         M, hvec = dynamics_terms(model, data, q, v)
         cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data,
-                                                       self.foot_joints)  # fmt: skip
+                                                       self.foot_joints, q)  # fmt: skip
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
         rd = self.rdata

@@ -333,7 +333,7 @@ class CycleTracker(Effect):
         model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
         tc = self._advance_clock(t, q)
         M, hvec = dynamics_terms(model, data, q, v)
-        cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {})
+        cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {}, q)
         joint_of = [cm.extract().joint2_id for cm in cms]
         q_r, v_r, a_r = ref.state(tc)
         # the reference follows the footsteps the body makes (blended in)

@@ -500,7 +500,7 @@ class GaitController(Effect):
         nv = model.nv
         M, hvec = dynamics_terms(model, data, q, v)
         # contacts: the plant's own detection
-        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint)
+        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint, q)
         near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
         touching = {s for s, n in zip(side_of, near, strict=True) if n}
         # the reference, its feet and centre of mass
