@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -63,6 +64,125 @@ def _massless(inertia) -> bool:
     return inertia.mass <= 1e-12
 
 
+class _Tree(NamedTuple):
+    """What the ``<body>`` elements are written from: the model's joint tree and its XML parts."""
+
+    model: pin.Model
+    children: dict[int, list[int]]
+    names: dict[int, str]  # per joint, its body's name
+    geoms: dict[int, list[str]]  # per joint, its body's geoms' XML
+    cones: dict[int, float]  # a ball joint's cone [rad]
+    extra: str  # the joints' damping attribute
+    limits: bool  # hinges keep their ranges
+
+
+def _geoms(h, collide: bool) -> dict[int, list[str]]:
+    """Per joint, its body's geoms' XML (the collision geometry if ``collide``, else visual)."""
+    model = h.model
+    geoms: dict[int, list[str]] = {}  # per joint, its body's geoms' XML
+    for g in (h.collision_model if collide else h.visual_model).geometryObjects:
+        geoms.setdefault(g.parentJoint, []).extend(_geom_xml(g))
+    if collide:  # a foot without collision geometry touches the floor at its sole points
+        for side, points in h.contact_points.items():
+            sole = model.frames[h.sole_id(side)]
+            if geoms.get(sole.parentJoint):
+                continue
+            up = sole.placement.rotation[:, 2]  # (the sole's normal, in its joint's axes)
+            for name in points:
+                f = model.frames[h.frame_id(name)]
+                centre = f.placement.translation + SOLE_SPHERE * up
+                geoms.setdefault(f.parentJoint, []).append(
+                    f'<geom name={quoteattr(name)} type="sphere" size="{SOLE_SPHERE:g}" '
+                    f'pos="{_fmt(centre)}"/>')  # fmt: skip
+    return geoms
+
+
+def _tree(h, collide: bool, limits: bool, damping: float) -> _Tree:
+    """The joint tree of ``h`` with its bodies' names, geoms, ball joints' cones, damping."""
+    model = h.model
+    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        children[model.parents[j]].append(j)
+    names = {}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY and f.parentJoint not in names:
+            names[f.parentJoint] = f.name
+    geoms = _geoms(h, collide)
+    cones = {}  # a ball joint's cone [rad]: its hinge triplet's largest bound
+    if limits and h.fusion is not None:
+        em = h.euler_model
+        for ball in h.fusion.balls:
+            iq = [em.joints[i].idx_q for i in ball.hinge_ids]
+            bounds = np.abs(np.r_[em.lowerPositionLimit[iq], em.upperPositionLimit[iq]])
+            if np.all(np.isfinite(bounds)):
+                cones[ball.joint_id] = float(bounds.max())
+
+    extra = f' damping="{damping:.17g}"' if damping > 0 else ""
+    return _Tree(model, children, names, geoms, cones, extra, limits)
+
+
+def _joint_xml(tree: _Tree, j: int, placement: pin.SE3) -> str:
+    """The MJCF joint element of joint ``j`` at ``placement`` in its body's frame."""
+    model, cones, extra, limits = tree.model, tree.cones, tree.extra, tree.limits
+    jm = model.joints[j]
+    kind = jm.shortname()
+    name = quoteattr(model.names[j])
+    if kind == "JointModelFreeFlyer":
+        return f"<freejoint name={name}/>"
+    if kind == "JointModelSpherical":
+        cone = f' range="0 {cones[j]:.17g}" limited="true"' if j in cones else ""
+        return (f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"'
+                f"{cone}{extra}/>")  # fmt: skip
+    if jm.nq == 1 and jm.nv == 1:
+        axis = placement.rotation @ joint_axis(jm)
+        lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
+        limited = "true" if limits and np.isfinite(lo) and np.isfinite(hi) else "false"
+        return (
+            f'<joint name={name} type="hinge" pos="{_fmt(placement.translation)}" '
+            f'axis="{_fmt(axis)}" range="{lo:.17g} {hi:.17g}" limited="{limited}"{extra}/>'
+        )
+    raise ModelError(f"no MuJoCo joint for {kind} ({model.names[j]})")
+
+
+def _body_xml(tree: _Tree, j: int, depth: int) -> list[str]:
+    """The ``<body>`` element of joint ``j`` and its subtree (massless joints merged into it)."""
+    model, children = tree.model, tree.children
+    pad = "  " * depth
+    chain = [j]
+    offsets = [pin.SE3.Identity()]
+    while _massless(model.inertias[chain[-1]]) and len(children[chain[-1]]) == 1:
+        nxt = children[chain[-1]][0]
+        P = model.jointPlacements[nxt]
+        if np.abs(P.translation).max() > 1e-12:
+            raise ModelError(f"cannot merge massless {model.names[chain[-1]]}: offset child")
+        chain.append(nxt)
+        offsets.append(offsets[-1] * P)
+    last = chain[-1]
+    if _massless(model.inertias[last]) and not children[last]:
+        return []  # a massless leaf carries nothing
+    P = model.jointPlacements[j]
+    name = quoteattr(tree.names.get(last, model.names[last]))
+    # the MuJoCo body frame is the last joint's frame at zero angles
+    G = offsets[-1]
+    frame = P * G
+    lines = [f'{pad}<body name={name} pos="{_fmt(frame.translation)}" '
+             f'quat="{_fmt(_quat_wxyz(frame.rotation))}">']  # fmt: skip
+    for k, jj in enumerate(chain):
+        rel = G.inverse() * offsets[k]  # the joint's frame in the body frame
+        lines.append(pad + "  " + _joint_xml(tree, jj, rel))
+    I = model.inertias[last]
+    if I.mass > 0:
+        M = I.inertia
+        full = [M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]]
+        lines.append(f'{pad}  <inertial pos="{_fmt(I.lever)}" mass="{I.mass:.17g}" '
+                     f'fullinertia="{_fmt(full)}"/>')  # fmt: skip
+    lines += [pad + "  " + x for x in tree.geoms.get(last, [])]
+    for child in children[last]:
+        lines += _body_xml(tree, child, depth + 1)
+    lines.append(f"{pad}</body>")
+    return lines
+
+
 def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | None = None,
             limits: bool = False, damping: float = 0.0, motors: bool = False) -> str:  # fmt: skip
     """MJCF text of a Humanoid (see the module docstring).
@@ -82,96 +202,8 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
             be merged (it has several children or a child with an offset).
     """
     model = h.model
-    children: dict[int, list[int]] = {j: [] for j in range(model.njoints)}
-    for j in range(1, model.njoints):
-        children[model.parents[j]].append(j)
-    names = {}
-    for f in model.frames:
-        if f.type == pin.FrameType.BODY and f.parentJoint not in names:
-            names[f.parentJoint] = f.name
-    geoms: dict[int, list[str]] = {}  # per joint, its body's geoms' XML
     collide = ground is not None
-    for g in (h.collision_model if collide else h.visual_model).geometryObjects:
-        geoms.setdefault(g.parentJoint, []).extend(_geom_xml(g))
-    if collide:  # a foot without collision geometry touches the floor at its sole points
-        for side, points in h.contact_points.items():
-            sole = model.frames[h.sole_id(side)]
-            if geoms.get(sole.parentJoint):
-                continue
-            up = sole.placement.rotation[:, 2]  # (the sole's normal, in its joint's axes)
-            for name in points:
-                f = model.frames[h.frame_id(name)]
-                centre = f.placement.translation + SOLE_SPHERE * up
-                geoms.setdefault(f.parentJoint, []).append(
-                    f'<geom name={quoteattr(name)} type="sphere" size="{SOLE_SPHERE:g}" '
-                    f'pos="{_fmt(centre)}"/>')  # fmt: skip
-    cones = {}  # a ball joint's cone [rad]: its hinge triplet's largest bound
-    if limits and h.fusion is not None:
-        em = h.euler_model
-        for ball in h.fusion.balls:
-            iq = [em.joints[i].idx_q for i in ball.hinge_ids]
-            bounds = np.abs(np.r_[em.lowerPositionLimit[iq], em.upperPositionLimit[iq]])
-            if np.all(np.isfinite(bounds)):
-                cones[ball.joint_id] = float(bounds.max())
-
-    extra = f' damping="{damping:.17g}"' if damping > 0 else ""
-
-    def joint_xml(j, placement: pin.SE3) -> str:
-        jm = model.joints[j]
-        kind = jm.shortname()
-        name = quoteattr(model.names[j])
-        if kind == "JointModelFreeFlyer":
-            return f"<freejoint name={name}/>"
-        if kind == "JointModelSpherical":
-            cone = f' range="0 {cones[j]:.17g}" limited="true"' if j in cones else ""
-            return (f'<joint name={name} type="ball" pos="{_fmt(placement.translation)}"'
-                    f"{cone}{extra}/>")  # fmt: skip
-        if jm.nq == 1 and jm.nv == 1:
-            axis = placement.rotation @ joint_axis(jm)
-            lo, hi = model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q]
-            limited = "true" if limits and np.isfinite(lo) and np.isfinite(hi) else "false"
-            return (
-                f'<joint name={name} type="hinge" pos="{_fmt(placement.translation)}" '
-                f'axis="{_fmt(axis)}" range="{lo:.17g} {hi:.17g}" limited="{limited}"{extra}/>'
-            )
-        raise ModelError(f"no MuJoCo joint for {kind} ({model.names[j]})")
-
-    def body(j, depth: int) -> list[str]:
-        pad = "  " * depth
-        chain = [j]
-        offsets = [pin.SE3.Identity()]
-        while _massless(model.inertias[chain[-1]]) and len(children[chain[-1]]) == 1:
-            nxt = children[chain[-1]][0]
-            P = model.jointPlacements[nxt]
-            if np.abs(P.translation).max() > 1e-12:
-                raise ModelError(f"cannot merge massless {model.names[chain[-1]]}: offset child")
-            chain.append(nxt)
-            offsets.append(offsets[-1] * P)
-        last = chain[-1]
-        if _massless(model.inertias[last]) and not children[last]:
-            return []  # a massless leaf carries nothing
-        P = model.jointPlacements[j]
-        name = quoteattr(names.get(last, model.names[last]))
-        # the MuJoCo body frame is the last joint's frame at zero angles
-        G = offsets[-1]
-        frame = P * G
-        lines = [f'{pad}<body name={name} pos="{_fmt(frame.translation)}" '
-                 f'quat="{_fmt(_quat_wxyz(frame.rotation))}">']  # fmt: skip
-        for k, jj in enumerate(chain):
-            rel = G.inverse() * offsets[k]  # the joint's frame in the body frame
-            lines.append(pad + "  " + joint_xml(jj, rel))
-        I = model.inertias[last]
-        if I.mass > 0:
-            M = I.inertia
-            full = [M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]]
-            lines.append(f'{pad}  <inertial pos="{_fmt(I.lever)}" mass="{I.mass:.17g}" '
-                         f'fullinertia="{_fmt(full)}"/>')  # fmt: skip
-        lines += [pad + "  " + x for x in geoms.get(last, [])]
-        for child in children[last]:
-            lines += body(child, depth + 1)
-        lines.append(f"{pad}</body>")
-        return lines
-
+    tree = _tree(h, collide, limits, damping)
     if model.joints[1].shortname() != "JointModelFreeFlyer":
         raise ModelError("MJCF export expects a free-flyer root")
     g = model.gravity.linear
@@ -196,7 +228,7 @@ def to_mjcf(h, timestep: float = 1e-3, integrator: str = "RK4", ground: float | 
             if collide
             else []
         ),  # fmt: skip
-        *body(1, 2),
+        *_body_xml(tree, 1, 2),
         "  </worldbody>",
         *(_motors(model) if motors else []),
         "</mujoco>",

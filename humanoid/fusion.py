@@ -290,18 +290,31 @@ def ball_name(model, ids) -> str:
     return prefix
 
 
-def fuse_ball_joints(model: pin.Model, geometry_models=()):
-    """Replace every fusible hinge triplet by a spherical joint.
+def _add_ball(model: pin.Model, new: pin.Model, parent: int, triplet) -> BallJoint:
+    """The spherical joint added to ``new`` under ``parent`` for a hinge triplet of ``model``."""
+    j1, j2, j3 = triplet
+    P = model.jointPlacements[j1] * model.jointPlacements[j2] * model.jointPlacements[j3]
+    name = ball_name(model, triplet)
+    idx = [model.joints[k].idx_v for k in triplet]
+    jid = new.addJoint(
+        parent,
+        pin.JointModelSpherical(),
+        P,
+        name,
+        model.effortLimit[idx],
+        model.velocityLimit[idx],
+        -np.ones(4),
+        np.ones(4),
+    )
+    new.inertias[jid] = model.inertias[j3]
+    axes, G = _triplet_axes(model, j1, j2, j3)
+    names = tuple(model.names[k] for k in triplet)
+    return BallJoint(name, jid, names, triplet, axes, G)
 
-    Args:
-        model: The Euler model (it is not modified).
-        geometry_models: Geometry models of ``model`` to carry over to the fused model.
 
-    Returns:
-        ``(fusion, geometry_models)``: the :class:`Fusion` (with the new model and the state
-        maps) and the geometry models re-attached to the fused model.
-    """
-    triplets = find_triplets(model, geometry_models)
+def _fused_joints(model: pin.Model, triplets):
+    """The fused model's joints: each triplet's ball, the other joints copied with their
+    limits and dynamics; (the model, joint map old -> new, balls, (old, new) copied)."""
     first = {t[0]: t for t in triplets}
     inner = {j for t in triplets for j in t[1:]}
     new = pin.Model()
@@ -314,26 +327,9 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
             continue
         parent = jmap[model.parents[j]]
         if j in first:
-            j1, j2, j3 = first[j]
-            P = model.jointPlacements[j1] * model.jointPlacements[j2] * model.jointPlacements[j3]
-            name = ball_name(model, first[j])
-            idx = [model.joints[k].idx_v for k in first[j]]
-            jid = new.addJoint(
-                parent,
-                pin.JointModelSpherical(),
-                P,
-                name,
-                model.effortLimit[idx],
-                model.velocityLimit[idx],
-                -np.ones(4),
-                np.ones(4),
-            )
-            new.inertias[jid] = model.inertias[j3]
-            axes, G = _triplet_axes(model, j1, j2, j3)
-            names = tuple(model.names[k] for k in first[j])
-            balls.append(BallJoint(name, jid, names, first[j], axes, G))
+            balls.append(_add_ball(model, new, parent, first[j]))
             for k in first[j]:
-                jmap[k] = jid
+                jmap[k] = balls[-1].joint_id
             continue
         jm = model.joints[j]
         sq, sv = slice(jm.idx_q, jm.idx_q + jm.nq), slice(jm.idx_v, jm.idx_v + jm.nv)
@@ -353,7 +349,11 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
             getattr(new, attr)[nj.idx_v : nj.idx_v + nj.nv] = getattr(model, attr)[sv]
         jmap[j] = jid
         copied.append((j, jid))
+    return new, jmap, balls, copied
 
+
+def _fused_frames(model: pin.Model, new: pin.Model, jmap: dict, balls) -> dict[int, int]:
+    """The frames of ``model`` added to the fused model ``new``: the frame map old -> new."""
     fmap = {0: 0}
     ball_of = {j: b for b in balls for j in b.hinge_ids}
     for fid in _parents_first(model):
@@ -371,7 +371,23 @@ def fuse_ball_joints(model: pin.Model, geometry_models=()):
         else:
             frame = pin.Frame(f.name, jmap[pj], fmap[f.parentFrame], f.placement, f.type, f.inertia)
             fmap[fid] = new.addFrame(frame, False)
+    return fmap
 
+
+def fuse_ball_joints(model: pin.Model, geometry_models=()):
+    """Replace every fusible hinge triplet by a spherical joint.
+
+    Args:
+        model: The Euler model (it is not modified).
+        geometry_models: Geometry models of ``model`` to carry over to the fused model.
+
+    Returns:
+        ``(fusion, geometry_models)``: the :class:`Fusion` (with the new model and the state
+        maps) and the geometry models re-attached to the fused model.
+    """
+    triplets = find_triplets(model, geometry_models)
+    new, jmap, balls, copied = _fused_joints(model, triplets)
+    fmap = _fused_frames(model, new, jmap, balls)
     new_geoms = []
     for gm in geometry_models:
         ng = pin.GeometryModel()

@@ -427,107 +427,122 @@ def _finite(obj, key: str) -> None:
             _finite(getattr(obj, f.name), f"{key}.{f.name}" if key else f.name)
 
 
-def _validate(s: Scene) -> None:
-    def bad(key, reason) -> NoReturn:
-        raise SceneError(f"{key}: {reason}")
+def _bad(key, reason) -> NoReturn:
+    """Refuse a scene: ``key``'s setting and why."""
+    raise SceneError(f"{key}: {reason}")
 
+
+def _validate_effects(s: Scene) -> None:
+    """The scene's effects in range: gravity, damping, springs, joint limits and the ground."""
+    e = s.effects
+    if len(e.gravity) != 3 or not all(math.isfinite(x) for x in e.gravity):
+        _bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")
+    if e.damping < 0 or e.springs < 0:
+        _bad("effects", "damping and springs must be >= 0")
+    lim = e.joint_limits
+    if lim is not None:
+        if not (
+            min(lim.stiffness, lim.damping) >= 0 and math.isfinite(lim.stiffness + lim.damping)
+        ):
+            _bad("effects.joint_limits", "stiffness and damping must be finite and >= 0")
+        if (why := JOINT_LIMITS.refusal(lim.kind)) is not None:
+            _bad(JOINT_LIMITS.key, why)
+        if lim.kind == "constraint" and e.ground is None:
+            _bad("effects.joint_limits.kind", "constraint ranges are solved with the ground "
+                "contact: add [effects.ground] (bodies = [] for none)")  # fmt: skip
+    if e.ground is not None:
+        g = e.ground
+        if not (math.isfinite(g.mu) and g.mu >= 0):
+            _bad("effects.ground.mu", f"friction coefficient must be >= 0, got {g.mu!r}")
+        if not (math.isfinite(g.margin) and 0 < g.margin <= 0.1):
+            _bad("effects.ground.margin", f"must be in (0, 0.1] m, got {g.margin!r}")
+        if not (math.isfinite(g.tolerance) and 0 < g.tolerance < 1):
+            _bad("effects.ground.tolerance", f"must be in (0, 1), got {g.tolerance!r}")
+        if not isinstance(g.bodies, str | tuple):
+            _bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
+        if isinstance(g.bodies, str) and g.bodies not in ("all", "feet"):
+            _bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
+        if s.integrator != "semi_implicit_euler":
+            _bad("integrator", "ground contact is solved at the velocity level once per step: "
+                f"use semi_implicit_euler, not {s.integrator!r}")  # fmt: skip
+        if e.contacts:
+            _bad("effects.contacts", "welded or pinned feet and [effects.ground] in one scene are "
+                "not supported yet: the ground holds the feet by friction")  # fmt: skip
+        if s.stabilisation.quaternions != "lie" or s.stabilisation.projection:
+            _bad(
+                "stabilisation", "ground contact needs the Lie-group quaternions and no projection"
+            )
+
+
+def _validate_events(e: Effects) -> None:
+    """The scene's contacts (feet welded or pinned for a while) and pushes in range."""
+    feet = set()
+    for i, c in enumerate(e.contacts):
+        key = f"effects.contacts[{i}]"
+        if c.foot not in ("left", "right"):
+            _bad(f"{key}.foot", f"must be 'left' or 'right', got {c.foot!r}")
+        if c.foot in feet:
+            _bad(f"{key}.foot", f"{c.foot} foot appears twice")
+        feet.add(c.foot)
+        if (why := CONTACT_KINDS.refusal(c.kind)) is not None:
+            _bad(f"{key}.kind", why)
+        if not (math.isfinite(c.mu) and c.mu >= 0):
+            _bad(f"{key}.mu", f"friction coefficient must be >= 0, got {c.mu!r}")
+        if not c.end > c.start >= 0:
+            _bad(f"{key}", f"needs 0 <= start < end, got start {c.start}, end {c.end}")
+    for i, p in enumerate(e.pushes):
+        key = f"effects.pushes[{i}]"
+        for name, unit in (("force", "N"), ("torque", "N m")):
+            value = getattr(p, name)
+            if len(value) != 3 or not all(math.isfinite(x) for x in value):
+                _bad(f"{key}.{name}", f"must be 3 finite numbers [{unit}], got {value!r}")
+        if not (math.isfinite(p.start) and math.isfinite(p.duration)):
+            _bad(key, f"start and duration must be finite, got {p.start}, {p.duration}")
+        if p.duration <= 0 or p.start < 0:
+            _bad(key, "needs start >= 0 and duration > 0")
+
+
+def _validate(s: Scene) -> None:
+    """Every setting of a scene in range (:class:`SceneError` naming the first that is not)."""
     _finite(s, "")
 
     for key in ("duration", "dt", "record_rate"):
         value = getattr(s, key)
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-            bad(key, f"must be a finite number > 0, got {value!r}")
+            _bad(key, f"must be a finite number > 0, got {value!r}")
     if s.dt > s.duration:
-        bad("dt", f"the step {s.dt} s is longer than the duration {s.duration} s")
+        _bad("dt", f"the step {s.dt} s is longer than the duration {s.duration} s")
     if s.stabilisation.backend == "pinocchio":
-        bad("stabilisation.backend", "'pinocchio' is now 'native' (the default): the project's "
+        _bad("stabilisation.backend", "'pinocchio' is now 'native' (the default): the project's "
             "constraints solved in Pinocchio's C++")  # fmt: skip
     for registry, value in ((INTEGRATORS, s.integrator), (BALL_JOINTS, s.ball_joints),
                             (MASSLESS, s.massless), (CONTROLLERS, s.controller.kind),
                             (FORMULATIONS, s.stabilisation.quaternions),
                             (BACKENDS, s.stabilisation.backend)):  # fmt: skip
         if (why := registry.refusal(value)) is not None:
-            bad(registry.key, why)
+            _bad(registry.key, why)
     if not (s.rtol > 0 and s.atol > 0):
-        bad("rtol/atol", "tolerances must be > 0")
-    e = s.effects
-    if len(e.gravity) != 3 or not all(math.isfinite(x) for x in e.gravity):
-        bad("effects.gravity", f"must be 3 finite numbers, got {e.gravity!r}")
-    if e.damping < 0 or e.springs < 0:
-        bad("effects", "damping and springs must be >= 0")
-    lim = e.joint_limits
-    if lim is not None:
-        if not (
-            min(lim.stiffness, lim.damping) >= 0 and math.isfinite(lim.stiffness + lim.damping)
-        ):
-            bad("effects.joint_limits", "stiffness and damping must be finite and >= 0")
-        if (why := JOINT_LIMITS.refusal(lim.kind)) is not None:
-            bad(JOINT_LIMITS.key, why)
-        if lim.kind == "constraint" and e.ground is None:
-            bad("effects.joint_limits.kind", "constraint ranges are solved with the ground "
-                "contact: add [effects.ground] (bodies = [] for none)")  # fmt: skip
-    if e.ground is not None:
-        g = e.ground
-        if not (math.isfinite(g.mu) and g.mu >= 0):
-            bad("effects.ground.mu", f"friction coefficient must be >= 0, got {g.mu!r}")
-        if not (math.isfinite(g.margin) and 0 < g.margin <= 0.1):
-            bad("effects.ground.margin", f"must be in (0, 0.1] m, got {g.margin!r}")
-        if not (math.isfinite(g.tolerance) and 0 < g.tolerance < 1):
-            bad("effects.ground.tolerance", f"must be in (0, 1), got {g.tolerance!r}")
-        if not isinstance(g.bodies, str | tuple):
-            bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
-        if isinstance(g.bodies, str) and g.bodies not in ("all", "feet"):
-            bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
-        if s.integrator != "semi_implicit_euler":
-            bad("integrator", "ground contact is solved at the velocity level once per step: "
-                f"use semi_implicit_euler, not {s.integrator!r}")  # fmt: skip
-        if e.contacts:
-            bad("effects.contacts", "welded or pinned feet and [effects.ground] in one scene are "
-                "not supported yet: the ground holds the feet by friction")  # fmt: skip
-        if s.stabilisation.quaternions != "lie" or s.stabilisation.projection:
-            bad("stabilisation", "ground contact needs the Lie-group quaternions and no projection")
-    feet = set()
-    for i, c in enumerate(e.contacts):
-        key = f"effects.contacts[{i}]"
-        if c.foot not in ("left", "right"):
-            bad(f"{key}.foot", f"must be 'left' or 'right', got {c.foot!r}")
-        if c.foot in feet:
-            bad(f"{key}.foot", f"{c.foot} foot appears twice")
-        feet.add(c.foot)
-        if (why := CONTACT_KINDS.refusal(c.kind)) is not None:
-            bad(f"{key}.kind", why)
-        if not (math.isfinite(c.mu) and c.mu >= 0):
-            bad(f"{key}.mu", f"friction coefficient must be >= 0, got {c.mu!r}")
-        if not c.end > c.start >= 0:
-            bad(f"{key}", f"needs 0 <= start < end, got start {c.start}, end {c.end}")
-    for i, p in enumerate(e.pushes):
-        key = f"effects.pushes[{i}]"
-        for name, unit in (("force", "N"), ("torque", "N m")):
-            value = getattr(p, name)
-            if len(value) != 3 or not all(math.isfinite(x) for x in value):
-                bad(f"{key}.{name}", f"must be 3 finite numbers [{unit}], got {value!r}")
-        if not (math.isfinite(p.start) and math.isfinite(p.duration)):
-            bad(key, f"start and duration must be finite, got {p.start}, {p.duration}")
-        if p.duration <= 0 or p.start < 0:
-            bad(key, "needs start >= 0 and duration > 0")
+        _bad("rtol/atol", "tolerances must be > 0")
+    _validate_effects(s)
+    _validate_events(s.effects)
     ctl = s.controller
     if min(ctl.kp, ctl.kd, ctl.frequency, ctl.damping_ratio) < 0:
-        bad("controller", "gains, frequency and damping ratio must be >= 0")
+        _bad("controller", "gains, frequency and damping ratio must be >= 0")
     if ctl.kind == "posture" and ctl.frequency == 0 and ctl.kp == 0:
-        bad("controller", "a posture controller needs frequency > 0 or kp > 0")
+        _bad("controller", "a posture controller needs frequency > 0 or kp > 0")
     st = s.stabilisation
     if st.baumgarte < 0 or (0 < st.baumgarte < 1):
-        bad(
+        _bad(
             "stabilisation.baumgarte",
             f"time constant must be 0 (off) or >= 1 step, got {st.baumgarte}",
         )
     ini = s.initial
     if isinstance(ini.configuration, str) and ini.configuration != "standing":
-        bad("initial.configuration", f"must be 'standing' or a list, got {ini.configuration!r}")
+        _bad("initial.configuration", f"must be 'standing' or a list, got {ini.configuration!r}")
     if not (math.isfinite(ini.lift) and 0.0 <= ini.lift <= 100.0):
-        bad("initial.lift", f"must be a height in [0, 100] m, got {ini.lift!r}")
+        _bad("initial.lift", f"must be a height in [0, 100] m, got {ini.lift!r}")
     if len(ini.base_velocity) != 6:
-        bad("initial.base_velocity", f"needs 6 numbers, got {len(ini.base_velocity)}")
+        _bad("initial.base_velocity", f"needs 6 numbers, got {len(ini.base_velocity)}")
 
 
 def _drop_inf(d):

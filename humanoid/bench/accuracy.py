@@ -131,65 +131,56 @@ def _measure(name, method, setting, traj, wall, ref, h, conservative) -> Row:
                vdrift, float(qd))  # fmt: skip
 
 
-def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
-    """Run the sweeps, write accuracy.csv and one work-precision PNG per scene."""
+def _scene_rows(h, name: str, scene, dts, tols) -> tuple[list[Row], float]:
+    """One scene's sweeps against its DP5 reference: (its rows, the reference's convergence)."""
     from ..scene import Effects, Stabilisation
 
-    h = load_male()
-    dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
-    tols = (1e-3, 1e-5, 1e-7) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
     rows: list[Row] = []
-    convergence = {}
-    for name, scene in _scenes(quick).items():
-        conservative = name in ("tumble", "swing")
-        ref_scene = scene.replace(integrator="adaptive", rtol=1e-12, atol=1e-12, dt=min(dts))
-        ref, _ = run_scene(ref_scene, h)
-        check, _ = run_scene(ref_scene.replace(rtol=1e-10, atol=1e-10, dt=2 * min(dts)), h)
-        convergence[name] = float(np.abs(pin.difference(h.model, ref.q[-1], check.q[-1])).max())
+    conservative = name in ("tumble", "swing")
+    ref_scene = scene.replace(integrator="adaptive", rtol=1e-12, atol=1e-12, dt=min(dts))
+    ref, _ = run_scene(ref_scene, h)
+    check, _ = run_scene(ref_scene.replace(rtol=1e-10, atol=1e-10, dt=2 * min(dts)), h)
+    convergence = float(np.abs(pin.difference(h.model, ref.q[-1], check.q[-1])).max())
 
-        def add(method, setting, sc, name=name, conservative=conservative, ref=ref):
-            traj, wall = run_scene(sc, h)
-            rows.append(_measure(name, method, setting, traj, wall, ref, h, conservative))
-            print(f"  {name:<7} {method:<28} {setting:<12} {wall:8.3f} s  "
-                  f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
+    def add(method, setting, sc, name=name, conservative=conservative, ref=ref):
+        traj, wall = run_scene(sc, h)
+        rows.append(_measure(name, method, setting, traj, wall, ref, h, conservative))
+        print(f"  {name:<7} {method:<28} {setting:<12} {wall:8.3f} s  "
+              f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
 
-        for integrator in ("euler", "semi_implicit_euler", "rk4"):
+    for integrator in ("euler", "semi_implicit_euler", "rk4"):
+        for dt in dts:
+            add(integrator, f"dt={dt:g}", scene.replace(integrator=integrator, dt=dt))
+    # the adaptive integrator chooses its steps inside each tick (contacts and effects are
+    # updated per tick): long ticks where nothing switches, the reference's with contacts
+    tick = min(dts) if name == "stance" else 0.04
+    for tol in tols:
+        add("adaptive (DP5)", f"rtol={tol:g}",
+            scene.replace(integrator="adaptive", rtol=tol, atol=tol, dt=tick))  # fmt: skip
+    if name == "tumble":
+        for integrator in ("semi_implicit_euler", "rk4"):
+            stab = Stabilisation(quaternions="coordinates")
             for dt in dts:
-                add(integrator, f"dt={dt:g}", scene.replace(integrator=integrator, dt=dt))
-        # the adaptive integrator chooses its steps inside each tick (contacts and effects are
-        # updated per tick): long ticks where nothing switches, the reference's with contacts
-        tick = min(dts) if name == "stance" else 0.04
-        for tol in tols:
-            add("adaptive (DP5)", f"rtol={tol:g}",
-                scene.replace(integrator="adaptive", rtol=tol, atol=tol, dt=tick))  # fmt: skip
-        if name == "tumble":
-            for integrator in ("semi_implicit_euler", "rk4"):
-                stab = Stabilisation(quaternions="coordinates")
-                for dt in dts:
-                    variant = scene.replace(integrator=integrator, dt=dt, stabilisation=stab)
-                    add(f"{integrator}, coordinates", f"dt={dt:g}", variant)
-        if name == "stance":
-            for label, stab in (
-                ("no stabilisation", Stabilisation()),
-                ("baumgarte 20 dt", Stabilisation(baumgarte=20.0)),
-                ("projection", Stabilisation(projection=True)),
-            ):
-                for dt in dts:
-                    variant = scene.replace(
-                        integrator="semi_implicit_euler", dt=dt, stabilisation=stab
-                    )
-                    add(f"semi-implicit, {label}", f"dt={dt:g}", variant)
-            no_coriolis = Effects(**(vars(scene.effects) | {"coriolis": False}))
+                variant = scene.replace(integrator=integrator, dt=dt, stabilisation=stab)
+                add(f"{integrator}, coordinates", f"dt={dt:g}", variant)
+    if name == "stance":
+        for label, stab in (
+            ("no stabilisation", Stabilisation()),
+            ("baumgarte 20 dt", Stabilisation(baumgarte=20.0)),
+            ("projection", Stabilisation(projection=True)),
+        ):
             for dt in dts:
-                add("rk4, no Coriolis terms", f"dt={dt:g}",
-                    scene.replace(integrator="rk4", dt=dt, effects=no_coriolis))  # fmt: skip
+                variant = scene.replace(integrator="semi_implicit_euler", dt=dt, stabilisation=stab)
+                add(f"semi-implicit, {label}", f"dt={dt:g}", variant)
+        no_coriolis = Effects(**(vars(scene.effects) | {"coriolis": False}))
+        for dt in dts:
+            add("rk4, no Coriolis terms", f"dt={dt:g}",
+                scene.replace(integrator="rk4", dt=dt, effects=no_coriolis))  # fmt: skip
+    return rows, convergence
 
-    walk_rows, convergence["walk"], walk_ref = _walking_rows(h, dts, tols)
-    rows += walk_rows
-    fall_rows, fall_convergence = _fall_rows(h, quick)
-    rows += fall_rows
-    convergence |= fall_convergence
 
+def _write_results(out: str | Path, rows: list[Row], convergence: dict) -> Path:
+    """accuracy.csv, convergence.csv and a work-precision PNG per scene written in ``out``."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     with open(folder / "accuracy.csv", "w", newline="") as fh:
@@ -205,6 +196,27 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
           "with the same 2 ms tick; final state):",
           ", ".join(f"{k} {v:.1e}" for k, v in convergence.items()))  # fmt: skip
     print(f"wrote {folder / 'accuracy.csv'}, convergence.csv and accuracy_<scene>.png")
+    return folder
+
+
+def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
+    """Run the sweeps, write accuracy.csv and one work-precision PNG per scene."""
+    h = load_male()
+    dts = (4e-3, 2e-3, 1e-3) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4)
+    tols = (1e-3, 1e-5, 1e-7) if quick else (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
+    rows: list[Row] = []
+    convergence = {}
+    for name, scene in _scenes(quick).items():
+        scene_rows, convergence[name] = _scene_rows(h, name, scene, dts, tols)
+        rows += scene_rows
+
+    walk_rows, convergence["walk"], walk_ref = _walking_rows(h, dts, tols)
+    rows += walk_rows
+    fall_rows, fall_convergence = _fall_rows(h, quick)
+    rows += fall_rows
+    convergence |= fall_convergence
+
+    folder = _write_results(out, rows, convergence)
     try:
         import mujoco  # noqa: F401 - an optional extra
     except ImportError:

@@ -94,6 +94,13 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
     head, sep, motion = text.partition("MOTION")
     if not sep or "HIERARCHY" not in head:
         raise MotionFileError(f"{path}: not a BVH file (HIERARCHY ... MOTION)")
+    joints = _hierarchy(path, head)
+    frame_time, values = _motion(path, motion, joints)
+    return joints, frame_time, values
+
+
+def _hierarchy(path: Path, head: str) -> list[BvhJoint]:
+    """The joints of a BVH file's HIERARCHY section (``head``: the text before MOTION)."""
     joints: list[BvhJoint] = []
     stack: list[int] = []
     tokens = list(_tokens(head))
@@ -162,6 +169,11 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
             i += 1  # HIERARCHY and anything unknown
     if not joints:
         raise MotionFileError(f"{path}: no joints in the hierarchy")
+    return joints
+
+
+def _motion(path: Path, motion: str, joints: list[BvhJoint]) -> tuple[float, np.ndarray]:
+    """(frame time [s], channel values (frames, channels)) of a BVH file's MOTION section."""
     lines = motion.strip().splitlines()
     frames, frame_time, start = None, None, 0
     for k, line in enumerate(lines):
@@ -202,7 +214,7 @@ def parse_bvh(path: str | Path) -> tuple[list[BvhJoint], float, np.ndarray]:
                               f"finite number of at most {MAX_VALUE:g}")  # fmt: skip
     if len(rows) != frames:
         raise MotionFileError(f"{path}: 'Frames: {frames}' but {len(rows)} rows")
-    return joints, frame_time, values
+    return frame_time, values
 
 
 def _positions(joints, values) -> np.ndarray:

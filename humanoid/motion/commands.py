@@ -208,19 +208,97 @@ def moments_figure(path, table, mass: float, title: str = "", residual=None) -> 
     return _save(fig, path, title)
 
 
+def _estimated_loads(h, t, q, loads, cutoff, args):
+    """``id`` without force plates (or ``--estimate-loads``): the feet's ground forces estimated
+    on the floor fitted to the motion; (loads, floor, its line, estimate vs measured rows)."""
+    from .floor import fit_floor
+    from .inverse_dynamics import derivatives, estimate_loads, lowpass
+
+    compared = []
+    floor = None
+    start = clock.perf_counter()
+    d = derivatives(h.model, t, q, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
+    try:  # the floor as it is: the loads are estimated on it
+        floor = fit_floor(h, d[0], d[1])
+        floor_line = floor.summary()
+    except HumanoidError as exc:
+        floor_line = f"not fitted ({exc}): the plane of the lowest sole point"
+    estimated = estimate_loads(h, *d, floor=floor)
+    for x in estimated:
+        measured = [m for m in loads if m.body == x.body]
+        if measured:
+            fz = np.interp(x.time, measured[0].time, measured[0].force[:, 2])
+            if cutoff is not None:
+                fz = lowpass(fz, 1.0 / (x.time[1] - x.time[0]), cutoff)
+            compared.append((x.body, float(np.sqrt(np.mean((x.force[:, 2] - fz) ** 2))),
+                             float(fz.max()), float(x.force[:, 2].max())))  # fmt: skip
+    print(f"estimated    the feet's ground forces in {clock.perf_counter() - start:.2f} s "
+          "(no force plates, or --estimate-loads)")  # fmt: skip
+    return estimated, floor, floor_line, compared
+
+
+def _print_id_input(r, h, what, cmap, shown, loads, floor_line, left_out, reduced, compared):
+    """``id``'s summary of what went in: the body, motion, loads, floor and their changes."""
+    print(f"body         {what}, map {cmap.name}")
+    print(f"motion       {len(r.time)} frames at {1.0 / (r.time[1] - r.time[0]):.1f} Hz, "
+          f"{r.time[0]:.3f}-{r.time[-1]:.3f} s, "
+          f"filter {'none' if shown is None else f'{shown:g} Hz'}")  # fmt: skip
+    names = ", ".join(f"{x.body} ({x.name or 'run'})" for x in loads) or "none"
+    print(f"loads        {names}")
+    if floor_line:
+        print(f"floor        {floor_line}")
+    if left_out:
+        print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
+    for line in reduced or []:
+        print(f"reduced      {line}")
+    weight = h.mass * 9.81
+    for side, t0, t1, dx, dy in r.carried:
+        print(f"carried      {side} load {t0:.2f}-{t1:.2f} s by ({dx * 1e3:+.0f}, "
+              f"{dy * 1e3:+.0f}) mm with the foot")  # fmt: skip
+    for side, rms, peak_m, peak_e in compared:
+        print(f"estimate vs measured, {side}: vertical force RMS difference "
+              f"{rms / weight:.3f} BW (peaks {peak_m / weight:.2f} measured, "
+              f"{peak_e / weight:.2f} estimated)")  # fmt: skip
+
+
+def _print_id_moments(r, table, mass: float) -> None:
+    """``id``'s summary of what came out: the flexion moments' peaks and the root residuals."""
+    weight = mass * 9.81
+    for coord in _FLEXION:
+        peaks = []
+        for side in "rl":
+            label = f"{coord}_{side}_moment"
+            if label in table:
+                x = table.column(label) / mass
+                peaks.append(f"{side} {x.min():+.2f}/{x.max():+.2f}")
+        if peaks:
+            print(f"{coord + '_moment':26s} N m/kg min/max: {', '.join(peaks)}")
+    rf = np.linalg.norm(r.residual_force, axis=1)
+    rm = np.linalg.norm(r.residual_moment, axis=1)
+    print(f"root residual force   RMS {np.sqrt(np.mean(rf**2)):.1f} N "
+          f"({np.sqrt(np.mean(rf**2)) / weight * 100:.1f} % BW), max {rf.max():.1f} N")  # fmt: skip
+    print(f"root residual moment  RMS {np.sqrt(np.mean(rm**2)):.1f} N m, max {rm.max():.1f} N m")
+
+
+def _id_html(args, h, r) -> None:
+    """``id --html``: the motion in the viewer with its ground loads."""
+    from ..trajectory import Trajectory
+    from ..viewer import export_html
+
+    n = len(r.time)
+    ground = sum(r.loads.values()) if r.loads else np.zeros((n, 6))
+    traj = Trajectory(r.time, r.q, r.v, r.tau, {"ground": np.asarray(ground)}, np.zeros(n),
+                      np.zeros(n), {"model": h.source, "status": "completed"})  # fmt: skip
+    print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse dynamics')}")
+
+
 def run_id(args) -> int:
     """``humanoid id``: inverse dynamics of a motion, written as OpenSim names it."""
     import warnings
 
     from .coordinates import generalized_forces_table
-    from .floor import ResidualWarning, fit_floor, residual_check
-    from .inverse_dynamics import (
-        derivatives,
-        estimate_loads,
-        inverse_dynamics,
-        lowpass,
-        recorded_feet,
-    )
+    from .floor import ResidualWarning, residual_check
+    from .inverse_dynamics import inverse_dynamics, recorded_feet
     from .storage import write_csv, write_storage
 
     cutoff = None if args.cutoff is not None and args.cutoff <= 0 else args.cutoff
@@ -231,25 +309,7 @@ def run_id(args) -> int:
     compared = []
     floor = floor_line = None
     if args.estimate_loads or not loads:
-        start = clock.perf_counter()
-        d = derivatives(h.model, t, q, cutoff=cutoff, rate=args.rate, velocity=args.velocity)
-        try:  # the floor as it is: the loads are estimated on it
-            floor = fit_floor(h, d[0], d[1])
-            floor_line = floor.summary()
-        except HumanoidError as exc:
-            floor_line = f"not fitted ({exc}): the plane of the lowest sole point"
-        estimated = estimate_loads(h, *d, floor=floor)
-        for x in estimated:
-            measured = [m for m in loads if m.body == x.body]
-            if measured:
-                fz = np.interp(x.time, measured[0].time, measured[0].force[:, 2])
-                if cutoff is not None:
-                    fz = lowpass(fz, 1.0 / (x.time[1] - x.time[0]), cutoff)
-                compared.append((x.body, float(np.sqrt(np.mean((x.force[:, 2] - fz) ** 2))),
-                                 float(fz.max()), float(x.force[:, 2].max())))  # fmt: skip
-        loads = estimated
-        print(f"estimated    the feet's ground forces in {clock.perf_counter() - start:.2f} s "
-              "(no force plates, or --estimate-loads)")  # fmt: skip
+        loads, floor, floor_line, compared = _estimated_loads(h, t, q, loads, cutoff, args)
     feet = None
     if args.markers:  # where the recorded feet were: carry the loads with the body's feet
         chosen, recorded = marker_set_of(h, markers_file(args.markers, args), args.marker_set,
@@ -273,40 +333,8 @@ def run_id(args) -> int:
                    (r.time, r.residual_force, r.residual_moment))  # fmt: skip
     weight = h.mass * 9.81
     n = len(r.time)
-    print(f"body         {what}, map {cmap.name}")
-    print(f"motion       {n} frames at {1.0 / (r.time[1] - r.time[0]):.1f} Hz, "
-          f"{r.time[0]:.3f}-{r.time[-1]:.3f} s, "
-          f"filter {'none' if shown is None else f'{shown:g} Hz'}")  # fmt: skip
-    names = ", ".join(f"{x.body} ({x.name or 'run'})" for x in loads) or "none"
-    print(f"loads        {names}")
-    if floor_line:
-        print(f"floor        {floor_line}")
-    if left_out:
-        print(f"left out     {', '.join(left_out)} (the body has no joint for them)")
-    for line in reduced or []:
-        print(f"reduced      {line}")
-    weight = h.mass * 9.81
-    for side, t0, t1, dx, dy in r.carried:
-        print(f"carried      {side} load {t0:.2f}-{t1:.2f} s by ({dx * 1e3:+.0f}, "
-              f"{dy * 1e3:+.0f}) mm with the foot")  # fmt: skip
-    for side, rms, peak_m, peak_e in compared:
-        print(f"estimate vs measured, {side}: vertical force RMS difference "
-              f"{rms / weight:.3f} BW (peaks {peak_m / weight:.2f} measured, "
-              f"{peak_e / weight:.2f} estimated)")  # fmt: skip
-    for coord in _FLEXION:
-        peaks = []
-        for side in "rl":
-            label = f"{coord}_{side}_moment"
-            if label in table:
-                x = table.column(label) / h.mass
-                peaks.append(f"{side} {x.min():+.2f}/{x.max():+.2f}")
-        if peaks:
-            print(f"{coord + '_moment':26s} N m/kg min/max: {', '.join(peaks)}")
-    rf = np.linalg.norm(r.residual_force, axis=1)
-    rm = np.linalg.norm(r.residual_moment, axis=1)
-    print(f"root residual force   RMS {np.sqrt(np.mean(rf**2)):.1f} N "
-          f"({np.sqrt(np.mean(rf**2)) / weight * 100:.1f} % BW), max {rf.max():.1f} N")  # fmt: skip
-    print(f"root residual moment  RMS {np.sqrt(np.mean(rm**2)):.1f} N m, max {rm.max():.1f} N m")
+    _print_id_input(r, h, what, cmap, shown, loads, floor_line, left_out, reduced, compared)
+    _print_id_moments(r, table, h.mass)
     warning = residual_check(r.time, r.residual_force, weight, loads, floor)
     if warning:
         warnings.warn(warning, ResidualWarning, stacklevel=2)
@@ -314,13 +342,7 @@ def run_id(args) -> int:
     print(f"wrote        {written}")
     print(f"figure       {figure}")
     if args.html:
-        from ..trajectory import Trajectory
-        from ..viewer import export_html
-
-        ground = sum(r.loads.values()) if r.loads else np.zeros((n, 6))
-        traj = Trajectory(r.time, r.q, r.v, r.tau, {"ground": np.asarray(ground)}, np.zeros(n),
-                          np.zeros(n), {"model": h.source, "status": "completed"})  # fmt: skip
-        print(f"viewer       {export_html(h, args.html, traj=traj, title='inverse dynamics')}")
+        _id_html(args, h, r)
     return 0
 
 
@@ -521,24 +543,31 @@ def run_ik(args) -> int:
     residual_figure(figure, r, f"{Path(args.markers).name}: {what}")
     print(f"figure       {figure}")
     if args.html:
-        from ..trajectory import Trajectory
-        from ..viewer import HiddenMarkerWarning, export_html
-
-        n = len(r.time)
-        zeros = np.zeros((n, h.nv))
-        traj = Trajectory(r.time, r.q, zeros, zeros, {}, np.zeros(n), np.zeros(n),
-                          {"model": h.source, "status": "completed"})  # fmt: skip
-        if cameras:  # the keypoints as the cameras see them together
-            from .cameras import triangulate
-
-            markers = triangulate(markers, cameras)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", HiddenMarkerWarning)
-            page = export_html(h, args.html, traj=traj, title="inverse kinematics",
-                               markers=markers, marker_set=r.marker_set or marker_set)  # fmt: skip
-        print(f"viewer       {page} (the markers: measured, fitted, residuals)")
-        _print_hidden(caught)
+        _ik_html(args, h, r, markers, cameras, marker_set)
     return 0
+
+
+def _ik_html(args, h, r, markers, cameras, marker_set) -> None:
+    """``ik --html``: the fitted motion in the viewer with the markers measured and fitted."""
+    import warnings
+
+    from ..trajectory import Trajectory
+    from ..viewer import HiddenMarkerWarning, export_html
+
+    n = len(r.time)
+    zeros = np.zeros((n, h.nv))
+    traj = Trajectory(r.time, r.q, zeros, zeros, {}, np.zeros(n), np.zeros(n),
+                      {"model": h.source, "status": "completed"})  # fmt: skip
+    if cameras:  # the keypoints as the cameras see them together
+        from .cameras import triangulate
+
+        markers = triangulate(markers, cameras)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", HiddenMarkerWarning)
+        page = export_html(h, args.html, traj=traj, title="inverse kinematics",
+                           markers=markers, marker_set=r.marker_set or marker_set)  # fmt: skip
+    print(f"viewer       {page} (the markers: measured, fitted, residuals)")
+    _print_hidden(caught)
 
 
 def _said(caught, categories) -> list[str]:
@@ -598,89 +627,63 @@ def residual_figure(path, r, title: str = "") -> Path:
     return _save(fig, path, title)
 
 
-def run_track(args) -> int:
-    """``humanoid track``: a motion followed in forward simulation, by joint torques."""
-    from .inverse_dynamics import joint_labels
-    from .tracking import (
-        LOST_ANGLE,
-        LOST_POSITION,
-        ReferenceRangeWarning,
-        describe_clamped,
-        inside_ranges,
-        lost_at,
-        track,
-    )
+def _tracking_input(args):
+    """The motion to track: fitted to a recording (printing the fit's residuals) or read.
 
+    Returns (body, what, time, q, loads, (markers, marker set) of a recording or None)."""
     suffix = Path(args.motion).suffix.lower()
     fitted = suffix in (".trc", ".c3d", ".bvh", ".npy") or (suffix == ".npz" and args.layout)
-    if fitted or args.calibration:
-        from .ik import inverse_kinematics
-
-        markers, cameras, h, what, marker_set, register, static = fit_input(args, args.motion)
-        fit = inverse_kinematics(h, markers, marker_set, static=static, cameras=cameras,
-                                 register=register or static is not None)  # fmt: skip
-        t, q, loads = fit.time, fit.q, []
-        if cameras:  # the keypoints as the cameras see them together
-            from .cameras import triangulate
-
-            markers = triangulate(markers, cameras)
-        recording = (markers, fit.marker_set or marker_set)
-        print(f"ik           {len(fit.names)} markers, residual RMS per frame "
-              f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
-        if fit.pixels is not None:
-            print(f"reprojected  RMS {np.sqrt(np.nanmean(fit.pixels**2)):.1f} px")
-        if fit.depth is not None:
-            print(f"depth        {fit.depth.summary()}")
-    else:
+    if not (fitted or args.calibration):
         h, what, t, q, loads, _, _ = read_motion(args)
-        recording = None
-    cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
-    q, clamped = inside_ranges(h, q)  # (before the reduction: it makes them consistent)
-    floor, floor_line = _tracking_floor(h, t, q, getattr(args, "floor", "auto"))
+        return h, what, t, q, loads, None
+    from .ik import inverse_kinematics
+
+    markers, cameras, h, what, marker_set, register, static = fit_input(args, args.motion)
+    fit = inverse_kinematics(h, markers, marker_set, static=static, cameras=cameras,
+                             register=register or static is not None)  # fmt: skip
+    if cameras:  # the keypoints as the cameras see them together
+        from .cameras import triangulate
+
+        markers = triangulate(markers, cameras)
+    print(f"ik           {len(fit.names)} markers, residual RMS per frame "
+          f"{np.nanmean(fit.frame_rms()) * 1e3:.1f} mm")  # fmt: skip
+    if fit.pixels is not None:
+        print(f"reprojected  RMS {np.sqrt(np.nanmean(fit.pixels**2)):.1f} px")
+    if fit.depth is not None:
+        print(f"depth        {fit.depth.summary()}")
+    return h, what, fit.time, fit.q, [], (markers, fit.marker_set or marker_set)
+
+
+def _reduced_to_track(h, t, q, loads, floor, args):
+    """``track --reduce``: the motion made consistent with its loads (measured, or estimated
+    on the floor where they miss stances); (time, q, the lines that say how)."""
+    from .inverse_dynamics import derivatives, estimate_loads
+
     reduced = []
-    if getattr(args, "reduce", False):
-        from .inverse_dynamics import derivatives, estimate_loads
+    d = derivatives(h.model, t, q)
+    share = _covered(h, d, loads, floor) if loads else 0.0
+    if share < 0.95:  # (plates that miss steps: the reduction needs every stance's load)
+        if loads:
+            reduced.append(f"the loads cover {share * 100:.0f} % of the stances: the "
+                           "reduction's are estimated on the floor")  # fmt: skip
+        loads = estimate_loads(h, *d, floor=floor)
+    _, t, q, _, lines = _reduced(h, t, q, loads, 6.0, args)
+    return t, q, reduced + lines
 
-        given = loads
-        d = derivatives(h.model, t, q)
-        share = _covered(h, d, loads, floor) if loads else 0.0
-        if share < 0.95:  # (plates that miss steps: the reduction needs every stance's load)
-            if loads:
-                reduced.append(f"the loads cover {share * 100:.0f} % of the stances: the "
-                               "reduction's are estimated on the floor")  # fmt: skip
-            loads = estimate_loads(h, *d, floor=floor)
-        _, t, q, _, lines = _reduced(h, t, q, loads, 6.0, args)
-        reduced += lines
-        loads = given  # (measured loads tell the contacts; estimated ones are the motion's)
-    import warnings
 
-    with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
-        warnings.simplefilter("always", ReferenceRangeWarning)
-        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor,
-                    toes=getattr(args, "free_toes", False))  # fmt: skip
-    again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
-    assert res.body is not None  # track() returns the body it tracked with
-    h = res.body  # (its toes locked unless --toes)
-    traj = res.trajectory
-    path = traj.save(args.output)
+def _print_tracked(res, cutoff, frames: int, labels) -> None:
+    """The tracking run's summary: its reference, status, speed, errors and ground forces."""
+    from .tracking import LOST_ANGLE, LOST_POSITION, describe_clamped, lost_at
+
+    traj, mass = res.trajectory, res.body.mass
     meta = traj.metadata
     err = res.joint_error
-    labels = joint_labels(h.model)
     rms = np.sqrt(np.mean(err[:, 6:] ** 2, axis=0))
     worst = np.argsort(-rms)[:5]
     sim_time = float(traj.t[-1]) if len(traj.t) else 0.0
-    print(f"body         {what}")
-    print(f"floor        {floor_line}")
-    if clamped:
-        print(f"ranges       the motion clamped into the joint ranges: "
-              f"{describe_clamped(clamped, len(q))}")  # fmt: skip
-    for line in reduced:
-        print(f"reduced      {line}")
-    for line in again:
-        print(f"ranges       clamped again (the reduced motion): {line}")
     if res.toes:
         print(f"toes         the reference's turned onto the floor: "
-              f"{describe_clamped(res.toes, len(q))}")  # fmt: skip
+              f"{describe_clamped(res.toes, frames)}")  # fmt: skip
     print("reference    filter " + ("none" if res.cutoff is None else f"{res.cutoff:g} Hz")
           + (" (Winter's residual analysis)" if cutoff == "auto" else ""))  # fmt: skip
     print(
@@ -702,7 +705,65 @@ def run_track(args) -> int:
     for s in ("left", "right"):
         fz = traj.forces.get(f"ground_{s}")
         if fz is not None and len(fz):
-            print(f"ground {s:5s} peak vertical force {fz[:, 2].max() / (h.mass * 9.81):.2f} BW")
+            print(f"ground {s:5s} peak vertical force {fz[:, 2].max() / (mass * 9.81):.2f} BW")
+
+
+def _tracked_html(args, h, traj, recording, t) -> None:
+    """``track --html``: the run in the viewer, with the recording's markers if it has them."""
+    import warnings
+
+    from ..viewer import HiddenMarkerWarning, export_html
+
+    markers = marker_set = None
+    if recording is not None:  # on the run's clock, which starts at 0
+        from .markers import MarkerTrajectories
+
+        measured, marker_set = recording
+        markers = MarkerTrajectories(measured.time - t[0], measured.names,
+                                     measured.positions, measured.source)  # fmt: skip
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", HiddenMarkerWarning)
+        page = export_html(h, args.html, traj=traj, title="tracked motion",
+                           markers=markers, marker_set=marker_set)  # fmt: skip
+    print(f"viewer       {page}")
+    _print_hidden(caught)
+
+
+def run_track(args) -> int:
+    """``humanoid track``: a motion followed in forward simulation, by joint torques."""
+    from .inverse_dynamics import joint_labels
+    from .tracking import ReferenceRangeWarning, describe_clamped, inside_ranges, track
+
+    h, what, t, q, loads, recording = _tracking_input(args)
+    cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
+    q, clamped = inside_ranges(h, q)  # (before the reduction: it makes them consistent)
+    floor, floor_line = _tracking_floor(h, t, q, getattr(args, "floor", "auto"))
+    reduced = []
+    if getattr(args, "reduce", False):
+        # (measured loads tell the contacts; estimated ones are the motion's: ``loads`` kept)
+        t, q, reduced = _reduced_to_track(h, t, q, loads, floor, args)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
+        warnings.simplefilter("always", ReferenceRangeWarning)
+        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor,
+                    toes=getattr(args, "free_toes", False))  # fmt: skip
+    again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
+    assert res.body is not None  # track() returns the body it tracked with
+    h = res.body  # (its toes locked unless --toes)
+    traj = res.trajectory
+    path = traj.save(args.output)
+    labels = joint_labels(h.model)
+    print(f"body         {what}")
+    print(f"floor        {floor_line}")
+    if clamped:
+        print(f"ranges       the motion clamped into the joint ranges: "
+              f"{describe_clamped(clamped, len(q))}")  # fmt: skip
+    for line in reduced:
+        print(f"reduced      {line}")
+    for line in again:
+        print(f"ranges       clamped again (the reduced motion): {line}")
+    _print_tracked(res, cutoff, len(q), labels)
     print(f"saved        {path}")
     if args.mot:
         from .export import write_opensim
@@ -713,23 +774,7 @@ def run_track(args) -> int:
     tracking_figure(figure, res, labels, h.mass, f"{Path(args.motion).name}: {what}")
     print(f"figure       {figure}")
     if args.html:
-        import warnings
-
-        from ..viewer import HiddenMarkerWarning, export_html
-
-        markers = marker_set = None
-        if recording is not None:  # on the run's clock, which starts at 0
-            from .markers import MarkerTrajectories
-
-            measured, marker_set = recording
-            markers = MarkerTrajectories(measured.time - t[0], measured.names,
-                                         measured.positions, measured.source)  # fmt: skip
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", HiddenMarkerWarning)
-            page = export_html(h, args.html, traj=traj, title="tracked motion",
-                               markers=markers, marker_set=marker_set)  # fmt: skip
-        print(f"viewer       {page}")
-        _print_hidden(caught)
+        _tracked_html(args, h, traj, recording, t)
     return 0 if res.completed else 3
 
 
@@ -887,6 +932,26 @@ def _scale_mass(args, markers, marker_set) -> tuple[float, str]:
                     f"the pelvis markers' change of vertical speed: {stances}")  # fmt: skip
 
 
+def _print_scale_fits(r) -> None:
+    """``scale``'s marker residuals: the unscaled, scaled and placed fits, overall and by
+    segment, and the markers placing moved furthest."""
+    print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the {r.mode} "
+          "trial's frames")  # fmt: skip
+    for fit in ("unscaled", "scaled", "placed"):
+        worst = max(r.fits[fit].marker_rms().items(), key=lambda kv: kv[1])
+        print(f"{fit:13s}{r.rms(fit) * 1e3:9.1f}{r.max(fit) * 1e3:9.1f}  worst {worst[0]} "
+              f"{worst[1] * 1e3:.1f} mm RMS")  # fmt: skip
+    groups = segment_groups(r.fits["placed"].names, r.marker_set)
+    print(f"{'by segment':13s}" + "".join(f"{g:>10s}" for g in groups) + "  RMS [mm]")
+    for fit in ("unscaled", "scaled", "placed"):
+        print(f"{fit:13s}" + "".join(f"{group_rms(r.fits[fit], n) * 1e3:10.1f}"
+                                     for n in groups.values()))  # fmt: skip
+    if r.moved:
+        far = sorted(r.moved.items(), key=lambda kv: -kv[1])[:3]
+        print(f"moved        {len(r.moved)} markers placed; furthest "
+              + ", ".join(f"{k} {v * 1e3:.1f} mm" for k, v in far))  # fmt: skip
+
+
 def run_scale(args) -> int:
     """``humanoid scale``: a body scaled to the subject of a static trial, written as a URDF
     with its placed marker set next to it (``<name>_markers.toml``)."""
@@ -948,21 +1013,7 @@ def run_scale(args) -> int:
         why = f"  not measured: {'closes the chain' if closes else 'stature scaling'}"
         why = why if k in r.unmeasured else ""
         print(f"{k:13s}{a:9.4f}{b:9.4f}{why}")
-    print(f"{'markers':13s}{'RMS':>9s}{'max':>9s}  [mm], the body fitted to the {r.mode} "
-          "trial's frames")  # fmt: skip
-    for fit in ("unscaled", "scaled", "placed"):
-        worst = max(r.fits[fit].marker_rms().items(), key=lambda kv: kv[1])
-        print(f"{fit:13s}{r.rms(fit) * 1e3:9.1f}{r.max(fit) * 1e3:9.1f}  worst {worst[0]} "
-              f"{worst[1] * 1e3:.1f} mm RMS")  # fmt: skip
-    groups = segment_groups(r.fits["placed"].names, r.marker_set)
-    print(f"{'by segment':13s}" + "".join(f"{g:>10s}" for g in groups) + "  RMS [mm]")
-    for fit in ("unscaled", "scaled", "placed"):
-        print(f"{fit:13s}" + "".join(f"{group_rms(r.fits[fit], n) * 1e3:10.1f}"
-                                     for n in groups.values()))  # fmt: skip
-    if r.moved:
-        far = sorted(r.moved.items(), key=lambda kv: -kv[1])[:3]
-        print(f"moved        {len(r.moved)} markers placed; furthest "
-              + ", ".join(f"{k} {v * 1e3:.1f} mm" for k, v in far))  # fmt: skip
+    _print_scale_fits(r)
     for message in _said(caught, ScaleWarning):
         print(f"warning      {message}")
     print(f"time         {elapsed:.2f} s")

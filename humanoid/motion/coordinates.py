@@ -374,6 +374,44 @@ def _set_rotation(model, q, joint: int, R: np.ndarray) -> None:
         )
 
 
+def _set_joints(h, table: Table, cmap: CoordinateMap, cols: dict, q: np.ndarray, scale: float,
+                in_degrees: bool) -> set[str]:  # fmt: skip
+    """The joints' rows of q set from the map's columns [rad after ``scale``] (the map's extras
+    the file and the body both have too); the columns used, the root's included."""
+    model, n = h.model, len(q)
+    used = set(cmap.root.rotation) | set(cmap.root.translation)
+    extras = {
+        j.joints[0]: j
+        for j in cmap.extras  # a body without toes skips mtp_angle
+        if all(c in cols for c in j.columns) and all(map(model.existJointName, j.joints))
+    }
+    for jm in (*cmap.joints, *extras.values()):
+        present = [c in cols for c in jm.columns]
+        if not any(present):
+            continue
+        if not all(present):
+            missing = [c for c, p in zip(jm.columns, present, strict=True) if not p]
+            raise MotionFileError(f"{table.source}: {jm.joints} needs {missing} too")
+        used |= set(jm.columns)
+        for c in jm.columns:
+            _check_angle(table, c, cols[c] * scale, in_degrees)
+        ids = [_joint(model, name) for name in jm.joints]
+        if "thoracic" in extras and len(ids) > 1 and "thoracic" in jm.joints:
+            ids = ids[:1]  # the file has the thoracic's own: lumbar_* is the lumbar's alone
+        values = np.column_stack([cols[c] for c in jm.columns]) * scale
+        if jm.ball:
+            for i in range(n):
+                R = _sequence(values[i], jm.axes)
+                if len(ids) > 1:  # split equally along the rotation
+                    R = pin.exp3(pin.log3(R) / len(ids))
+                for j in ids:
+                    _set_rotation(model, q[i], j, R)
+        else:
+            for j, s in zip(ids, jm.signs, strict=False):
+                q[:, model.joints[j].idx_q] = s * values[:, 0]
+    return used
+
+
 def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor: bool = True,
                    degrees: bool | None = None) -> tuple[np.ndarray, np.ndarray, list]:  # fmt: skip
     """The body's configurations over a coordinate file's times.
@@ -413,36 +451,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
             _joint(model, name)
     n = len(table.time)
     q = np.tile(h.standing_configuration(), (n, 1))
-    used = set(cmap.root.rotation) | set(cmap.root.translation)
-    extras = {
-        j.joints[0]: j
-        for j in cmap.extras  # a body without toes skips mtp_angle
-        if all(c in cols for c in j.columns) and all(map(model.existJointName, j.joints))
-    }
-    for jm in (*cmap.joints, *extras.values()):
-        present = [c in cols for c in jm.columns]
-        if not any(present):
-            continue
-        if not all(present):
-            missing = [c for c, p in zip(jm.columns, present, strict=True) if not p]
-            raise MotionFileError(f"{table.source}: {jm.joints} needs {missing} too")
-        used |= set(jm.columns)
-        for c in jm.columns:
-            _check_angle(table, c, cols[c] * scale, in_degrees)
-        ids = [_joint(model, name) for name in jm.joints]
-        if "thoracic" in extras and len(ids) > 1 and "thoracic" in jm.joints:
-            ids = ids[:1]  # the file has the thoracic's own: lumbar_* is the lumbar's alone
-        values = np.column_stack([cols[c] for c in jm.columns]) * scale
-        if jm.ball:
-            for i in range(n):
-                R = _sequence(values[i], jm.axes)
-                if len(ids) > 1:  # split equally along the rotation
-                    R = pin.exp3(pin.log3(R) / len(ids))
-                for j in ids:
-                    _set_rotation(model, q[i], j, R)
-        else:
-            for j, s in zip(ids, jm.signs, strict=False):
-                q[:, model.joints[j].idx_q] = s * values[:, 0]
+    used = _set_joints(h, table, cmap, cols, q, scale, in_degrees)
     for c in sorted(used):
         gaps = np.flatnonzero(np.isnan(cols[c]))
         if gaps.size:

@@ -156,6 +156,12 @@ class MarkerTrajectories:
 _SIDE = {"R": "right", "L": "left"}
 _JOINTS = {"hip": "hip", "knee": "knee", "ankle": "ankle_flexion", "shoulder": "shoulder",
            "elbow": "elbow", "wrist": "wrist_flexion"}  # fmt: skip
+# the frames the default marker set is placed on: a toolkit body's (humanoid build)
+_DEFAULT_FRAMES = ["pelvis", "thorax", "head", "neck"] + [
+    f"{s}_{x}" for s in ("left", "right")
+    for x in ("hip", "knee", "ankle_flexion", "shoulder", "elbow", "wrist_flexion", "thigh",
+              "shank", "foot", "upper_arm", "forearm", "hand", "sole")
+]  # fmt: skip
 LANDMARKS = Path(__file__).resolve().parent.parent / "data" / "markers" / "default.toml"
 
 
@@ -218,60 +224,39 @@ def landmark_names(path: str | Path = LANDMARKS) -> list[str]:
     return out
 
 
-def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
-    """The default marker set of a toolkit body (see the module docstring), or another set of
-    landmarks written as ``default.toml`` is (``landmarks``: its file, as
-    ``data/markers/plugin_gait.toml``; its optional ``names`` the sided markers' name format,
-    default ``"{side}.{name}"``; a landmark's ``sides`` true, false, or ``"left"`` or
-    ``"right"`` for one side's marker only; its ``name`` if not its key).
+class _Placer:
+    """Markers placed on a body standing: points of the world [m] as offsets in its frames."""
 
-    Raises:
-        MarkerSetError: the body is not one of the toolkit's (its frames have other names); a
-            landmark file that cannot be read (naming it and the landmark).
-    """
-    model = h.model
-    needed = ["pelvis", "thorax", "head", "neck"] + [
-        f"{s}_{x}" for s in ("left", "right")
-        for x in ("hip", "knee", "ankle_flexion", "shoulder", "elbow", "wrist_flexion", "thigh",
-                  "shank", "foot", "upper_arm", "forearm", "hand", "sole")
-    ]  # fmt: skip
-    missing = [n for n in needed if not model.existFrame(n)]
-    if missing:
-        raise MarkerSetError(
-            f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
-            f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
-        )
-    path = Path(landmarks)
-    names, table = _landmarks(path)
-    data = model.createData()
-    q0 = h.standing_configuration()
-    pin.framesForwardKinematics(model, data, q0)
+    def __init__(self, h, path: Path):
+        self.model, self.path = h.model, path
+        self.data = self.model.createData()
+        q0 = h.standing_configuration()
+        pin.framesForwardKinematics(self.model, self.data, q0)
+        self.out: dict[str, Marker] = {}
 
-    def at(name):
-        if not model.existFrame(name):
+    def at(self, name):
+        """The placement of frame ``name`` in the standing pose."""
+        if not self.model.existFrame(name):
             raise MarkerSetError(
-                f"{path}: no point {name!r} to place a landmark from (hip, knee, "
+                f"{self.path}: no point {name!r} to place a landmark from (hip, knee, "
                 "ankle, shoulder, elbow, wrist, neck, root, heel, toe)"
             )
-        return data.oMf[model.getFrameId(name)]
+        return self.data.oMf[self.model.getFrameId(name)]
 
-    scale = abs(at("left_hip").translation[1] - at("right_hip").translation[1]) / 0.16
-    out = {}
+    def attach(self, marker, frame, world, weight=1.0, anatomical=True):
+        """Marker ``marker`` on ``frame``, at the point ``world`` of the standing pose."""
+        if not self.model.existFrame(frame):
+            raise MarkerSetError(f"{self.path}: {marker}: the body has no frame {frame!r} "
+                                 "(pelvis, thigh, shank, foot, toes, thorax, upper_arm, "
+                                 "forearm, hand, head)")  # fmt: skip
+        offset = self.at(frame).actInv(np.asarray(world, dtype=float))
+        self.out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
-    def attach(marker, frame, world, weight=1.0, anatomical=True):
-        if not model.existFrame(frame):
-            raise MarkerSetError(f"{path}: {marker}: the body has no frame {frame!r} (pelvis, "
-                                 "thigh, shank, foot, toes, thorax, upper_arm, forearm, hand, "
-                                 "head)")  # fmt: skip
-        offset = at(frame).actInv(np.asarray(world, dtype=float))
-        out[marker] = Marker(frame, tuple(float(x) for x in offset), weight, anatomical)
 
-    out["pelvis"] = Marker("pelvis", (0.0, 0.0, 0.0))
-    for s in ("left", "right"):
-        for name, joint in _JOINTS.items():
-            attach(f"{s}_{name}", f"{s}_{joint}", at(f"{s}_{joint}").translation)
-    attach("neck", "neck", at("neck").translation)
-    attach("head", "head", at("neck").translation + np.array([0.0, 0.0, 0.12]) * scale)
+def _place_sided(h, placer: _Placer, table: dict, names: str, scale: float) -> None:
+    """Each side's toes marker and its landmarks of ``table`` (those with ``sides``)."""
+    model = h.model
+    at, attach = placer.at, placer.attach
     sole = {s: (h.sole_points(s), at(h.model.frames[h.sole_id(s)].name)) for s in ("left", "right")}
     for letter, s in _SIDE.items():
         mirror = 1.0 if s == "left" else -1.0
@@ -296,6 +281,38 @@ def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
             marker = names.format(side=letter, name=spec.get("name", key))
             attach(marker, _body_frame(model, s, spec["frame"]), origin + d,
                    anatomical=spec.get("anatomical", True))  # fmt: skip
+
+
+def default_markers(h, landmarks: str | Path = LANDMARKS) -> dict[str, Marker]:
+    """The default marker set of a toolkit body (see the module docstring), or another set of
+    landmarks written as ``default.toml`` is (``landmarks``: its file, as
+    ``data/markers/plugin_gait.toml``; its optional ``names`` the sided markers' name format,
+    default ``"{side}.{name}"``; a landmark's ``sides`` true, false, or ``"left"`` or
+    ``"right"`` for one side's marker only; its ``name`` if not its key).
+
+    Raises:
+        MarkerSetError: the body is not one of the toolkit's (its frames have other names); a
+            landmark file that cannot be read (naming it and the landmark).
+    """
+    model = h.model
+    missing = [n for n in _DEFAULT_FRAMES if not model.existFrame(n)]
+    if missing:
+        raise MarkerSetError(
+            f"{h.source}: the default marker set is for the toolkit's bodies (humanoid build); "
+            f"this body has no {', '.join(missing[:5])}: give a marker set (TOML)"
+        )
+    path = Path(landmarks)
+    names, table = _landmarks(path)
+    placer = _Placer(h, path)
+    at, attach, out = placer.at, placer.attach, placer.out
+    scale = abs(at("left_hip").translation[1] - at("right_hip").translation[1]) / 0.16
+    out["pelvis"] = Marker("pelvis", (0.0, 0.0, 0.0))
+    for s in ("left", "right"):
+        for name, joint in _JOINTS.items():
+            attach(f"{s}_{name}", f"{s}_{joint}", at(f"{s}_{joint}").translation)
+    attach("neck", "neck", at("neck").translation)
+    attach("head", "head", at("neck").translation + np.array([0.0, 0.0, 0.12]) * scale)
+    _place_sided(h, placer, table, names, scale)
     for key, spec in table.items():
         if spec.get("sides", False) is not False:
             continue

@@ -287,6 +287,68 @@ def _text(element, tag: str) -> str:
     return text
 
 
+def _scale_setup(h, static, names: list[str], measured, mass: float) -> str:
+    """The ScaleTool's setup XML: a measurement of each of ``measured``'s pairs, scaling its
+    segments' bodies, and a MarkerPlacer task of weight 1 for each marker of ``names``."""
+    model = h.model
+    measurements = []
+    for m in measured:
+        joints = [j for j in _SCALED_JOINTS.get(m.name, ()) if model.existJointName(j)]
+        pairs = "".join(f"<MarkerPair><markers>{a} {b}</markers></MarkerPair>"
+                        for a, b, *_ in m.pairs)  # fmt: skip
+        scaled = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
+                         for j in joints)  # fmt: skip
+        measurements.append(f'<Measurement name="{m.name}"><apply>true</apply><MarkerPairSet>'
+                            f"<objects>{pairs}</objects></MarkerPairSet><BodyScaleSet><objects>"
+                            f"{scaled}</objects></BodyScaleSet></Measurement>")  # fmt: skip
+    tasks = "".join(f'<IKMarkerTask name="{n}"><apply>true</apply><weight>1</weight>'
+                    "</IKMarkerTask>" for n in names)  # fmt: skip
+    span = f"{float(static.time[0])!r} {float(static.time[-1])!r}"
+    return f"""<?xml version="1.0" encoding="UTF-8" ?>
+<OpenSimDocument Version="40000"><ScaleTool name="subject">
+<mass>{float(mass)!r}</mass>
+<GenericModelMaker><model_file>unscaled.osim</model_file></GenericModelMaker>
+<ModelScaler><apply>true</apply><scaling_order>measurements</scaling_order>
+<MeasurementSet><objects>{"".join(measurements)}</objects></MeasurementSet>
+<marker_file>static.trc</marker_file><time_range>{span}</time_range>
+<preserve_mass_distribution>true</preserve_mass_distribution>
+<output_model_file>scaled.osim</output_model_file>
+<output_scale_file>scale_factors.xml</output_scale_file></ModelScaler>
+<MarkerPlacer><apply>true</apply><IKTaskSet><objects>{tasks}</objects></IKTaskSet>
+<marker_file>static.trc</marker_file><time_range>{span}</time_range>
+<output_motion_file>static_pose.mot</output_motion_file>
+<output_model_file>placed.osim</output_model_file>
+<output_marker_file>placed_markers.xml</output_marker_file>
+<max_marker_movement>-1</max_marker_movement></MarkerPlacer>
+</ScaleTool></OpenSimDocument>
+"""
+
+
+def _placer_errors(osim, folder: Path, static, names: list[str], cols: list[int]) -> dict:
+    """Each marker's distance [m] from the trial's mean at the MarkerPlacer's static pose."""
+    # the MarkerPlacer's pose, on the scaled model with its markers not yet moved
+    scaled = osim.Model(str(folder / "scaled.osim"))
+    state = scaled.initSystem()
+    pose = osim.Storage(str(folder / "static_pose.mot"))
+    if pose.isInDegrees():
+        scaled.getSimbodyEngine().convertDegreesToRadians(pose)
+    labels = pose.getColumnLabels()
+    row = pose.getStateVector(0).getData()
+    coords = scaled.getCoordinateSet()
+    for k in range(1, labels.getSize()):  # (a coordinate's path/value, and its speed)
+        label = labels.get(k)
+        name = label.split("/")[-2] if label.endswith("/value") else label
+        if coords.contains(name):
+            coords.get(name).setValue(state, row.get(k - 1), False)
+    scaled.realizePosition(state)
+    mean = np.nanmean(static.positions[:, cols], axis=0)
+    errors = {}
+    for i, n in enumerate(names):
+        p = scaled.getMarkerSet().get(n).getLocationInGround(state)
+        errors[n] = float(np.linalg.norm(np.array([p.get(0), p.get(1), p.get(2)]) - mean[i]))
+    return errors
+
+
 def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
                       folder: str | Path) -> tuple[dict[str, float], dict[str, float]]:  # fmt: skip
     """OpenSim 4's ScaleTool on a static trial: its ModelScaler with a MeasurementSet of the
@@ -309,39 +371,8 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
     write_trc(folder / "static.trc",
               MarkerTrajectories(static.time, names, static.positions[:, cols]),
               y_up=False)  # fmt: skip
-    model = h.model
-    measurements = []
-    for m in measured:
-        joints = [j for j in _SCALED_JOINTS.get(m.name, ()) if model.existJointName(j)]
-        pairs = "".join(f"<MarkerPair><markers>{a} {b}</markers></MarkerPair>"
-                        for a, b, *_ in m.pairs)  # fmt: skip
-        scaled = "".join(f'<BodyScale name="{j}_body"><axes>X Y Z</axes></BodyScale>'
-                         for j in joints)  # fmt: skip
-        measurements.append(f'<Measurement name="{m.name}"><apply>true</apply><MarkerPairSet>'
-                            f"<objects>{pairs}</objects></MarkerPairSet><BodyScaleSet><objects>"
-                            f"{scaled}</objects></BodyScaleSet></Measurement>")  # fmt: skip
-    tasks = "".join(f'<IKMarkerTask name="{n}"><apply>true</apply><weight>1</weight>'
-                    "</IKMarkerTask>" for n in names)  # fmt: skip
-    span = f"{float(static.time[0])!r} {float(static.time[-1])!r}"
     setup = folder / "setup_scale.xml"
-    text = f"""<?xml version="1.0" encoding="UTF-8" ?>
-<OpenSimDocument Version="40000"><ScaleTool name="subject">
-<mass>{float(mass)!r}</mass>
-<GenericModelMaker><model_file>unscaled.osim</model_file></GenericModelMaker>
-<ModelScaler><apply>true</apply><scaling_order>measurements</scaling_order>
-<MeasurementSet><objects>{"".join(measurements)}</objects></MeasurementSet>
-<marker_file>static.trc</marker_file><time_range>{span}</time_range>
-<preserve_mass_distribution>true</preserve_mass_distribution>
-<output_model_file>scaled.osim</output_model_file>
-<output_scale_file>scale_factors.xml</output_scale_file></ModelScaler>
-<MarkerPlacer><apply>true</apply><IKTaskSet><objects>{tasks}</objects></IKTaskSet>
-<marker_file>static.trc</marker_file><time_range>{span}</time_range>
-<output_motion_file>static_pose.mot</output_motion_file>
-<output_model_file>placed.osim</output_model_file>
-<output_marker_file>placed_markers.xml</output_marker_file>
-<max_marker_movement>-1</max_marker_movement></MarkerPlacer>
-</ScaleTool></OpenSimDocument>
-"""
+    text = _scale_setup(h, static, names, measured, mass)
     setup.write_text(text, encoding="utf-8")
     tool = osim.ScaleTool(str(setup))
     if not tool.run():
@@ -353,24 +384,4 @@ def run_opensim_scale(h, static, marker_set: dict, measured, mass: float,
         bodies = [f"{j}_body" for j in _SCALED_JOINTS.get(m.name, ()) if j + "_body" in scales]
         if bodies:
             factors[m.name] = float(np.mean([scales[b][0] for b in bodies]))
-    # the MarkerPlacer's pose, on the scaled model with its markers not yet moved
-    scaled = osim.Model(str(folder / "scaled.osim"))
-    state = scaled.initSystem()
-    pose = osim.Storage(str(folder / "static_pose.mot"))
-    if pose.isInDegrees():
-        scaled.getSimbodyEngine().convertDegreesToRadians(pose)
-    labels = pose.getColumnLabels()
-    row = pose.getStateVector(0).getData()
-    coords = scaled.getCoordinateSet()
-    for k in range(1, labels.getSize()):  # (a coordinate's path/value, and its speed)
-        label = labels.get(k)
-        name = label.split("/")[-2] if label.endswith("/value") else label
-        if coords.contains(name):
-            coords.get(name).setValue(state, row.get(k - 1), False)
-    scaled.realizePosition(state)
-    mean = np.nanmean(static.positions[:, cols], axis=0)
-    errors = {}
-    for i, n in enumerate(names):
-        p = scaled.getMarkerSet().get(n).getLocationInGround(state)
-        errors[n] = float(np.linalg.norm(np.array([p.get(0), p.get(1), p.get(2)]) - mean[i]))
-    return factors, errors
+    return factors, _placer_errors(osim, folder, static, names, cols)

@@ -307,6 +307,34 @@ def _kinematic_step(model, q, v, a, W, dt, sq, sr, sa, changed):
     return np.asarray(x).reshape(n, nv)
 
 
+def _gauss_newton(model, t, dt: float, q0, v0, a0, W, sq, sr, sigma_acceleration: float,
+                  iterations: int):  # fmt: skip
+    """The kinematic step's Gauss-Newton iterations from the motion ``q0`` (n, nq) at ``t``:
+    (q, v, a, the change from q0 (n, nv), the iterations that lowered the cost)."""
+    qk, vk, ak = q0, v0, a0
+    done = 0
+    changed = np.zeros((len(t), model.nv))
+    cost = _cost(model, qk, vk, ak, W, changed, dt, sq, sr, sigma_acceleration)
+    for _ in range(iterations):
+        dq = _kinematic_step(model, qk, vk, ak, W, dt, sq, sr, sigma_acceleration, changed)
+        for step in (1.0, 0.5, 0.25, 0.125):  # backtracking: the linearisation can overshoot
+            total = np.array(
+                [pin.integrate(model, x, step * d) for x, d in zip(qk, dq, strict=True)]
+            )
+            _, q1, v1, a1 = derivatives(model, t, total, cutoff=None)
+            moved = np.array([pin.difference(model, a_, b_) for a_, b_ in zip(q0, q1, strict=True)])
+            new = _cost(model, q1, v1, a1, W, moved, dt, sq, sr, sigma_acceleration)
+            if new < cost:
+                break
+        else:
+            break  # no step lowers the cost: converged, or the linearisation is no guide
+        qk, vk, ak, changed, cost = q1, v1, a1, moved, new
+        done += 1
+        if np.max(np.abs(step * dq) / sq) < 1e-3:
+            break
+    return qk, vk, ak, changed, done
+
+
 def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | None = 6.0,
                      adjust_mass: bool | None = None, sigma_force: float = 0.01,
                      sigma_moment: float = 0.002, sigma_root: float = 0.01,
@@ -357,27 +385,8 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
                                   com_limit)  # fmt: skip
         model = _with_mass(model0, trunk, scale, shift)
     sq = _sigmas(model, sigma_root, sigma_trunk, sigma_joint)
-    qk, vk, ak = q0, before.v, before.a
-    done = 0
-    changed = np.zeros((len(t), model.nv))
-    cost = _cost(model, qk, vk, ak, W, changed, dt, sq, sr, sigma_acceleration)
-    for _ in range(iterations):
-        dq = _kinematic_step(model, qk, vk, ak, W, dt, sq, sr, sigma_acceleration, changed)
-        for step in (1.0, 0.5, 0.25, 0.125):  # backtracking: the linearisation can overshoot
-            total = np.array(
-                [pin.integrate(model, x, step * d) for x, d in zip(qk, dq, strict=True)]
-            )
-            _, q1, v1, a1 = derivatives(model, t, total, cutoff=None)
-            moved = np.array([pin.difference(model, a_, b_) for a_, b_ in zip(q0, q1, strict=True)])
-            new = _cost(model, q1, v1, a1, W, moved, dt, sq, sr, sigma_acceleration)
-            if new < cost:
-                break
-        else:
-            break  # no step lowers the cost: converged, or the linearisation is no guide
-        qk, vk, ak, changed, cost = q1, v1, a1, moved, new
-        done += 1
-        if np.max(np.abs(step * dq) / sq) < 1e-3:
-            break
+    qk, vk, ak, changed, done = _gauss_newton(model, t, dt, q0, before.v, before.a, W, sq, sr,
+                                              sigma_acceleration, iterations)  # fmt: skip
     res = _residuals(model, qk, vk, ak, W)
     diff = changed
     labels = joint_labels(model, root=("x", "y", "z", "rx", "ry", "rz"))

@@ -327,14 +327,14 @@ def _measure(seen, model_pos, measurements, where, distance):
                 unmeasured[s] = why
             if m.segments:
                 warnings.warn(f"{where}: {why}: {', '.join(m.segments)} keep the stature "
-                              "scaling", ScaleWarning, stacklevel=3)  # fmt: skip
+                              "scaling", ScaleWarning, stacklevel=4)  # fmt: skip
             continue
         pairs, ok = usable
         if len(ok) < len(pairs):
             lost = [f"{a}-{b}" for a, b in pairs if (a, b) not in ok]
             warnings.warn(f"{where}: {m.name} measured without {', '.join(lost)} (a marker "
                           "missing from the trial or the marker set)", ScaleWarning,
-                          stacklevel=3)  # fmt: skip
+                          stacklevel=4)  # fmt: skip
         rows = []
         for a, b in ok:
             experimental, model = distance(a, b)
@@ -356,7 +356,7 @@ def _measure(seen, model_pos, measurements, where, distance):
                           f"{SIDES_AGREE:.0%}: " + ", ".join(f"{a}-{b} {r:.3f}"
                                                            for a, b, _, _, r in rows)
                           + " (averaged; a marker on the wrong side?)",
-                          ScaleWarning, stacklevel=3)  # fmt: skip
+                          ScaleWarning, stacklevel=4)  # fmt: skip
         made.append(Measured(m.name, m.segments, rows, factor))
     return made, unmeasured
 
@@ -410,6 +410,127 @@ def _fit(h, static, marker_set, names, q0=None, register=False):
         return inverse_kinematics(h, static, used, q0=q0, register=register)
 
 
+def _trial_used(static, marker_set, mode, time_range, where):
+    """The trial's frames and markers to scale on, its joint centres and its mode resolved."""
+    if mode not in MODES:
+        raise ScalingError(f"scaling mode {mode!r}: one of {', '.join(MODES)}")
+    static = _trial(static, time_range)
+    static, centres = joint_centres(static, marker_set)
+    in_set = [n for n in static.names if n in marker_set]
+    if not in_set:
+        raise ScalingError(f"{where}: no marker of the trial is in the marker set (the trial's: "
+                           f"{', '.join(static.names[:8])}; the set's: "
+                           f"{', '.join(list(marker_set)[:8])})")  # fmt: skip
+    fitted = [n for n in in_set if n not in centres]  # (a pipeline's centres measure only)
+    moves = movement(static, fitted)
+    if mode == "auto":
+        mode = "walk" if moves > MOVING else "static"
+    if mode == "walk":
+        from .marker_sets import seen_frames
+
+        span = seen_frames(static, fitted)  # (walking into the cameras' volume and out)
+        static = MarkerTrajectories(static.time[span], list(static.names),
+                                    static.positions[span], static.source)  # fmt: skip
+    return static, centres, in_set, mode, moves
+
+
+def _measured(h, static, some, marker_set, seen, fitted, measurements, walk, where):
+    """The measurements made (a walk's in the unscaled body fitted to ``some`` of its frames),
+    the unmeasured lengths with why, and that fit (None for a static trial)."""
+    model_pos = dict(zip(seen, marker_positions(h, h.standing_configuration(), marker_set,
+                                                seen)[0], strict=True))  # fmt: skip
+    unscaled_fit = None
+    if walk:
+        unscaled_fit = _fit(h, some, marker_set, fitted, register=True)
+        distance = pair_distances(h, static, marker_set, unscaled_fit.q)
+    else:
+        distance = _static_pairs(static, model_pos)
+    made, unmeasured = _measure(seen, model_pos, measurements, where, distance)
+    if not any(m.segments for m in made):
+        raise ScalingError(f"{where}: no measurement can be made: "
+                           + "; ".join(unmeasured.values()))  # fmt: skip
+    return made, unmeasured, unscaled_fit
+
+
+def _lengths(made, unmeasured: dict, dims: dict) -> dict:
+    """The segments' lengths measured (those unmeasured noted in ``unmeasured``)."""
+    lengths = {}
+    for m in made:
+        for s in m.segments:
+            lengths[s] = m.factor * dims[s]
+    for s in LENGTHS:
+        if s not in lengths and s not in unmeasured:
+            unmeasured[s] = "no measurement in the set"
+    return lengths
+
+
+def _height(height, lengths: dict, dims: dict, unscaled: float, where: str) -> float:
+    """The subject's stature [m]: the one given (warned if off the markers'), else the markers'."""
+    from_markers = _stature(lengths, dims, unscaled)
+    if height is None:
+        if from_markers is None:
+            warnings.warn(f"{where}: nothing of the chain sole-vertex measured; the stature is "
+                          f"the unscaled body's {unscaled:.3f} m (give the height)",
+                          ScaleWarning, stacklevel=3)  # fmt: skip
+        height = from_markers or unscaled
+    elif from_markers is not None and abs(height - from_markers) > HEIGHT_AGREE * height:
+        warnings.warn(f"{where}: the stature given, {height:.3f} m, is {height - from_markers:+.3f}"
+                      f" m off the markers' {from_markers:.3f} m; the unmeasured "
+                      + ", ".join(k for k in ("ankle_height", "head") if k not in lengths)
+                      + " take up the difference", ScaleWarning, stacklevel=3)  # fmt: skip
+    return height
+
+
+def _built(h, height, mass, sex, lengths, toes):
+    """The scaled body: its parameters, model (the unscaled one's options), URDF, dimensions."""
+    from ..anthropometry import BodyParameters, body_dimensions
+    from ..body import build_urdf
+    from ..model import load
+
+    scaled = BodyParameters(height, mass, sex, lengths, toes=toes)
+    urdf = build_urdf(scaled)
+    options = {k: h.recipe[k] for k in ("ball_joints", "massless", "lock") if k in h.recipe}
+    return scaled, load(urdf, **options), urdf, body_dimensions(scaled)
+
+
+def _ratios(height, params, dims, new, made) -> dict:
+    """The factors (x, y, z) by which each segment's markers are carried to the scaled body."""
+    # the markers carried: lengths along each segment, the stature across it
+    r_h = height / params.height
+    ratios = {"stature": np.full(3, r_h)}
+    for s in LENGTHS:
+        r = new[s] / dims[s]
+        ratios[s] = np.array([r, r_h, r_h] if s == "foot" else [r_h, r_h, r])
+    width = next((m.factor for m in made if m.name == "pelvis_width"), r_h)
+    ratios["pelvis"] = np.array([width, width, new["pelvis"] / dims["pelvis"]])
+    return ratios
+
+
+def _placed(body, static, some, carried, fitted, walk, where):
+    """The markers placed on the scaled body, the pose they were placed in, those free to move
+    and the scaled body's fit of a walk (None for a static trial)."""
+    from .ik import register_markers
+
+    if walk:  # placed on the walk's frames fitted (see scale_walk)
+        scaled_fit = _fit(body, some, carried, fitted, register=True)
+        free = [n for n in fitted if not carried[n].fixed]
+        placed = dict(carried) | register_markers(body, some, scaled_fit.q,
+                                                  scaled_fit.marker_set, free,
+                                                  scaled_fit.held)  # fmt: skip
+        return placed, scaled_fit, free, scaled_fit
+    # placed: the scaled body fitted to the trial's mean pose, the markers moved onto it
+    cols = [static.names.index(n) for n in fitted]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # (a marker missing in some frames)
+        mean = np.nanmean(static.positions[:, cols], axis=0)
+    still = MarkerTrajectories(np.array([float(np.mean(static.time))]), list(fitted),
+                               mean[None], where)  # fmt: skip
+    pose = _fit(body, still, carried, fitted)
+    free = [n for n in fitted if not carried[n].fixed]
+    placed = dict(carried) | register_markers(body, still, pose.q, carried, free)
+    return placed, pose, free, None
+
+
 def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Marker] | None,
                mass: float, *, height: float | None = None, sex: str | None = None,
                measurements=MEASUREMENTS,
@@ -453,103 +574,25 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
             the mass, the stature or a measured length out of range.
     """
     from ..anthropometry import BodyParameters, body_dimensions
-    from ..body import build_urdf
-    from ..model import load
-    from .ik import register_markers
 
     h, params = _unscaled(h_or_params)
     where = static.source or "the static trial"
     # (the mass first: nothing is worth measuring for a body that cannot be built)
     BodyParameters(params.height, mass, sex or params.sex)
     marker_set = default_markers(h) if marker_set is None else dict(marker_set)
-    if mode not in MODES:
-        raise ScalingError(f"scaling mode {mode!r}: one of {', '.join(MODES)}")
-    static = _trial(static, time_range)
-    static, centres = joint_centres(static, marker_set)
-    in_set = [n for n in static.names if n in marker_set]
-    if not in_set:
-        raise ScalingError(f"{where}: no marker of the trial is in the marker set (the trial's: "
-                           f"{', '.join(static.names[:8])}; the set's: "
-                           f"{', '.join(list(marker_set)[:8])})")  # fmt: skip
-    fitted = [n for n in in_set if n not in centres]  # (a pipeline's centres measure only)
-    moves = movement(static, fitted)
-    if mode == "auto":
-        mode = "walk" if moves > MOVING else "static"
+    static, centres, in_set, mode, moves = _trial_used(static, marker_set, mode, time_range, where)
     walk = mode == "walk"
-    if walk:
-        from .marker_sets import seen_frames
-
-        span = seen_frames(static, fitted)  # (walking into the cameras' volume and out)
-        static = MarkerTrajectories(static.time[span], list(static.names),
-                                    static.positions[span], static.source)  # fmt: skip
     seen = _seen(static, in_set, where, walk)
     fitted = [n for n in seen if n not in centres]
-    model_pos = dict(zip(seen, marker_positions(h, h.standing_configuration(), marker_set,
-                                                seen)[0], strict=True))  # fmt: skip
     some = picked(static, fit_frames or (WALK_FRAMES if walk else 10))
-    unscaled_fit = None
-    if walk:
-        unscaled_fit = _fit(h, some, marker_set, fitted, register=True)
-        distance = pair_distances(h, static, marker_set, unscaled_fit.q)
-    else:
-        distance = _static_pairs(static, model_pos)
-    made, unmeasured = _measure(seen, model_pos, measurements, where, distance)
-    if not any(m.segments for m in made):
-        raise ScalingError(f"{where}: no measurement can be made: "
-                           + "; ".join(unmeasured.values()))  # fmt: skip
+    made, unmeasured, unscaled_fit = _measured(h, static, some, marker_set, seen, fitted,
+                                               measurements, walk, where)  # fmt: skip
     dims = body_dimensions(params)
-    lengths = {}
-    for m in made:
-        for s in m.segments:
-            lengths[s] = m.factor * dims[s]
-    for s in LENGTHS:
-        if s not in lengths and s not in unmeasured:
-            unmeasured[s] = "no measurement in the set"
-    from_markers = _stature(lengths, dims, params.height)
-    if height is None:
-        if from_markers is None:
-            warnings.warn(f"{where}: nothing of the chain sole-vertex measured; the stature is "
-                          f"the unscaled body's {params.height:.3f} m (give the height)",
-                          ScaleWarning, stacklevel=2)  # fmt: skip
-        height = from_markers or params.height
-    elif from_markers is not None and abs(height - from_markers) > HEIGHT_AGREE * height:
-        warnings.warn(f"{where}: the stature given, {height:.3f} m, is {height - from_markers:+.3f}"
-                      f" m off the markers' {from_markers:.3f} m; the unmeasured "
-                      + ", ".join(k for k in ("ankle_height", "head") if k not in lengths)
-                      + " take up the difference", ScaleWarning, stacklevel=2)  # fmt: skip
-    scaled = BodyParameters(height, mass, sex or params.sex, lengths, toes=params.toes)
-    urdf = build_urdf(scaled)
-    options = {k: h.recipe[k] for k in ("ball_joints", "massless", "lock") if k in h.recipe}
-    body = load(urdf, **options)
-    new = body_dimensions(scaled)
-
-    # the markers carried: lengths along each segment, the stature across it
-    r_h = height / params.height
-    ratios = {"stature": np.full(3, r_h)}
-    for s in LENGTHS:
-        r = new[s] / dims[s]
-        ratios[s] = np.array([r, r_h, r_h] if s == "foot" else [r_h, r_h, r])
-    width = next((m.factor for m in made if m.name == "pelvis_width"), r_h)
-    ratios["pelvis"] = np.array([width, width, new["pelvis"] / dims["pelvis"]])
-    carried = _carry(h, body, marker_set, ratios)
-
-    if walk:  # placed on the walk's frames fitted (see scale_walk)
-        scaled_fit = _fit(body, some, carried, fitted, register=True)
-        free = [n for n in fitted if not carried[n].fixed]
-        placed = dict(carried) | register_markers(body, some, scaled_fit.q,
-                                                  scaled_fit.marker_set, free,
-                                                  scaled_fit.held)  # fmt: skip
-        pose = scaled_fit
-    else:  # placed: the scaled body fitted to the trial's mean pose, the markers moved onto it
-        cols = [static.names.index(n) for n in fitted]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # (a marker missing in some frames)
-            mean = np.nanmean(static.positions[:, cols], axis=0)
-        still = MarkerTrajectories(np.array([float(np.mean(static.time))]), list(fitted),
-                                   mean[None], where)  # fmt: skip
-        pose = _fit(body, still, carried, fitted)
-        free = [n for n in fitted if not carried[n].fixed]
-        placed = dict(carried) | register_markers(body, still, pose.q, carried, free)
+    lengths = _lengths(made, unmeasured, dims)
+    height = _height(height, lengths, dims, params.height, where)
+    scaled, body, urdf, new = _built(h, height, mass, sex or params.sex, lengths, params.toes)
+    carried = _carry(h, body, marker_set, _ratios(height, params, dims, new, made))
+    placed, pose, free, scaled_fit = _placed(body, static, some, carried, fitted, walk, where)
     if pose.unconstrained:
         warnings.warn(f"{where}: no marker sees {', '.join(pose.unconstrained)} in the "
                       f"{mode} trial's fit (held standing): the markers on them are placed as "
