@@ -243,9 +243,11 @@ class _Clock:
     period: float
 
     def phase(self, t):
+        """The phase the clock shows at t [s] (from ``go`` on)."""
         return self.phase0 + (t - self.go) / self.period
 
     def time(self, phase):
+        """When [s] the clock shows ``phase``."""
         return self.go + (phase - self.phase0) * self.period
 
 
