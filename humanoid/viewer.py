@@ -39,6 +39,7 @@ import warnings
 from dataclasses import dataclass
 from html import escape as html_escape
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -184,46 +185,78 @@ def _arrow_rotation(f: np.ndarray) -> np.ndarray:
     return pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), f / n).toRotationMatrix()
 
 
-class SceneView:
-    """The meshcat scene of one humanoid: body, overlays, poses and animations.
+def _left_out(measured, names: list[str], times: np.ndarray, positions: np.ndarray,
+              marker_set: dict, model) -> tuple[list[int], list[str]]:  # fmt: skip
+    """The measured markers to draw (their indices: those seen at least once) and those without
+    a model marker, with a :class:`HiddenMarkerWarning` naming what is hidden or left out."""
+    seen = np.isfinite(positions).all(axis=2)  # (n, m)
+    never = [n for k, n in enumerate(names) if not seen[:, k].any()]
+    gaps = [(n, int((~seen[:, k]).sum())) for k, n in enumerate(names)
+            if seen[:, k].any() and not seen[:, k].all()]  # fmt: skip
+    unplaced = [n for n in names if n not in never and (
+        n not in marker_set or not model.existFrame(marker_set[n].frame))]  # fmt: skip
+    keep = [k for k, n in enumerate(names) if n not in never]
+    said = []
+    if gaps:
+        said.append("hidden where missing: " + _listed(
+            [f"{n} ({c} of {len(times)} frames)" for n, c in gaps]))  # fmt: skip
+    if never:
+        said.append("never seen, not drawn: " + _listed(never))
+    if unplaced:
+        said.append("no model marker (not in the marker set, or its frame is not the "
+                    "body's): " + _listed(unplaced))  # fmt: skip
+    if said:
+        warnings.warn(f"{measured.source or 'markers'}: " + "; ".join(said),
+                      HiddenMarkerWarning, stacklevel=3)  # fmt: skip
+    return keep, unplaced
 
-    Args:
-        vis: A meshcat ``Visualizer`` (live, or on a :class:`CommandRecorder`).
-        h: The :class:`~humanoid.model.Humanoid` to show.
-        overlays: What to draw besides the body.
-        feet: Contact names that can carry forces (``left``, ``right``), default both.
-        camera: The camera preset the view opens with (:data:`PRESETS`).
 
-    Attributes:
-        cameras: {preset: :class:`CameraPose`} for the motion shown (the first record's).
-        present: The overlays drawn so far (the legend's lines): ``force``, ``push``,
-            ``com``, ``footprint``, ``measured``, ``model_marker``, ``residual``.
-    """
+def _camera_presets(
+    path: np.ndarray, lo: float, hi: float, forward: np.ndarray
+) -> dict[str, CameraPose]:
+    """The presets (see :meth:`SceneView.frame_camera`) for the followed point's path (k, 3),
+    the body's frames' heights from ``lo`` to ``hi`` and its walking direction [m]."""
+    height = max(1.1 * (hi - lo), 0.5)
+    p0 = path[0]
+    forward /= np.linalg.norm(forward)
+    up = np.array([0.0, 0.0, 1.0])
+    left = np.cross(up, forward)
+    tan = math.tan(math.radians(FOV) / 2)
+    distance = height / BODY_FRACTION / (2 * tan)
+    target = np.array([p0[0], p0[1], (lo + hi) / 2])
+    oblique = 2.3 * forward - 1.3 * left + 0.9 * up
+    oblique /= np.linalg.norm(oblique)
+    # top: the path in the (forward, left) axes, 1 m around it
+    mean = path[:, :2].mean(axis=0)
+    along, across = (path[:, :2] - mean) @ forward[:2], (path[:, :2] - mean) @ left[:2]
+    centre = mean + (along.max() + along.min()) / 2 * forward[:2]
+    centre = centre + (across.max() + across.min()) / 2 * left[:2]
+    half = max(np.ptp(along), np.ptp(across)) / 2 + 1.0
+    high = half / tan + (hi - lo)
+    ground = np.array([centre[0], centre[1], 0.0])
+    return {
+        "oblique": CameraPose(target + distance * oblique, target),
+        "side": CameraPose(target - distance * left, target),
+        "front": CameraPose(target + distance * forward, target),
+        "top": CameraPose(ground + high * up - 0.01 * high * left, ground, follow=False),
+    }
 
-    def __init__(
-        self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right"), camera="oblique"
-    ) -> None:
-        if camera not in PRESETS:
-            raise ViewerError(f"unknown camera {camera!r}; one of {', '.join(PRESETS)}")
-        self.vis, self.h, self.overlays, self.feet = vis, h, overlays, tuple(feet)
-        self.camera = camera
-        self.model = h.model
-        self.data = h.model.createData()
-        self.gdata = pin.GeometryData(h.visual_model)
-        self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
-        self.pushes: list[tuple[int, np.ndarray, float, float]] = []
-        # (names, times (n,), positions (n, m, 3), {name: (frame id, offset)} model markers)
-        self.markers: (
-            tuple[list[str], np.ndarray, np.ndarray, dict[str, tuple[int, np.ndarray]]] | None
-        ) = None
-        self.present: set[str] = set()
-        self.timeline = (0.0, 0.0, 1.0)  # (first record [s], animation length [s], speed)
-        self.cameras: dict[str, CameraPose] = {}
-        self.follow_origin = np.zeros(3)  # the followed point at the first record
-        self._build()
-        self.frame_camera(np.atleast_2d(h.standing_configuration()))
 
-    # -- scene ---------------------------------------------------------------------------
+class _SceneNodes:
+    """The scene tree of a :class:`SceneView`: the body's and the overlays' objects, and the
+    poses of its arrows and feet (what the view draws, not what it shows when)."""
+
+    vis: Any
+    h: Any
+    overlays: Overlays
+    feet: tuple[str, ...]
+    model: Any
+    data: Any
+    weight: float
+    present: set[str]
+    # (names, times (n,), positions (n, m, 3), {name: (frame id, offset)} model markers)
+    markers: tuple[list[str], np.ndarray, np.ndarray, dict[str, tuple[int, np.ndarray]]] | None
+
     def node(self, *path: str):
         return self.vis[ROOT + "/" + "/".join(path)]
 
@@ -283,61 +316,60 @@ class SceneView:
         head.set_transform(self._along_z(1.0))
         self.node(*path).set_property("visible", False)
 
-    def set_pushes(self, pushes) -> None:
-        """Pushes to draw as arrows pointing at the pushed point while they act: a list of
-        (frame id, force (3,) [N], start [s], duration [s])."""
-        self.pushes = list(pushes)
-        if self.overlays.forces:
-            for i in range(len(self.pushes)):
-                self._arrow(("pushes", str(i)), COLORS["push"])
-
-    def set_markers(self, measured, marker_set: dict | None = None) -> list[str]:
-        """Draw a recording: measured markers or keypoints (a
-        :class:`~humanoid.motion.markers.MarkerTrajectories`, world axes [m], on the
-        trajectory's clock), the markers of ``marker_set`` (name -> ``Marker``: a frame of the
-        body and an offset in it [m]) that it has placed on the animated body, and a residual
-        line from each model marker to its measured one.
-
-        A measured marker is hidden in the frames it is missing from (NaN, or outside its
-        recording's time); one never seen is not drawn; one the set does not place (or places
-        on a frame the body lacks) is drawn without a model marker. A
-        :class:`HiddenMarkerWarning` names them.
-
-        Returns:
-            The names of the measured markers drawn.
-        """
-        if not self.overlays.markers:
-            return []
+    def _frame_path(self, xy: np.ndarray) -> None:
+        """A ground that covers a path (x, y of the pelvis) longer than the default."""
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        centre, span = (lo + hi) / 2, hi - lo
+        if max(span) < 1.0 or not self.overlays.ground:
+            return
         G = _meshcat().geometry
-        names, times = list(measured.names), np.asarray(measured.time, dtype=float)
-        positions = np.asarray(measured.positions, dtype=float)
-        marker_set = marker_set or {}
-        seen = np.isfinite(positions).all(axis=2)  # (n, m)
-        never = [n for k, n in enumerate(names) if not seen[:, k].any()]
-        gaps = [(n, int((~seen[:, k]).sum())) for k, n in enumerate(names)
-                if seen[:, k].any() and not seen[:, k].all()]  # fmt: skip
-        unplaced = [n for n in names if n not in never and (
-            n not in marker_set or not self.model.existFrame(marker_set[n].frame))]  # fmt: skip
-        keep = [k for k, n in enumerate(names) if n not in never]
-        said = []
-        if gaps:
-            said.append("hidden where missing: " + _listed(
-                [f"{n} ({c} of {len(times)} frames)" for n, c in gaps]))  # fmt: skip
-        if never:
-            said.append("never seen, not drawn: " + _listed(never))
-        if unplaced:
-            said.append("no model marker (not in the marker set, or its frame is not the "
-                        "body's): " + _listed(unplaced))  # fmt: skip
-        if said:
-            warnings.warn(f"{measured.source or 'markers'}: " + "; ".join(said),
-                          HiddenMarkerWarning, stacklevel=2)  # fmt: skip
-        names = [names[k] for k in keep]
-        model: dict[str, tuple[int, np.ndarray]] = {}
-        for n in names:
-            if n not in unplaced:
-                m = marker_set[n]
-                model[n] = (self.model.getFrameId(m.frame), np.asarray(m.offset, dtype=float))
-        self.markers = (names, times, positions[:, keep], model)
+        box = G.Box([span[0] + 3.0, span[1] + 3.0, 0.01])
+        material = G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True)
+        self.node("ground").set_object(box, material)
+        self.node("ground").set_transform(
+            pin.SE3(np.eye(3), np.array([centre[0], centre[1], -0.006])).homogeneous
+        )
+
+    @staticmethod
+    def _along_z(offset: float = 0.0) -> np.ndarray:
+        """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
+        return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
+
+    def _contact_poses(self, forces: dict) -> list[tuple]:
+        """The feet's footprints (shown while attached) and the contact force arrows (from each
+        foot's centre of pressure, and the floor's total from its own) for one state."""
+        out: list[tuple] = []
+        ov = self.overlays
+        for side in self.feet:
+            w = forces.get(side)
+            attached = w is not None and np.all(np.isfinite(w))
+            sole = self.data.oMf[self.h.sole_id(side)]
+            if ov.footprints and self.h.contact_points[side]:
+                out.append((("footprints", side), "visible", bool(attached)))
+                if attached:
+                    self.present.add("footprint")
+                    out.append((("footprints", side), "transform", sole.homogeneous))
+            if ov.forces:
+                show = bool(attached and w is not None and w[2] > 1e-6)
+                out.append((("forces", side), "visible", show))
+                if show and w is not None:
+                    self.present.add("force")
+                    cop = cop_on_plane(np.asarray(w), sole.translation)
+                    out += self._arrow_pose(("forces", side), np.asarray(w[:3]), tail=cop)
+        if ov.forces:  # the floor's total force, at its centre of pressure
+            w = forces.get("ground")
+            show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
+            out.append((("forces", "ground"), "visible", bool(show)))
+            if show and w is not None:
+                self.present.add("force")
+                cop = cop_on_plane(np.asarray(w), np.zeros(3))
+                out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
+        return out
+
+    def _draw_markers(self, names: list[str], model: dict) -> None:
+        """The recording's objects, hidden: a sphere per measured marker, and per marker of
+        ``model`` (name -> (frame id, offset)) a sphere and a residual line (unit, along +z)."""
+        G = _meshcat().geometry
         measured_material = G.MeshLambertMaterial(color=COLORS["measured"])
         model_material = G.MeshLambertMaterial(color=COLORS["model_marker"])
         line = G.MeshLambertMaterial(color=COLORS["residual"])
@@ -355,188 +387,14 @@ class SceneView:
                 shaft.set_object(G.Cylinder(1.0, RESIDUAL_RADIUS), line)
                 shaft.set_transform(self._along_z(0.5))
                 self.node("markers", "residual", key).set_property("visible", False)
-        return names
 
-    def measured_at(self, t: float | None) -> np.ndarray:
-        """The measured markers at time ``t`` [s]: (m, 3) world [m], linear between the
-        recording's frames; NaN where missing (at either frame around ``t``) or outside the
-        recording."""
-        if self.markers is None:
-            raise ViewerError("no recording to read: set_markers first")
-        names, times, positions, _ = self.markers
-        out = np.full((len(names), 3), np.nan)
-        if t is None or len(times) == 0 or not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
-            return out
-        i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
-        if i == len(times) - 1 or abs(t - times[i]) < 1e-9:
-            return positions[i].copy()
-        if abs(times[i + 1] - t) < 1e-9:
-            return positions[i + 1].copy()
-        s = (t - times[i]) / (times[i + 1] - times[i])
-        return (1 - s) * positions[i] + s * positions[i + 1]  # NaN if either is
-
-    def _frame_path(self, xy: np.ndarray) -> None:
-        """A ground that covers a path (x, y of the pelvis) longer than the default."""
-        lo, hi = xy.min(axis=0), xy.max(axis=0)
-        centre, span = (lo + hi) / 2, hi - lo
-        if max(span) < 1.0 or not self.overlays.ground:
-            return
-        G = _meshcat().geometry
-        box = G.Box([span[0] + 3.0, span[1] + 3.0, 0.01])
-        material = G.MeshLambertMaterial(color=COLORS["ground"], opacity=0.25, transparent=True)
-        self.node("ground").set_object(box, material)
-        self.node("ground").set_transform(
-            pin.SE3(np.eye(3), np.array([centre[0], centre[1], -0.006])).homogeneous
-        )
-
-    # -- camera --------------------------------------------------------------------------
-    def followed_point(self, q) -> np.ndarray:
-        """The point the camera follows for a configuration: the centre of mass with the com
-        overlay, else the root body's first geometry (as the page follows it) [m]."""
-        if self.overlays.com:
-            return np.array(pin.centerOfMass(self.model, self.data, q))
-        pin.forwardKinematics(self.model, self.data, q)
-        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
-        for i, g in enumerate(self.h.visual_model.geometryObjects):
-            if g.parentJoint == 1:
-                return np.array(self.gdata.oMg[i].translation)
-        return np.array(self.data.oMi[min(1, self.model.njoints - 1)].translation)
-
-    def frame_camera(self, qs: np.ndarray) -> dict[str, CameraPose]:
-        """The camera presets for a motion (configurations (n, nq)), posed at its first one,
-        and the camera commands of the chosen one.
-
-        The framing presets look at the middle of the body's height above the followed point,
-        from ``BODY_FRACTION``'s distance: the body's height (its frames' vertical extent and
-        10 %, at least 0.5 m) over ``BODY_FRACTION`` fills the view's height. ``top`` looks
-        down on the middle of the followed point's path from high enough that the path and
-        1 m around it fit in the view (square or wider).
-        """
-        qs = np.atleast_2d(qs)
-        step = max(1, len(qs) // 200)  # the path: 200 records or so, and the last
-        path = np.array([self.followed_point(q) for q in [*qs[::step], qs[-1]]])
-        q0 = qs[0]
-        pin.framesForwardKinematics(self.model, self.data, q0)
-        z = np.array([f.translation[2] for f in self.data.oMf[1:]])  # (not the universe)
-        lo, hi = float(z.min()), float(z.max())
-        height = max(1.1 * (hi - lo), 0.5)
-        p0 = path[0]
-        self.follow_origin = p0
-        walk = path[-1, :2] - p0[:2]
-        if np.linalg.norm(walk) >= 0.5:
-            forward = np.array([walk[0], walk[1], 0.0])
-        else:
-            R = self.data.oMi[1].rotation if self.model.njoints > 1 else np.eye(3)
-            forward = np.array([R[0, 0], R[1, 0], 0.0])
-            if np.linalg.norm(forward) < 1e-6:
-                forward = np.array([1.0, 0.0, 0.0])
-        forward /= np.linalg.norm(forward)
-        up = np.array([0.0, 0.0, 1.0])
-        left = np.cross(up, forward)
-        tan = math.tan(math.radians(FOV) / 2)
-        distance = height / BODY_FRACTION / (2 * tan)
-        target = np.array([p0[0], p0[1], (lo + hi) / 2])
-        oblique = 2.3 * forward - 1.3 * left + 0.9 * up
-        oblique /= np.linalg.norm(oblique)
-        # top: the path in the (forward, left) axes, 1 m around it
-        mean = path[:, :2].mean(axis=0)
-        along, across = (path[:, :2] - mean) @ forward[:2], (path[:, :2] - mean) @ left[:2]
-        centre = mean + (along.max() + along.min()) / 2 * forward[:2]
-        centre = centre + (across.max() + across.min()) / 2 * left[:2]
-        half = max(np.ptp(along), np.ptp(across)) / 2 + 1.0
-        high = half / tan + (hi - lo)
-        ground = np.array([centre[0], centre[1], 0.0])
-        self.cameras = {
-            "oblique": CameraPose(target + distance * oblique, target),
-            "side": CameraPose(target - distance * left, target),
-            "front": CameraPose(target + distance * forward, target),
-            "top": CameraPose(ground + high * up - 0.01 * high * left, ground, follow=False),
-        }
-        pose = self.cameras[self.camera]
-        self.vis["/Cameras/default"].set_transform(np.eye(4))  # the camera's axes: the scene's
-        camera = self.vis["/Cameras/default/rotated/<object>"]
-        camera.set_property("position", _three(pose.eye))
-        camera.set_property("fov", FOV)
-        return self.cameras
-
-    def followed_path(self) -> list[str] | None:
-        """The scene-tree path the camera follows: the centre of mass, else the pelvis."""
-        if self.overlays.com:
-            return ["meshcat", ROOT, "com"]
-        root = [g.name for g in self.h.visual_model.geometryObjects if g.parentJoint == 1]
-        return ["meshcat", ROOT, "body", root[0]] if root else None
-
-    @staticmethod
-    def _along_z(offset: float = 0.0) -> np.ndarray:
-        """meshcat cylinders lie along +Y: turn them to +Z, centred at z = offset."""
-        return pin.SE3(pin.utils.rotate("x", np.pi / 2), np.array([0.0, 0.0, offset])).homogeneous
-
-    # -- poses ---------------------------------------------------------------------------
-    def frame(self, q, forces: dict | None = None, t: float | None = None) -> list[tuple]:
-        """Transforms and properties of every animated node for one state (at time ``t``,
-        which decides the pushes shown).
-
-        Returns:
-            {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z]) or
-            ("position", [x, y, z] world [m])}, as a list of (path, kind, value) tuples.
-        """
-        out: list[tuple] = []
-        pin.forwardKinematics(self.model, self.data, q)
-        pin.updateFramePlacements(self.model, self.data)
-        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
-        for i, g in enumerate(self.h.visual_model.geometryObjects):
-            out.append((("body", g.name), "transform", self.gdata.oMg[i].homogeneous))
-        ov = self.overlays
-        if ov.com:
-            self.present.add("com")
-            c = pin.centerOfMass(self.model, self.data, q)
-            out.append((("com",), "transform", pin.SE3(np.eye(3), c).homogeneous))
-            ground = np.array([c[0], c[1], 0.002])
-            out.append((("com_ground",), "transform", pin.SE3(np.eye(3), ground).homogeneous))
-        forces = forces or {}
-        for side in self.feet:
-            w = forces.get(side)
-            attached = w is not None and np.all(np.isfinite(w))
-            sole = self.data.oMf[self.h.sole_id(side)]
-            if ov.footprints and self.h.contact_points[side]:
-                out.append((("footprints", side), "visible", bool(attached)))
-                if attached:
-                    self.present.add("footprint")
-                    out.append((("footprints", side), "transform", sole.homogeneous))
-            if ov.forces:
-                show = bool(attached and w is not None and w[2] > 1e-6)
-                out.append((("forces", side), "visible", show))
-                if show and w is not None:
-                    self.present.add("force")
-                    cop = cop_on_plane(np.asarray(w), sole.translation)
-                    out += self._arrow_pose(("forces", side), np.asarray(w[:3]), tail=cop)
-        if ov.forces:
-            w = forces.get("ground")
-            show = w is not None and bool(np.all(np.isfinite(w))) and w[2] > 1e-6
-            out.append((("forces", "ground"), "visible", bool(show)))
-            if show and w is not None:
-                self.present.add("force")
-                cop = cop_on_plane(np.asarray(w), np.zeros(3))
-                out += self._arrow_pose(("forces", "ground"), np.asarray(w[:3]), tail=cop)
-            for i, (fid, f, start, duration) in enumerate(self.pushes):
-                on = t is not None and start <= t < start + duration
-                out.append((("pushes", str(i)), "visible", bool(on)))
-                if on:  # the arrow's tip on the pushed point
-                    self.present.add("push")
-                    out += self._arrow_pose(
-                        ("pushes", str(i)), f, tip=self.data.oMf[fid].translation, gain=PUSH_GAIN
-                    )
-        if self.markers is not None:
-            out += self._marker_poses(t)
-        return out
-
-    def _marker_poses(self, t: float | None) -> list:
-        """The recording's nodes at time t: measured and model markers' positions, the
-        residual lines (from the model marker to the measured one: a unit line along +z turned
-        and scaled to the residual), hidden where the measured marker is missing."""
+    def _marker_poses(self, measured: np.ndarray) -> list:
+        """The recording's nodes for its markers as measured at one time (m, 3): measured and
+        model markers' positions, the residual lines (from the model marker to the measured one:
+        a unit line along +z turned and scaled to the residual), hidden where the measured
+        marker is missing."""
         assert self.markers is not None  # called only when a recording is set
         names, _, _, model = self.markers
-        measured = self.measured_at(t)
         out: list[tuple] = []
         for n, m in zip(names, measured, strict=True):
             key = _key(n)
@@ -570,6 +428,191 @@ class SceneView:
             tail = tip - length * f / np.linalg.norm(f)
         return [(path, "transform", pin.SE3(_arrow_rotation(f), tail).homogeneous),
                 ((*path, "length"), "scale", [1.0, 1.0, length])]  # fmt: skip
+
+
+class SceneView(_SceneNodes):
+    """The meshcat scene of one humanoid: body, overlays, poses and animations.
+
+    Args:
+        vis: A meshcat ``Visualizer`` (live, or on a :class:`CommandRecorder`).
+        h: The :class:`~humanoid.model.Humanoid` to show.
+        overlays: What to draw besides the body.
+        feet: Contact names that can carry forces (``left``, ``right``), default both.
+        camera: The camera preset the view opens with (:data:`PRESETS`).
+
+    Attributes:
+        cameras: {preset: :class:`CameraPose`} for the motion shown (the first record's).
+        present: The overlays drawn so far (the legend's lines): ``force``, ``push``,
+            ``com``, ``footprint``, ``measured``, ``model_marker``, ``residual``.
+    """
+
+    def __init__(
+        self, vis, h, overlays: Overlays = Overlays(), feet=("left", "right"), camera="oblique"
+    ) -> None:
+        if camera not in PRESETS:
+            raise ViewerError(f"unknown camera {camera!r}; one of {', '.join(PRESETS)}")
+        self.vis, self.h, self.overlays, self.feet = vis, h, overlays, tuple(feet)
+        self.camera = camera
+        self.model = h.model
+        self.data = h.model.createData()
+        self.gdata = pin.GeometryData(h.visual_model)
+        self.weight = h.mass * float(np.linalg.norm(h.model.gravity.linear) or 9.81)
+        self.pushes: list[tuple[int, np.ndarray, float, float]] = []
+        self.markers = None  # the recording (set_markers; its layout: _SceneNodes.markers)
+        self.present: set[str] = set()
+        self.timeline = (0.0, 0.0, 1.0)  # (first record [s], animation length [s], speed)
+        self.cameras: dict[str, CameraPose] = {}
+        self.follow_origin = np.zeros(3)  # the followed point at the first record
+        self._build()
+        self.frame_camera(np.atleast_2d(h.standing_configuration()))
+
+    def set_pushes(self, pushes) -> None:
+        """Pushes to draw as arrows pointing at the pushed point while they act: a list of
+        (frame id, force (3,) [N], start [s], duration [s])."""
+        self.pushes = list(pushes)
+        if self.overlays.forces:
+            for i in range(len(self.pushes)):
+                self._arrow(("pushes", str(i)), COLORS["push"])
+
+    def set_markers(self, measured, marker_set: dict | None = None) -> list[str]:
+        """Draw a recording: measured markers or keypoints (a
+        :class:`~humanoid.motion.markers.MarkerTrajectories`, world axes [m], on the
+        trajectory's clock), the markers of ``marker_set`` (name -> ``Marker``: a frame of the
+        body and an offset in it [m]) that it has placed on the animated body, and a residual
+        line from each model marker to its measured one.
+
+        A measured marker is hidden in the frames it is missing from (NaN, or outside its
+        recording's time); one never seen is not drawn; one the set does not place (or places
+        on a frame the body lacks) is drawn without a model marker. A
+        :class:`HiddenMarkerWarning` names them.
+
+        Returns:
+            The names of the measured markers drawn.
+        """
+        if not self.overlays.markers:
+            return []
+        names, times = list(measured.names), np.asarray(measured.time, dtype=float)
+        positions = np.asarray(measured.positions, dtype=float)
+        marker_set = marker_set or {}
+        keep, unplaced = _left_out(measured, names, times, positions, marker_set, self.model)
+        names = [names[k] for k in keep]
+        model: dict[str, tuple[int, np.ndarray]] = {}
+        for n in names:
+            if n not in unplaced:
+                m = marker_set[n]
+                model[n] = (self.model.getFrameId(m.frame), np.asarray(m.offset, dtype=float))
+        self.markers = (names, times, positions[:, keep], model)
+        self._draw_markers(names, model)
+        return names
+
+    def measured_at(self, t: float | None) -> np.ndarray:
+        """The measured markers at time ``t`` [s]: (m, 3) world [m], linear between the
+        recording's frames; NaN where missing (at either frame around ``t``) or outside the
+        recording."""
+        if self.markers is None:
+            raise ViewerError("no recording to read: set_markers first")
+        names, times, positions, _ = self.markers
+        out = np.full((len(names), 3), np.nan)
+        if t is None or len(times) == 0 or not times[0] - 1e-9 <= t <= times[-1] + 1e-9:
+            return out
+        i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
+        if i == len(times) - 1 or abs(t - times[i]) < 1e-9:
+            return positions[i].copy()
+        if abs(times[i + 1] - t) < 1e-9:
+            return positions[i + 1].copy()
+        s = (t - times[i]) / (times[i + 1] - times[i])
+        return (1 - s) * positions[i] + s * positions[i + 1]  # NaN if either is
+
+    # -- camera --------------------------------------------------------------------------
+    def followed_point(self, q) -> np.ndarray:
+        """The point the camera follows for a configuration: the centre of mass with the com
+        overlay, else the root body's first geometry (as the page follows it) [m]."""
+        if self.overlays.com:
+            return np.array(pin.centerOfMass(self.model, self.data, q))
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
+        for i, g in enumerate(self.h.visual_model.geometryObjects):
+            if g.parentJoint == 1:
+                return np.array(self.gdata.oMg[i].translation)
+        return np.array(self.data.oMi[min(1, self.model.njoints - 1)].translation)
+
+    def frame_camera(self, qs: np.ndarray) -> dict[str, CameraPose]:
+        """The camera presets for a motion (configurations (n, nq)), posed at its first one,
+        and the camera commands of the chosen one.
+
+        The framing presets look at the middle of the body's height above the followed point,
+        from ``BODY_FRACTION``'s distance: the body's height (its frames' vertical extent and
+        10 %, at least 0.5 m) over ``BODY_FRACTION`` fills the view's height. ``top`` looks
+        down on the middle of the followed point's path from high enough that the path and
+        1 m around it fit in the view (square or wider).
+        """
+        qs = np.atleast_2d(qs)
+        step = max(1, len(qs) // 200)  # the path: 200 records or so, and the last
+        path = np.array([self.followed_point(q) for q in [*qs[::step], qs[-1]]])
+        q0 = qs[0]
+        pin.framesForwardKinematics(self.model, self.data, q0)
+        z = np.array([f.translation[2] for f in self.data.oMf[1:]])  # (not the universe)
+        lo, hi = float(z.min()), float(z.max())
+        p0 = path[0]
+        self.follow_origin = p0
+        walk = path[-1, :2] - p0[:2]
+        if np.linalg.norm(walk) >= 0.5:
+            forward = np.array([walk[0], walk[1], 0.0])
+        else:
+            R = self.data.oMi[1].rotation if self.model.njoints > 1 else np.eye(3)
+            forward = np.array([R[0, 0], R[1, 0], 0.0])
+            if np.linalg.norm(forward) < 1e-6:
+                forward = np.array([1.0, 0.0, 0.0])
+        self.cameras = _camera_presets(path, lo, hi, forward)
+        pose = self.cameras[self.camera]
+        self.vis["/Cameras/default"].set_transform(np.eye(4))  # the camera's axes: the scene's
+        camera = self.vis["/Cameras/default/rotated/<object>"]
+        camera.set_property("position", _three(pose.eye))
+        camera.set_property("fov", FOV)
+        return self.cameras
+
+    def followed_path(self) -> list[str] | None:
+        """The scene-tree path the camera follows: the centre of mass, else the pelvis."""
+        if self.overlays.com:
+            return ["meshcat", ROOT, "com"]
+        root = [g.name for g in self.h.visual_model.geometryObjects if g.parentJoint == 1]
+        return ["meshcat", ROOT, "body", root[0]] if root else None
+
+    # -- poses ---------------------------------------------------------------------------
+    def frame(self, q, forces: dict | None = None, t: float | None = None) -> list[tuple]:
+        """Transforms and properties of every animated node for one state (at time ``t``,
+        which decides the pushes shown).
+
+        Returns:
+            {node path: ("transform", 4x4) or ("visible", bool) or ("scale", [x, y, z]) or
+            ("position", [x, y, z] world [m])}, as a list of (path, kind, value) tuples.
+        """
+        out: list[tuple] = []
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        pin.updateGeometryPlacements(self.model, self.data, self.h.visual_model, self.gdata)
+        for i, g in enumerate(self.h.visual_model.geometryObjects):
+            out.append((("body", g.name), "transform", self.gdata.oMg[i].homogeneous))
+        ov = self.overlays
+        if ov.com:
+            self.present.add("com")
+            c = pin.centerOfMass(self.model, self.data, q)
+            out.append((("com",), "transform", pin.SE3(np.eye(3), c).homogeneous))
+            ground = np.array([c[0], c[1], 0.002])
+            out.append((("com_ground",), "transform", pin.SE3(np.eye(3), ground).homogeneous))
+        out += self._contact_poses(forces or {})
+        if ov.forces:
+            for i, (fid, f, start, duration) in enumerate(self.pushes):
+                on = t is not None and start <= t < start + duration
+                out.append((("pushes", str(i)), "visible", bool(on)))
+                if on:  # the arrow's tip on the pushed point
+                    self.present.add("push")
+                    out += self._arrow_pose(
+                        ("pushes", str(i)), f, tip=self.data.oMf[fid].translation, gain=PUSH_GAIN
+                    )
+        if self.markers is not None:
+            out += self._marker_poses(self.measured_at(t))
+        return out
 
     def show(self, q, forces: dict | None = None, t: float | None = None) -> None:
         """Put the scene in one state."""

@@ -122,8 +122,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "P05",
         "walking/gait.py",
-        "ang = at(angles[s], tk, tt)",
-        "ang = at(angles[s], tk, tt + (tk[1] - tk[0]))",
+        "ang = _at(angles[s], tk, tt)",
+        "ang = _at(angles[s], tk, tt + (tk[1] - tk[0]))",
         (P, *GAIT),
         "the gait cycle's curves sampled one sample off",
     ),

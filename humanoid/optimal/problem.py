@@ -125,13 +125,8 @@ class Collocation:
                 opti.subject_to(x1 == x0 + h * (v0 + v1) / 2)
                 opti.subject_to(v1 == v0 + h * (a0 + a1) / 2)
             k0 += ph.intervals
-        sets = self._contact_sets()
-        lo, hi = model.lowerPositionLimit, model.upperPositionLimit
-        ranged = np.flatnonzero(np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 100))
-        margin = np.minimum(self.range_margin, 0.25 * (hi[ranged] - lo[ranged]))
-        lo, hi = lo.copy(), hi.copy()
-        lo[ranged] += margin
-        hi[ranged] -= margin
+        sets = _contact_sets(self.phases)
+        ranged, lo, hi = _range_bounds(model, self.range_margin)
         c = self.mu / math.sqrt(2.0)
         for k in range(self.N + 1):
             acting, held, landing = sets[k]
@@ -171,50 +166,11 @@ class Collocation:
                     opti.subject_to(pos[2, self.points.index(p)] >= 0)
             opti.subject_to(opti.bounded(lo[ranged], self.X[ranged, k], hi[ranged]))
 
-    def _contact_sets(self):
-        """Per node: the points whose forces act there, the points held down there with the
-        first phase of their stay (a boundary node holds the points leaving too), and the
-        points that land there."""
-        first = {}  # (point, phase) -> the first phase of the stay it belongs to
-        for i, ph in enumerate(self.phases):
-            for p in ph.contacts:
-                first[p, i] = first.get((p, i - 1), i)
-        out = []
-        for i, ph in enumerate(self.phases):
-            for k in range(ph.intervals + (1 if i == len(self.phases) - 1 else 0)):
-                held = {(p, first[p, i]) for p in ph.contacts}
-                landing = set()
-                if k == 0:
-                    landing = {p for p in ph.contacts if first[p, i] == i}
-                if k == 0 and i > 0:
-                    held |= {(p, first[p, i - 1]) for p in self.phases[i - 1].contacts
-                             if p not in ph.contacts}  # fmt: skip
-                out.append((set(ph.contacts), frozenset(held), landing))
-        return out
-
     def _rows(self, held):
         """The independent (point, axis) rows of the points held, z rows first, with each
         point's stay."""
         if held not in self._row_cache:
-            model = self.om.model
-            data = model.createData()
-            pin.computeJointJacobians(model, data, self._reference)
-            pin.updateFramePlacements(model, data)
-            lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-            order = sorted(held)
-            J = {p: pin.getFrameJacobian(model, data, model.getFrameId(p), lwa)[:3]
-                 for p, _ in order}  # fmt: skip
-            basis, rows = [], []
-            for axis in (2, 0, 1):
-                for p, stay in order:
-                    r = J[p][axis].copy()
-                    norm = np.linalg.norm(r)
-                    for b in basis:
-                        r -= (b @ r) * b
-                    if np.linalg.norm(r) > 1e-8 * max(norm, 1.0):
-                        basis.append(r / np.linalg.norm(r))
-                        rows.append(((p, axis), stay))
-            self._row_cache[held] = rows
+            self._row_cache[held] = _independent_rows(self.om.model, self._reference, held)
         return self._row_cache[held]
 
     def _anchor(self, point, stay, axis):
@@ -319,32 +275,92 @@ class Collocation:
         except RuntimeError:
             value, success = opti.debug.value, False
         seconds = time.perf_counter() - start
-        return self._solution(value, success, opti.stats(), seconds, objective, terms or {})
+        return _solution(self, value, success, opti.stats(), seconds, objective, terms or {})
 
-    def _solution(self, value, success, stats, seconds, objective, terms) -> Solution:
-        X, V, A = (np.array(value(z)).reshape(z.shape).T for z in (self.X, self.V, self.A))
-        T = np.array([float(value(d)) if isinstance(d, ca.MX) else float(d)
-                      for d in self.durations])  # fmt: skip
-        t = [0.0]
-        for ph, d in zip(self.phases, T, strict=True):
-            t += list(t[-1] + d * np.arange(1, ph.intervals + 1) / ph.intervals)
-        forces = {p: np.zeros((self.N + 1, 3)) for p in self.points}
-        for (k, p), f in self._f.items():
-            forces[p][k] = np.array(value(f)).ravel() * self.weight
-        defect, k0 = 0.0, 0
-        for ph, d in zip(self.phases, T, strict=True):
-            h = d / ph.intervals
-            for k in range(k0, k0 + ph.intervals):
-                defect = max(defect, np.abs(X[k] + h * (V[k] + V[k + 1]) / 2 - X[k + 1]).max())
-                defect = max(defect, np.abs(V[k] + h * (A[k] + A[k + 1]) / 2 - V[k + 1]).max())
-            k0 += ph.intervals
-        tau = np.zeros((self.N + 1, self.n))
-        for k in range(self.N + 1):
-            F = np.column_stack([forces[p][k] for p in self.points] or [np.zeros(3)])
-            tau[k] = np.array(self.inverse_dynamics(X[k], V[k], A[k], F)).ravel()
-        return Solution(
-            np.array(t), X, V, A, tau, forces, T, success, stats.get("return_status", "?"),
-            int(stats.get("iter_count", -1)), seconds, float(defect),
-            float(np.abs(tau[:, :6]).max()), float(value(objective)),
-            {name: float(value(term)) for name, term in terms.items()},
-        )  # fmt: skip
+
+def _solution(col: Collocation, value, success, stats, seconds, objective, terms) -> Solution:
+    """The :class:`Solution` of ``col`` read with ``value`` (its states, durations, forces
+    [N] and torques, the largest collocation defect and root residual)."""
+    X, V, A = (np.array(value(z)).reshape(z.shape).T for z in (col.X, col.V, col.A))
+    T = np.array([float(value(d)) if isinstance(d, ca.MX) else float(d)
+                  for d in col.durations])  # fmt: skip
+    t = [0.0]
+    for ph, d in zip(col.phases, T, strict=True):
+        t += list(t[-1] + d * np.arange(1, ph.intervals + 1) / ph.intervals)
+    forces = {p: np.zeros((col.N + 1, 3)) for p in col.points}
+    for (k, p), f in col._f.items():
+        forces[p][k] = np.array(value(f)).ravel() * col.weight
+    defect, k0 = 0.0, 0
+    for ph, d in zip(col.phases, T, strict=True):
+        h = d / ph.intervals
+        for k in range(k0, k0 + ph.intervals):
+            defect = max(defect, np.abs(X[k] + h * (V[k] + V[k + 1]) / 2 - X[k + 1]).max())
+            defect = max(defect, np.abs(V[k] + h * (A[k] + A[k + 1]) / 2 - V[k + 1]).max())
+        k0 += ph.intervals
+    tau = np.zeros((col.N + 1, col.n))
+    for k in range(col.N + 1):
+        F = np.column_stack([forces[p][k] for p in col.points] or [np.zeros(3)])
+        tau[k] = np.array(col.inverse_dynamics(X[k], V[k], A[k], F)).ravel()
+    return Solution(
+        np.array(t), X, V, A, tau, forces, T, success, stats.get("return_status", "?"),
+        int(stats.get("iter_count", -1)), seconds, float(defect),
+        float(np.abs(tau[:, :6]).max()), float(value(objective)),
+        {name: float(value(term)) for name, term in terms.items()},
+    )  # fmt: skip
+
+
+def _contact_sets(phases):
+    """Per node: the points whose forces act there, the points held down there with the
+    first phase of their stay (a boundary node holds the points leaving too), and the
+    points that land there."""
+    first = {}  # (point, phase) -> the first phase of the stay it belongs to
+    for i, ph in enumerate(phases):
+        for p in ph.contacts:
+            first[p, i] = first.get((p, i - 1), i)
+    out = []
+    for i, ph in enumerate(phases):
+        for k in range(ph.intervals + (1 if i == len(phases) - 1 else 0)):
+            held = {(p, first[p, i]) for p in ph.contacts}
+            landing = set()
+            if k == 0:
+                landing = {p for p in ph.contacts if first[p, i] == i}
+            if k == 0 and i > 0:
+                held |= {(p, first[p, i - 1]) for p in phases[i - 1].contacts
+                         if p not in ph.contacts}  # fmt: skip
+            out.append((set(ph.contacts), frozenset(held), landing))
+    return out
+
+
+def _independent_rows(model, q, held):
+    """The largest set of (point, axis) rows of the points held ((point, stay) pairs) whose
+    Jacobian rows at ``q`` are independent, z rows first: [((point, axis), stay)]."""
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    order = sorted(held)
+    J = {p: pin.getFrameJacobian(model, data, model.getFrameId(p), lwa)[:3]
+         for p, _ in order}  # fmt: skip
+    basis, rows = [], []
+    for axis in (2, 0, 1):
+        for p, stay in order:
+            r = J[p][axis].copy()
+            norm = np.linalg.norm(r)
+            for b in basis:
+                r -= (b @ r) * b
+            if np.linalg.norm(r) > 1e-8 * max(norm, 1.0):
+                basis.append(r / np.linalg.norm(r))
+                rows.append(((p, axis), stay))
+    return rows
+
+
+def _range_bounds(model, range_margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the coordinates with a finite range under 100, their lower and upper bounds moved
+    ``range_margin`` inside, at most a quarter of the range each)."""
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    ranged = np.flatnonzero(np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 100))
+    margin = np.minimum(range_margin, 0.25 * (hi[ranged] - lo[ranged]))
+    lo, hi = lo.copy(), hi.copy()
+    lo[ranged] += margin
+    hi[ranged] -= margin
+    return ranged, lo, hi

@@ -696,6 +696,78 @@ def gait_kinematics(h, t: np.ndarray, qs: np.ndarray, stride: float, chains=None
     return angles, com, soles, heading
 
 
+def _at(x, times, tt):
+    """The columns of x (n, m) at the times tt, linear between its ``times`` (n,)."""
+    return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
+
+
+def _covers(series: tuple | None, t0, t1) -> TypeGuard[tuple]:
+    """Whether a (times, ...) series spans [t0, t1]."""
+    return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
+
+
+def _contact_events(contacts: dict, te: np.ndarray) -> tuple[np.ndarray, dict]:
+    """Double support at the samples ``te`` (both feet in contact), and each side's foot
+    strikes and foot offs [s] (the finite ones) of its ``contacts``."""
+    loaded = {s: np.zeros(len(te), dtype=bool) for s in SIDES}
+    events = {}
+    for s in SIDES:
+        for on, off in contacts[s]:
+            loaded[s] |= (te >= on) & (te <= off)
+        events[s] = {"strike": [on for on, _ in contacts[s] if np.isfinite(on)],
+                     "off": [off for _, off in contacts[s] if np.isfinite(off)]}  # fmt: skip
+    return loaded["left"] & loaded["right"], events
+
+
+def _cycle_curves(curves: dict, names, s: str, span: tuple, tt: np.ndarray, tk: np.ndarray,
+                  kinematics: tuple, force, kinetics, scale: tuple,
+                  loaded: bool) -> None:  # fmt: skip
+    """Append a cycle's curves of side ``s`` (over ``span`` (t0, t1), sampled at ``tt``) to
+    its ``curves``: its angles, and where their series cover it and the foot bears load, its
+    ground force [body weights] and kinetics [per kg] (``scale``: (weight [N], mass [kg]))."""
+    angles, _, _, heading = kinematics
+    (t0, t1), (weight, mass) = span, scale
+    ang = _at(angles[s], tk, tt)
+    for j, name in enumerate(names):
+        curves[name].append(ang[:, j])
+    if _covers(force, t0, t1) and s in force[1] and loaded:
+        f = _at(force[1][s], force[0], tt) / weight
+        curves["grf_vertical"].append(f[:, 2])
+        along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
+        curves["grf_anterior"].append(f[:, 0] * np.cos(along)
+                                      + f[:, 1] * np.sin(along))  # fmt: skip
+    if _covers(kinetics, t0, t1) and loaded:
+        kin = _at(kinetics[1][s], kinetics[0], tt) / mass
+        for j, name in enumerate(_MOMENTS):
+            curves[name].append(kin[:, j])
+
+
+def _add_stride(table: dict, s: str, span: tuple, off: float, other_on: float, tt: np.ndarray,
+                tk: np.ndarray, kinematics: tuple, te: np.ndarray,
+                both: np.ndarray) -> None:  # fmt: skip
+    """Append the spatiotemporal numbers of side ``s``'s stride over ``span`` (t0, t1) [s]
+    (its foot off at ``off``, the other foot's strike at ``other_on``) to ``table``."""
+    _, com, soles, _ = kinematics
+    t0, t1 = span
+    T = t1 - t0
+    p0, p1 = (_at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
+    stride = (p1 - p0)[:2]
+    L = float(np.linalg.norm(stride))
+    u = stride / L if L > 0 else np.array([1.0, 0.0])
+    po = _at(soles[OTHER[s]], tk, np.array([other_on]))[0]
+    table["speed"].append(L / T)
+    table["cadence"].append(120.0 / T)
+    table["stride_length"].append(L)
+    table["step_length"].append(float((po - p0)[:2] @ u))
+    table["stance"].append((off - t0) / T)
+    table["double_support"].append(float(both[(te >= t0) & (te < t1)].mean()))
+    c = _at(com, tk, tt)
+    lateral = (c[:, :2] - c[0, :2]) @ np.array([-u[1], u[0]])
+    lateral -= np.linspace(lateral[0], lateral[-1], len(lateral))
+    table["com_vertical"].append(float(np.ptp(c[:, 2])))
+    table["com_lateral"].append(float(np.ptp(lateral)))
+
+
 def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics: tuple, *,
                    mass: float, force: tuple | None = None, kinetics: tuple | None = None,
                    window: tuple[float, float] = (-math.inf, math.inf), arms: bool = True,
@@ -726,15 +798,7 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
     """
     g = float(np.linalg.norm(h.model.gravity.linear))
     weight = mass * g
-    angles, com, soles, heading = kinematics
-    loaded = {s: np.zeros(len(te), dtype=bool) for s in SIDES}
-    events = {}
-    for s in SIDES:
-        for on, off in contacts[s]:
-            loaded[s] |= (te >= on) & (te <= off)
-        events[s] = {"strike": [on for on, _ in contacts[s] if np.isfinite(on)],
-                     "off": [off for _, off in contacts[s] if np.isfinite(off)]}  # fmt: skip
-    both = loaded["left"] & loaded["right"]
+    both, events = _contact_events(contacts, te)
     names = (*ANGLES, *ARM_ANGLES) if arms else ANGLES
     # lists per cycle, made arrays at the end
     curves: dict[str, dict[str, Any]] = {
@@ -747,16 +811,10 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
     }  # fmt: skip
     cycles: dict[str, list[tuple[float, float]]] = {s: [] for s in SIDES}
 
-    def at(x, times, tt):
-        return np.array([np.interp(tt, times, x[:, i]) for i in range(x.shape[1])]).T
-
-    def covers(series: tuple | None, t0, t1) -> TypeGuard[tuple]:
-        return series is not None and series[0][0] <= t0 and t1 <= series[0][-1]
-
     def bears(s, t0, off):
         if not require_load:
             return True
-        if not covers(force, t0, off) or s not in force[1]:
+        if not _covers(force, t0, off) or s not in force[1]:
             return False
         # (over the contacts' threshold: a low-passed zero is 1e-44, not a load)
         return bool(np.interp(0.5 * (t0 + off), force[0], force[1][s][:, 2]) > EVENT_ON * weight)
@@ -774,36 +832,9 @@ def cycle_analysis(h, contacts: dict, te: np.ndarray, tk: np.ndarray, kinematics
             cycles[s].append((t0, t1))
             T = t1 - t0
             tt = t0 + percent / 100.0 * T
-            ang = at(angles[s], tk, tt)
-            for j, name in enumerate(names):
-                curves[s][name].append(ang[:, j])
-            p0, p1 = (at(soles[s], tk, np.array([x]))[0] for x in (t0, t1))
-            stride = (p1 - p0)[:2]
-            L = float(np.linalg.norm(stride))
-            u = stride / L if L > 0 else np.array([1.0, 0.0])
-            loaded = bears(s, t0, offs[0])
-            if covers(force, t0, t1) and s in force[1] and loaded:
-                f = at(force[1][s], force[0], tt) / weight
-                curves[s]["grf_vertical"].append(f[:, 2])
-                along = np.interp(tt, tk, heading)  # (a curve turns it within the stance)
-                curves[s]["grf_anterior"].append(f[:, 0] * np.cos(along)
-                                                 + f[:, 1] * np.sin(along))  # fmt: skip
-            if covers(kinetics, t0, t1) and loaded:
-                kin = at(kinetics[1][s], kinetics[0], tt) / mass
-                for j, name in enumerate(_MOMENTS):
-                    curves[s][name].append(kin[:, j])
-            po = at(soles[other], tk, np.array([others[0]]))[0]
-            table["speed"].append(L / T)
-            table["cadence"].append(120.0 / T)
-            table["stride_length"].append(L)
-            table["step_length"].append(float((po - p0)[:2] @ u))
-            table["stance"].append((offs[0] - t0) / T)
-            table["double_support"].append(float(both[(te >= t0) & (te < t1)].mean()))
-            c = at(com, tk, tt)
-            lateral = (c[:, :2] - c[0, :2]) @ np.array([-u[1], u[0]])
-            lateral -= np.linspace(lateral[0], lateral[-1], len(lateral))
-            table["com_vertical"].append(float(np.ptp(c[:, 2])))
-            table["com_lateral"].append(float(np.ptp(lateral)))
+            _cycle_curves(curves[s], names, s, (t0, t1), tt, tk, kinematics, force, kinetics,
+                          (weight, mass), bears(s, t0, offs[0]))  # fmt: skip
+            _add_stride(table, s, (t0, t1), offs[0], others[0], tt, tk, kinematics, te, both)
     curves = {s: {n: np.array(c).reshape(len(c), len(percent)) for n, c in cs.items()}
               for s, cs in curves.items()}  # fmt: skip
     table = {k: np.array(v) for k, v in table.items()}

@@ -420,6 +420,68 @@ def read_cycle(path) -> GaitCycle:
     )  # fmt: skip
 
 
+class _FootTargets:
+    """The feet's poses a fit aims at: flat footsteps ``width`` apart, a stride 2 L long, each
+    stance foot rolling from its heel at heel strike to its toe after heel off."""
+
+    def __init__(self, fitter: _Fitter, gait: dict, soles0: dict, width: float) -> None:
+        self.fitter, self.soles0, self.width = fitter, soles0, width
+        self.L, self.off, self.flat = (
+            gait["step_length"],
+            gait["foot_off"],
+            gait["opposite_foot_off"],
+        )
+        self.heel_off = 0.65 * self.off
+        self.pitch_strike = self.foot_pitch(0.0)
+
+    def step_pose(self, side: str, k: int) -> pin.SE3:
+        """The flat pose of a side's k-th footstep (right k = 0 at x = 0, left k = 0 at -L)."""
+        L, width = self.L, self.width
+        x = 2 * L * k - (L if side == "left" else 0.0)
+        y = width / 2 if side == "left" else -width / 2
+        return pin.SE3(np.eye(3), np.array([x + self.soles0[side].translation[0], y, 0.0]))
+
+    # foot pitch at heel strike and at foot off, from the normative angles: the foot against the
+    # floor = ankle + hip - pelvis tilt - knee (sagittal chain, degrees; toes up positive)
+    def foot_pitch(self, psi):
+        a = self.fitter.angles(psi)
+        return math.radians(a[7] + a[3] - a[0] - a[6])
+
+    def stance_target(self, side, psi, k) -> tuple[pin.SE3, int]:
+        """Pose of a stance foot at its phase psi (< off), on footstep k."""
+        flat, heel_off = self.flat, self.heel_off
+        base = self.step_pose(side, k)
+        heel, toe = self.fitter.edge[side]
+        if psi < flat:
+            theta, pivot, kind = self.pitch_strike * (1 - smooth_step(psi / flat)), heel, 1
+        elif psi < heel_off:
+            return base, 2
+        else:
+            # the normative chain's own pitch, eased in over HEEL_RISE after heel off
+            theta = min(self.foot_pitch(psi), 0.0) * smooth_step((psi - heel_off) / HEEL_RISE)
+            pivot, kind = toe, 3
+        # rotate about the pivot edge (toes up positive: a rotation about -y)
+        R = pin.utils.rotate("y", -theta)
+        p = base.translation + base.rotation @ pivot
+        return pin.SE3(R, p - R @ pivot), kind
+
+    def targets_at(self, phi, swing_paths=None):
+        """Each side's target pose at the cycle's phase phi (a swing foot's on its path, if
+        given) and contact kind (0 swing, 1 heel, 2 flat, 3 toe)."""
+        targets, kinds = {}, {}
+        for side in SIDES:
+            psi_raw = phi + (0.5 if side == "left" else 0.0)
+            k = int(math.floor(psi_raw))  # footstep index of the current stance
+            psi = psi_raw - k
+            if psi < self.off:
+                targets[side], kinds[side] = self.stance_target(side, psi, k)
+            else:
+                kinds[side] = 0
+                if swing_paths is not None:
+                    targets[side] = swing_paths[side](phi)
+        return targets, kinds
+
+
 def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
     """:func:`fit_cycle`'s fit itself."""
     ell = leg_length(h)
@@ -432,25 +494,11 @@ def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
         foot_width = float(np.ptp(fitter.corners["left"][:, 1]))
         width = min(abs(soles0["left"].translation[1] - soles0["right"].translation[1]),
                     0.03 * ell + foot_width)  # fmt: skip
-    L, off, flat = gait["step_length"], gait["foot_off"], gait["opposite_foot_off"]
-    heel_off = 0.65 * off
+    L = gait["step_length"]
     phase = np.arange(frames) / frames
-
-    def step_pose(side: str, k: int) -> pin.SE3:
-        """The flat pose of a side's k-th footstep (right k = 0 at x = 0, left k = 0 at -L)."""
-        x = 2 * L * k - (L if side == "left" else 0.0)
-        y = width / 2 if side == "left" else -width / 2
-        return pin.SE3(np.eye(3), np.array([x + soles0[side].translation[0], y, 0.0]))
-
-    # foot pitch at heel strike and at foot off, from the normative angles: the foot against the
-    # floor = ankle + hip - pelvis tilt - knee (sagittal chain, degrees; toes up positive)
-    def foot_pitch(psi):
-        a = fitter.angles(psi)
-        return math.radians(a[7] + a[3] - a[0] - a[6])
-
-    pitch_strike = foot_pitch(0.0)
+    steps = _FootTargets(fitter, gait, soles0, width)
     z_com0 = pin.centerOfMass(model, data, fitter.q0)[2]
-    gait = gait | {"width": width, "heel_off": heel_off}
+    gait = gait | {"width": width, "heel_off": steps.heel_off}
     feet_plan = {
         s: (
             float(soles0[s].translation[0]) - (L if s == "left" else 0.0),
@@ -463,114 +511,15 @@ def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
     # pass 1 follows the planned sway only (its height is not known yet)
     plan = plan_com(gait, feet_plan, z_com0)
     fitter.com_target = lambda phi: np.array([np.nan, plan.at(phi)[0][1], np.nan])
-
-    def stance_target(side, psi, k) -> tuple[pin.SE3, int]:
-        """Pose of a stance foot at its phase psi (< off), on footstep k."""
-        base = step_pose(side, k)
-        heel, toe = fitter.edge[side]
-        if psi < flat:
-            theta, pivot, kind = pitch_strike * (1 - smooth_step(psi / flat)), heel, 1
-        elif psi < heel_off:
-            return base, 2
-        else:
-            # the normative chain's own pitch, eased in over HEEL_RISE after heel off
-            theta = min(foot_pitch(psi), 0.0) * smooth_step((psi - heel_off) / HEEL_RISE)
-            pivot, kind = toe, 3
-        # rotate about the pivot edge (toes up positive: a rotation about -y)
-        R = pin.utils.rotate("y", -theta)
-        p = base.translation + base.rotation @ pivot
-        return pin.SE3(R, p - R @ pivot), kind
-
-    def targets_at(phi, swing_paths=None):
-        targets, kinds = {}, {}
-        for side in SIDES:
-            psi_raw = phi + (0.5 if side == "left" else 0.0)
-            k = int(math.floor(psi_raw))  # footstep index of the current stance
-            psi = psi_raw - k
-            if psi < off:
-                targets[side], kinds[side] = stance_target(side, psi, k)
-            else:
-                kinds[side] = 0
-                if swing_paths is not None:
-                    targets[side] = swing_paths[side](phi)
-        return targets, kinds
-
-    # pass 1: stance feet only; the swing foot goes where the normative angles carry it
-    q = fitter.q0.copy()
-    q[0] += 1.5 * L  # between the footsteps of the second lap
-    qs1: list[np.ndarray] = []
-    free: dict[str, list[pin.SE3]] = {s: [] for s in SIDES}
-    back = pin.SE3(np.eye(3), np.array([-2 * L, 0.0, 0.0]))  # one stride back
-    for phi in phase + 1.0:  # the second lap (footsteps k = 1, 2), from the standing posture
-        targets, _ = targets_at(phi)
-        q = fitter.solve(q, phi, targets, iterations=100 if phi == 1.0 else 30)
-        qs1.append(q.copy())
-        pin.framesForwardKinematics(model, data, q)
-        for s in SIDES:
-            free[s].append(back * data.oMf[fitter.sole[s]])
-    # bend each swing path to leave from the foot-off pose and land on the heel-strike pose
-    paths = {}
-    for s in SIDES:
-        shift = 0.5 if s == "left" else 0.0
-        # the free path's first swing frame (rounding could pick the last stance frame, where
-        # pass 1 held the foot on its footstep: the bend then missed the free path's jump at
-        # foot off, 9 cm across on the g1, and the swing started at 3 m/s)
-        i_off = math.ceil(((off - shift) % 1.0) * frames - 1e-9) % frames
-        i_on = int(round(((1.0 - shift) % 1.0) * frames)) % frames
-        start, _ = stance_target(s, off - 1e-9, 0)
-        end, _ = stance_target(s, 0.0, 1)
-        # the free path where it would land: its last swing pose carried on one frame at its
-        # own velocity (free[i_on] is already the stance's heel-strike pose: blending to it
-        # kept the foot 4 cm up until the last frame, then dropped it, and the body with it,
-        # onto the floor: a controller tracking that lifted the female body off its feet)
-        i_last = (i_on - 1) % frames
-        last, before = free[s][i_last], free[s][(i_last - 1) % frames]
-        a0, a1 = free[s][i_off], last * before.actInv(last)
-        if i_last < i_off:  # the free path's landing instant is in the next lap
-            a1 = pin.SE3(np.eye(3), np.array([2 * L, 0.0, 0.0])) * a1
-        dp0, dp1 = start.translation - a0.translation, end.translation - a1.translation
-        dr0 = pin.log3(a0.rotation.T @ start.rotation)
-        dr1 = pin.log3(a1.rotation.T @ end.rotation)
-
-        def path(phi, s=s, shift=shift, dp0=dp0, dp1=dp1, dr0=dr0, dr1=dr1):
-            psi_raw = phi + shift
-            k = int(math.floor(psi_raw))  # the footstep the foot left
-            u = (psi_raw - k - off) / (1.0 - off)  # 0 at foot off, 1 at heel strike
-            i = int(round((phi % 1.0) * frames)) % frames
-            M = free[s][i]
-            w = float(smooth_step(u))
-            p = M.translation + (1 - w) * dp0 + w * dp1
-            p[0] += 2 * L * k
-            R = M.rotation @ pin.exp3((1 - w) * dr0 + w * dr1)
-            # above the floor: the lowest corner at least CLEARANCE up in mid-swing
-            lowest = min((R @ c + p)[2] for c in fitter.corners[s])
-            p[2] += max(0.0, CLEARANCE * math.sin(math.pi * min(max(u, 0.0), 1.0)) - lowest)
-            return pin.SE3(R, p)
-
-        paths[s] = path
+    qs1, free = _free_pass(fitter, steps, phase)
+    paths = {s: _swing_path(fitter, steps, free[s], s, frames) for s in SIDES}
     # pass 2: both feet constrained; the centre of mass on its plan across and along (a
     # pendulum at the first pass's mean height); its height is the legs' to choose (the plan's
     # would hold the pelvis too high for the leading leg to reach its heel strike)
     z_mean = float(np.mean([pin.centerOfMass(model, data, qk)[2] for qk in qs1]))
     plan = plan_com(gait, feet_plan, z_mean)
     fitter.com_target = lambda phi: plan.at(phi)[0] * np.array([1.0, 1.0, np.nan])
-    qs: list[np.ndarray] = []
-    feet: dict[str, list[np.ndarray]] = {s: [] for s in SIDES}
-    contact: dict[str, list[int]] = {s: [] for s in SIDES}
-    worst = 0.0
-    q = qs1[0].copy()
-    q[0] -= 2 * L  # pass 1 ran one stride on
-    for phi in phase:
-        targets, kinds = targets_at(phi, paths)
-        q = fitter.solve(q, phi, targets)
-        pin.framesForwardKinematics(model, data, q)
-        for s in SIDES:
-            M = data.oMf[fitter.sole[s]]
-            if kinds[s]:  # a stance foot's pose is a constraint
-                worst = max(worst, float(np.abs(pin.log6(targets[s].actInv(M)).vector).max()))
-            feet[s].append(np.concatenate([M.translation, pin.rpy.matrixToRpy(M.rotation)]))
-            contact[s].append(kinds[s])
-        qs.append(q.copy())
+    qs, feet, contact, worst = _constrained_pass(fitter, steps, paths, qs1[0], phase)
     return GaitCycle(
         phase=phase,
         q=np.array(qs),
@@ -580,3 +529,92 @@ def _fit(h, speed: float, width: float | None, frames: int) -> GaitCycle:
         residual=worst,
         com=plan,
     )
+
+
+def _free_pass(fitter: _Fitter, steps: _FootTargets, phase: np.ndarray):
+    """Pass 1 of a fit: the stance feet only; the swing foot goes where the normative angles
+    carry it. The configurations of the cycle's second lap, and each sole's poses one stride
+    back."""
+    model, data, L = fitter.model, fitter.data, steps.L
+    q = fitter.q0.copy()
+    q[0] += 1.5 * L  # between the footsteps of the second lap
+    qs1: list[np.ndarray] = []
+    free: dict[str, list[pin.SE3]] = {s: [] for s in SIDES}
+    back = pin.SE3(np.eye(3), np.array([-2 * L, 0.0, 0.0]))  # one stride back
+    for phi in phase + 1.0:  # the second lap (footsteps k = 1, 2), from the standing posture
+        targets, _ = steps.targets_at(phi)
+        q = fitter.solve(q, phi, targets, iterations=100 if phi == 1.0 else 30)
+        qs1.append(q.copy())
+        pin.framesForwardKinematics(model, data, q)
+        for s in SIDES:
+            free[s].append(back * data.oMf[fitter.sole[s]])
+    return qs1, free
+
+
+def _swing_path(fitter: _Fitter, steps: _FootTargets, free: list, s: str, frames: int):
+    """The swing of side ``s``: its free path (``free``, a sole pose per frame) bent to leave
+    from the foot-off pose and land on the heel-strike pose, as a function of the phase."""
+    L, off = steps.L, steps.off
+    shift = 0.5 if s == "left" else 0.0
+    # the free path's first swing frame (rounding could pick the last stance frame, where
+    # pass 1 held the foot on its footstep: the bend then missed the free path's jump at
+    # foot off, 9 cm across on the g1, and the swing started at 3 m/s)
+    i_off = math.ceil(((off - shift) % 1.0) * frames - 1e-9) % frames
+    i_on = int(round(((1.0 - shift) % 1.0) * frames)) % frames
+    start, _ = steps.stance_target(s, off - 1e-9, 0)
+    end, _ = steps.stance_target(s, 0.0, 1)
+    # the free path where it would land: its last swing pose carried on one frame at its
+    # own velocity (free[i_on] is already the stance's heel-strike pose: blending to it
+    # kept the foot 4 cm up until the last frame, then dropped it, and the body with it,
+    # onto the floor: a controller tracking that lifted the female body off its feet)
+    i_last = (i_on - 1) % frames
+    last, before = free[i_last], free[(i_last - 1) % frames]
+    a0, a1 = free[i_off], last * before.actInv(last)
+    if i_last < i_off:  # the free path's landing instant is in the next lap
+        a1 = pin.SE3(np.eye(3), np.array([2 * L, 0.0, 0.0])) * a1
+    dp0, dp1 = start.translation - a0.translation, end.translation - a1.translation
+    dr0 = pin.log3(a0.rotation.T @ start.rotation)
+    dr1 = pin.log3(a1.rotation.T @ end.rotation)
+
+    def path(phi):
+        psi_raw = phi + shift
+        k = int(math.floor(psi_raw))  # the footstep the foot left
+        u = (psi_raw - k - off) / (1.0 - off)  # 0 at foot off, 1 at heel strike
+        i = int(round((phi % 1.0) * frames)) % frames
+        M = free[i]
+        w = float(smooth_step(u))
+        p = M.translation + (1 - w) * dp0 + w * dp1
+        p[0] += 2 * L * k
+        R = M.rotation @ pin.exp3((1 - w) * dr0 + w * dr1)
+        # above the floor: the lowest corner at least CLEARANCE up in mid-swing
+        lowest = min((R @ c + p)[2] for c in fitter.corners[s])
+        p[2] += max(0.0, CLEARANCE * math.sin(math.pi * min(max(u, 0.0), 1.0)) - lowest)
+        return pin.SE3(R, p)
+
+    return path
+
+
+def _constrained_pass(fitter: _Fitter, steps: _FootTargets, paths: dict, q1: np.ndarray,
+                      phase: np.ndarray):  # fmt: skip
+    """Pass 2 of a fit, from pass 1's first configuration ``q1``: both feet's poses
+    constraints. Its configurations, soles' poses (x, y, z, roll, pitch, yaw), contact kinds
+    and the largest stance-foot residual."""
+    model, data = fitter.model, fitter.data
+    qs: list[np.ndarray] = []
+    feet: dict[str, list[np.ndarray]] = {s: [] for s in SIDES}
+    contact: dict[str, list[int]] = {s: [] for s in SIDES}
+    worst = 0.0
+    q = q1.copy()
+    q[0] -= 2 * steps.L  # pass 1 ran one stride on
+    for phi in phase:
+        targets, kinds = steps.targets_at(phi, paths)
+        q = fitter.solve(q, phi, targets)
+        pin.framesForwardKinematics(model, data, q)
+        for s in SIDES:
+            M = data.oMf[fitter.sole[s]]
+            if kinds[s]:  # a stance foot's pose is a constraint
+                worst = max(worst, float(np.abs(pin.log6(targets[s].actInv(M)).vector).max()))
+            feet[s].append(np.concatenate([M.translation, pin.rpy.matrixToRpy(M.rotation)]))
+            contact[s].append(kinds[s])
+        qs.append(q.copy())
+    return qs, feet, contact, worst

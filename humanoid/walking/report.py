@@ -415,6 +415,23 @@ def format_trial_table(analysis) -> str:
     return "\n".join(lines)
 
 
+def _trial_table_cells(ax, a) -> None:
+    """The spatiotemporal table of a trial's analysis ``a`` on ``ax``: per side beside the
+    adult norms, a value outside them in red."""
+    rows = trial_table(a)
+    cells = [[label, left, right, norm] for label, left, right, norm, *_ in rows]
+    table = ax.table(cellText=cells, colLabels=["", "left", "right", "adult norm"],
+                     loc="upper center", colWidths=(0.22, 0.17, 0.17, 0.5),
+                     cellLoc="left")  # fmt: skip
+    table.auto_set_font_size(False)
+    table.set_fontsize(8.5)
+    table.scale(1.0, 1.3)
+    for k, (*_, ok_l, ok_r) in enumerate(rows, start=1):
+        for col, ok in ((1, ok_l), (2, ok_r)):
+            if ok is False:
+                table[k, col].set_text_props(color="tab:red")
+
+
 def plot_trial_report(trial, path, title: str | None = None) -> Path:
     """A gait lab's report of a person's trial (:class:`~humanoid.walking.trial.Trial`, PNG):
     the angles, moments and powers (and the ground reaction forces, with loads) over 0-100 %
@@ -478,18 +495,7 @@ def plot_trial_report(trial, path, title: str | None = None) -> Path:
             va="top", fontsize=8.5)  # fmt: skip
     ax = fig.add_subplot(grid[4, 2:])
     ax.axis("off")
-    rows = trial_table(a)
-    cells = [[label, left, right, norm] for label, left, right, norm, *_ in rows]
-    table = ax.table(cellText=cells, colLabels=["", "left", "right", "adult norm"],
-                     loc="upper center", colWidths=(0.22, 0.17, 0.17, 0.5),
-                     cellLoc="left")  # fmt: skip
-    table.auto_set_font_size(False)
-    table.set_fontsize(8.5)
-    table.scale(1.0, 1.3)
-    for k, (*_, ok_l, ok_r) in enumerate(rows, start=1):
-        for col, ok in ((1, ok_l), (2, ok_r)):
-            if ok is False:
-                table[k, col].set_text_props(color="tab:red")
+    _trial_table_cells(ax, a)
     s = a.summary
     speed = f"{s['speed']:.2f} m/s, " if np.isfinite(s["speed"]) else ""
     counts = f"left {len(a.cycles['left'])}, right {len(a.cycles['right'])}"

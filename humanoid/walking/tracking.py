@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -262,89 +263,31 @@ def bend(anchor: np.ndarray, x: float, radius: float | None, ahead: float) -> np
     return _compose(_compose(anchor, turn), np.array([-ahead, 0.0, 0.0]))
 
 
-class GaitController(Effect):
-    """Joint torques that walk a body along its fitted gait cycle (see the module docstring).
+class _CyclePlan:
+    """What a :class:`GaitController` asks of the body at t: the cycle's clock, the footholds
+    (anchored, moved by the balance feedback), the swing foot's path, the contact phases and
+    the anchored reference. The controller's QP then makes the body do it."""
 
-    Args:
-        h: The humanoid. model: the plant's model (with its gravity). cycle: the fitted
-            :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
-            :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
-        phase0: the cycle's phase at t = 0. transitions: a
-            :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
-            stops standing (its phase0 then replaces ``phase0``).
-        radius: the walk follows a circle of this radius [m] (positive: turning left; None: a
-            straight line).
-    """
+    model: Any
+    data: Any
+    rdata: Any
+    ldata: Any
+    cycle: Any
+    player: CyclePlayer
+    ends: Any
+    gains: TrackingGains
+    radius: float | None
+    sole: dict[str, int]
+    step_x0: dict[str, float]
+    anchors: dict[str, dict[int, np.ndarray]]
+    shift: dict[str, np.ndarray]
+    lift: dict[str, tuple[int, np.ndarray, np.ndarray, np.ndarray, float]]
+    down: dict[str, bool]
+    ankle: dict[str, tuple[int, float, float]]
+    off: float
+    flat: float
+    omega: float
 
-    name = "gait"
-    velocity_dependent = True
-
-    def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None,
-                 transitions=None, radius: float | None = None) -> None:  # fmt: skip
-        self.h, self.model, self.cycle = h, model, cycle
-        self.radius = radius
-        self.data = model.createData()
-        self.rdata = model.createData()
-        self.ldata = model.createData()  # the landing poses' (not to clobber the reference's)
-        self.ends = transitions
-        if transitions is None:
-            self.player = CyclePlayer(model, cycle, phase0)
-        else:
-            self.player = CyclePlayer(model, cycle, transitions.phase0, transitions.hold())
-        self.ground = ground
-        self.dt = dt
-        self.gains = gains or TrackingGains()
-        self.sole = {s: h.sole_id(s) for s in SIDES}
-        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
-        pts = {s: h.sole_points(s) for s in SIDES}
-        self.sole_middle = {s: float(np.mean(pts[s][:, 0])) for s in SIDES}
-        self.tau = np.zeros(model.nv)
-        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
-        self.ranges = JointRanges(h)
-        self.pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
-        chains = leg_chains(h)
-        arms = arm_chains(h, chains)
-        self.torso = torso_frame(model, arms.values())
-        g = self.cycle.gait
-        self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
-        # each footstep's x along the cycle's straight line, from its flat stance (footstep 0
-        # of the right foot at phase [0, off), of the left at [0.5, 0.5 + off))
-        self.step_x0 = {}
-        for s in SIDES:
-            shift = 0.5 if s == "left" else 0.0
-            k = np.floor(cycle.phase + shift)
-            flat = cycle.contact[s] == 2
-            self.step_x0[s] = float(np.mean(cycle.feet[s][flat, 0] - cycle.stride * k[flat]))
-        # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
-        self.anchors: dict[str, dict[int, np.ndarray]] = {s: {} for s in SIDES}
-        if transitions is not None:  # the standing feet are footsteps 0
-            for s in SIDES:
-                self.anchors[s][0] = np.array(transitions.anchors[s], dtype=float)
-        self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
-        # side -> (footstep it left, its pose and velocity errors there, u0)
-        self.lift: dict[str, tuple[int, np.ndarray, np.ndarray, np.ndarray, float]] = {}
-        # the last solve: (accelerations, contact forces, the loaded points)
-        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
-        self.relaxed = 0  # steps solved without the range dampers and floor rows
-        self.down: dict[str, bool] = {}  # side -> whether it was a stance foot at the last step
-        z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
-        self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
-        # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
-        # the cycle's angles only regularise them
-        gains = self.gains
-        self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture,
-                                           arms, gains.w_arm_posture)  # fmt: skip
-        stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
-        self.ankle = {s: a for s, a in stops.items() if a is not None}
-        self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
-
-    def force(self, model, data, t, q, v):
-        return self.tau
-
-    def before_step(self, sim, k: int, t: float, q, v) -> None:
-        self.update(t, q, v)
-
-    # -- the cycle's timing ----------------------------------------------------------------
     def side_phase(self, side: str, t: float) -> tuple[int, float]:
         """(footstep index, phase within it) of a side at t (0 at its heel strike)."""
         return footstep_phase(side, self.player.phase(t))
@@ -475,35 +418,12 @@ class GaitController(Effect):
               - ds5**2 * cross(e_R, spin))  # fmt: skip
         return pin.SE3(R, p), np.concatenate([v, w]), np.concatenate([acc, dw])
 
-    def load_share(self, steps, kinds, side_of, loaded) -> np.ndarray | None:
-        """In a double support (both feet bearing, the leading one before its foot flat), the
-        row over the loaded points' forces (x, y, z each) whose zero splits the vertical load
-        as the plan does: the leading foot's share w rises from 0 to 1 along the same smooth
-        step as the planned centre of pressure moves from the trailing foot to the leading one
-        (:func:`~humanoid.walking.reference.plan_com`), so the trailing leg keeps pushing
-        through the double support, as a person's does. None outside a double support."""
-        if any(kinds[s] == 0 for s in SIDES):
-            return None
-        lead = min(SIDES, key=lambda s: steps[s][1])
-        psi = steps[lead][1]
-        if psi >= self.flat:
-            return None
-        w = float(smooth_step(psi / self.flat))
-        row = np.zeros(3 * len(loaded))
-        for j, i in enumerate(loaded):
-            row[3 * j + 2] = -(1.0 - w) if side_of[i] == lead else w
-        return row
-
-    # -- the QP ----------------------------------------------------------------------------
-    def update(self, t: float, q, v) -> np.ndarray:
-        model, data, g, dt = self.model, self.data, self.gains, self.dt
+    # -- the plan at a step -------------------------------------------------------------
+    def _reference(self, t: float, q, v) -> tuple:
+        """The reference at t, its kinematics left in ``rdata``: (q_r, v_r, the body anchor's
+        rotation, the anchored centre of mass plan (c, dc, ddc), the capture point's error)."""
+        model, data = self.model, self.data
         nv = model.nv
-        M, hvec = dynamics_terms(model, data, q, v)
-        # contacts: the plant's own detection
-        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint, q)
-        near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
-        touching = {s for s, n in zip(side_of, near, strict=True) if n}
-        # the reference, its feet and centre of mass
         q_r, v_r, a_r = self.player.state(t)
         rd = self.rdata
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
@@ -523,6 +443,14 @@ class GaitController(Effect):
         xi = c[:2] + dc[:2] / self.omega
         xi_r = c_r[:2] + dc_r[:2] / self.omega
         err = xi - xi_r
+        return q_r, v_r, R_A, (c_r, dc_r, ddc_r), err
+
+    def _contact_phases(self, t: float, q, near: list, touching: set, side_of: list,
+                        phi) -> tuple[dict, dict, set, list]:  # fmt: skip
+        """(footstep phases, contact kinds, the sides kept flat, the points near enough to
+        bear) of each side at t: the cycle's, overridden by a start's or stop's flat feet, a
+        trailing foot that waits for the other one and a heel that rises before its stop."""
+        g = self.gains
         steps = {s: self.side_phase(s, t) for s in SIDES}
         kinds = {s: self.contact_kind(steps[s][1]) for s in SIDES}
         flat = self.flat_override(t, steps)
@@ -543,6 +471,12 @@ class GaitController(Effect):
                 iq, bound, sign = self.ankle[s]
                 if sign * (bound - q[iq]) < g.heel_rise_margin:
                     kinds[s] = 3
+        return steps, kinds, flat, near
+
+    def _place_footsteps(self, steps: dict, kinds: dict, err: np.ndarray) -> None:
+        """Anchor each swinging foot's next footstep: beside the other foot's on the cycle's
+        line (bent along a curve), moved by the capture point's error ``err`` [m]."""
+        g = self.gains
         for s in SIDES:
             k, psi = steps[s]
             if kinds[s] == 0:  # swing: land the next footstep k + 1 corrected
@@ -560,6 +494,140 @@ class GaitController(Effect):
                 if self.ends is not None:  # a stop's shorter steps
                     back = self.ends.moved.get((s, k + 1), 0.0)
                     self.anchors[s][k + 1][:2] -= (_rot(base) @ [back, 0.0, 0.0])[:2]
+
+
+class GaitController(_CyclePlan, Effect):
+    """Joint torques that walk a body along its fitted gait cycle (see the module docstring).
+
+    Args:
+        h: The humanoid. model: the plant's model (with its gravity). cycle: the fitted
+            :class:`~humanoid.walking.reference.GaitCycle`. ground: the plant's
+            :class:`~humanoid.constraints.ground.ContactSolver`. dt: the step [s].
+        phase0: the cycle's phase at t = 0. transitions: a
+            :class:`~humanoid.walking.transitions.StartStop`: the walk starts from standing and
+            stops standing (its phase0 then replaces ``phase0``).
+        radius: the walk follows a circle of this radius [m] (positive: turning left; None: a
+            straight line).
+    """
+
+    name = "gait"
+    velocity_dependent = True
+
+    def __init__(self, h, model, cycle, ground, dt, phase0=0.0, gains=None,
+                 transitions=None, radius: float | None = None) -> None:  # fmt: skip
+        self.h, self.model, self.cycle = h, model, cycle
+        self.radius = radius
+        self.data = model.createData()
+        self.rdata = model.createData()
+        self.ldata = model.createData()  # the landing poses' (not to clobber the reference's)
+        self.ends = transitions
+        if transitions is None:
+            self.player = CyclePlayer(model, cycle, phase0)
+        else:
+            self.player = CyclePlayer(model, cycle, transitions.phase0, transitions.hold())
+        self.ground = ground
+        self.dt = dt
+        self.gains = gains or TrackingGains()
+        self.sole = {s: h.sole_id(s) for s in SIDES}
+        self.foot_joint = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
+        pts = {s: h.sole_points(s) for s in SIDES}
+        self.sole_middle = {s: float(np.mean(pts[s][:, 0])) for s in SIDES}
+        self.tau = np.zeros(model.nv)
+        self.weight = h.mass * float(np.linalg.norm(model.gravity.linear))
+        self.ranges = JointRanges(h)
+        self.pelvis = model.getFrameId(model.names[1], pin.FrameType.JOINT)
+        chains = leg_chains(h)
+        arms = arm_chains(h, chains)
+        self.torso = torso_frame(model, arms.values())
+        g = self.cycle.gait
+        self.off, self.flat, self.heel_off = g["foot_off"], g["opposite_foot_off"], g["heel_off"]
+        # each footstep's x along the cycle's straight line, from its flat stance (footstep 0
+        # of the right foot at phase [0, off), of the left at [0.5, 0.5 + off))
+        self.step_x0 = {}
+        for s in SIDES:
+            shift = 0.5 if s == "left" else 0.0
+            k = np.floor(cycle.phase + shift)
+            flat = cycle.contact[s] == 2
+            self.step_x0[s] = float(np.mean(cycle.feet[s][flat, 0] - cycle.stride * k[flat]))
+        # anchors: each side's footstep k carries an (x, y, yaw) placement of the cycle's
+        self.anchors: dict[str, dict[int, np.ndarray]] = {s: {} for s in SIDES}
+        if transitions is not None:  # the standing feet are footsteps 0
+            for s in SIDES:
+                self.anchors[s][0] = np.array(transitions.anchors[s], dtype=float)
+        self.shift = {s: np.zeros(2) for s in SIDES}  # the swing foot's current correction
+        # side -> (footstep it left, its pose and velocity errors there, u0)
+        self.lift: dict[str, tuple[int, np.ndarray, np.ndarray, np.ndarray, float]] = {}
+        # the last solve: (accelerations, contact forces, the loaded points)
+        self.last: tuple[np.ndarray, np.ndarray, list[int]] | None = None
+        self.relaxed = 0  # steps solved without the range dampers and floor rows
+        self.down: dict[str, bool] = {}  # side -> whether it was a stance foot at the last step
+        z = pin.centerOfMass(model, self.data, cycle.q[0])[2]
+        self.omega = math.sqrt(float(np.linalg.norm(model.gravity.linear)) / z)
+        # the legs' joints follow the feet, pelvis and centre of mass (their tasks fix them);
+        # the cycle's angles only regularise them
+        gains = self.gains
+        self.w_posture = leg_joint_weights(model, chains, gains.w_leg_posture, gains.w_posture,
+                                           arms, gains.w_arm_posture)  # fmt: skip
+        stops = {s: ankle_stop(h, chains[s]) for s in SIDES}
+        self.ankle = {s: a for s, a in stops.items() if a is not None}
+        self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
+
+    def force(self, model, data, t, q, v):
+        return self.tau
+
+    def before_step(self, sim, k: int, t: float, q, v) -> None:
+        self.update(t, q, v)
+
+    # -- the QP ----------------------------------------------------------------------------
+    def update(self, t: float, q, v) -> np.ndarray:
+        """The joint torques at t for the state (q, v) (kept in ``tau``; ``last`` keeps the
+        solve's accelerations, contact forces and loaded points)."""
+        model, data, g, dt = self.model, self.data, self.gains, self.dt
+        M, hvec = dynamics_terms(model, data, q, v)
+        # contacts: the plant's own detection
+        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint, q)
+        near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
+        touching = {s for s, n in zip(side_of, near, strict=True) if n}
+        q_r, v_r, R_A, com_r, err = self._reference(t, q, v)
+        steps, kinds, flat, near = self._contact_phases(t, q, near, touching, side_of, phi)
+        self._place_footsteps(steps, kinds, err)
+        loaded, free, bearing = self._split_contacts(near, kinds, side_of, points)
+        tasks = TaskStack(model, data, q, v)
+        self._add_foot_tasks(tasks, steps, kinds, bearing, flat)
+        support = np.array([points[i][:2] for i in loaded]).reshape(-1, 2)
+        self._add_body_tasks(tasks, t, q_r, v_r, R_A, com_r, support)
+        forces = [ForceTask(0.0, g.w_force)]
+        share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
+        if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
+            forces.append(ForceTask(0.0, g.w_share, share))
+        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, self.ground.settings.correction,
+                       RANGE_MARGIN, RANGE_TIME, forces=forces)  # fmt: skip
+        return self._solve(p, t, v, M, hvec, loaded)
+
+    def load_share(self, steps, kinds, side_of, loaded) -> np.ndarray | None:
+        """In a double support (both feet bearing, the leading one before its foot flat), the
+        row over the loaded points' forces (x, y, z each) whose zero splits the vertical load
+        as the plan does: the leading foot's share w rises from 0 to 1 along the same smooth
+        step as the planned centre of pressure moves from the trailing foot to the leading one
+        (:func:`~humanoid.walking.reference.plan_com`), so the trailing leg keeps pushing
+        through the double support, as a person's does. None outside a double support."""
+        if any(kinds[s] == 0 for s in SIDES):
+            return None
+        lead = min(SIDES, key=lambda s: steps[s][1])
+        psi = steps[lead][1]
+        if psi >= self.flat:
+            return None
+        w = float(smooth_step(psi / self.flat))
+        row = np.zeros(3 * len(loaded))
+        for j, i in enumerate(loaded):
+            row[3 * j + 2] = -(1.0 - w) if side_of[i] == lead else w
+        return row
+
+    def _split_contacts(self, near: list, kinds: dict, side_of: list,
+                        points: list) -> tuple[list[int], list[int], set[str]]:  # fmt: skip
+        """The near points split into loaded (sticking: on the part of the sole that the
+        contact phase loads) and free ones, and the sides that bear load."""
         # contacts, split into loaded (sticking) and free points
         loaded: list[int] = []
         free: list[int] = []
@@ -580,7 +648,13 @@ class GaitController(Effect):
             (loaded if ok else free).append(i)
             if ok:
                 bearing.add(side)
-        tasks = TaskStack(model, data, q, v)
+        return loaded, free, bearing
+
+    def _add_foot_tasks(self, tasks: TaskStack, steps: dict, kinds: dict, bearing: set,
+                        flat: set) -> None:  # fmt: skip
+        """The feet's pose tasks: a swinging or reaching foot's, on its path; a bearing
+        foot's, only against rolling over its sides (and flat when the cycle says so)."""
+        model, data, rd, g = self.model, self.data, self.rdata, self.gains
         # feet: the cycle's pose, on the foot's own anchor (a swing foot moves from the
         # anchor of the step it left to that of the step it lands)
         for s in SIDES:
@@ -614,12 +688,18 @@ class GaitController(Effect):
                 weight = np.array([*[g.w_stance_foot] * 3, w_roll, w_pitch, g.w_foot])
                 tasks.add(FrameTask(fid, M_ref, g.foot_kp, g.foot_kd, weight, v_ref, a_ref,
                                     local_angular=True))  # fmt: skip
+
+    def _add_body_tasks(self, tasks: TaskStack, t: float, q_r, v_r, R_A: np.ndarray,
+                        com_r: tuple, support: np.ndarray) -> None:  # fmt: skip
+        """The centre of mass (its pressure centre kept over ``support``, the loaded points
+        (k, 2) [m]), pelvis and trunk, and joint posture tasks."""
+        model, g = self.model, self.gains
+        c_r, dc_r, ddc_r = com_r
         # centre of mass: the feedback's horizontal acceleration is one the feet can carry (its
         # centre of pressure clipped to the hull of the points that may carry load: a swing
         # foot skimming the floor carries none)
         kp = np.array([g.com_kp, g.com_kp, g.com_z_kp])
         kd = np.array([g.com_kd, g.com_kd, g.com_z_kd])
-        support = np.array([points[i][:2] for i in loaded]).reshape(-1, 2)
         tasks.add(CentreOfMassTask(c_r, dc_r, ddc_r, kp, kd, g.w_com, support))
         # pelvis and trunk orientation
         for frame in [self.pelvis] + ([self.torso] if self.torso is not None else []):
@@ -632,13 +712,12 @@ class GaitController(Effect):
                 q_r = pin.interpolate(model, q_r, self.ends.q0, w)
                 v_post = (1.0 - w) * v_post
         tasks.add(PostureTask(q_r, g.posture_kp, g.posture_kd, self.w_posture, v_post))
-        forces = [ForceTask(0.0, g.w_force)]
-        share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
-        if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
-            forces.append(ForceTask(0.0, g.w_share, share))
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
-                       self.weight, g, self.ranges, self.ground.settings.correction,
-                       RANGE_MARGIN, RANGE_TIME, forces=forces)  # fmt: skip
+
+    def _solve(self, p, t: float, v, M: np.ndarray, hvec: np.ndarray,
+               loaded: list[int]) -> np.ndarray:  # fmt: skip
+        """Solve the QP (again without the gap terms, then with the dynamics and the loaded
+        points only, when it has no solution) and keep its torques."""
+        g, dt = self.gains, self.dt
         x, _ = p.solve(self.qp, relax=False)
         if x is None and loaded:
             # two sticking points of a tilted sole at different depths cannot both close

@@ -233,6 +233,217 @@ def _footstep(cycle, side: str) -> np.ndarray:
     return np.array([x - cycle.stride * k, y])
 
 
+@dataclass(frozen=True)
+class _Clock:
+    """The cycle's clock of a walk from standing: it shows ``phase0`` until ``go`` [s], then
+    runs at the cycle's ``period`` [s]."""
+
+    phase0: float
+    go: float
+    period: float
+
+    def phase(self, t):
+        """The phase the clock shows at t [s] (from ``go`` on)."""
+        return self.phase0 + (t - self.go) / self.period
+
+    def time(self, phase):
+        """When [s] the clock shows ``phase``."""
+        return self.go + (phase - self.phase0) * self.period
+
+
+def _zmp(cycle, phase) -> np.ndarray:
+    """The cycle's zero-moment point (x, y) [m] at ``phase``, one stride further each lap."""
+    u = phase - math.floor(phase)
+    p = np.array([np.interp(u, cycle.com.phase, cycle.com.zmp[:, i], period=1.0)
+                  for i in range(2)])  # fmt: skip
+    p[0] += cycle.stride * math.floor(phase)
+    return p
+
+
+def _com_piece(t, c_xy, z, side, k) -> ComPiece:
+    """The planned path (x, y) and height z at the samples t, with their differences."""
+    c = np.column_stack([c_xy, z])
+    dc = np.gradient(c, SAMPLE, axis=0)
+    ddc = np.gradient(dc, SAMPLE, axis=0)
+    return ComPiece(t, c, dc, ddc, side, k)
+
+
+def _striking(phase) -> tuple[str, int]:
+    """(side, footstep) of the heel strike at ``phase`` (a whole or half number)."""
+    side = "left" if round(2 * phase) % 2 else "right"
+    return side, footstep_phase(side, phase + 0.25)[0]
+
+
+def _start_piece(cycle, clk: _Clock, feet: dict, anchors: dict, c_stand: np.ndarray,
+                 omega2: float) -> ComPiece:  # fmt: skip
+    """The start's centre of mass, from standing still over the feet to the cycle's."""
+    go, phase0 = clk.go, clk.phase0
+    # the start, in the right footstep 0's frame: from standing still to the steady cycle at
+    # the right foot's second heel strike (the first step's landing was too soon: the centre
+    # of mass had to reach the cycle's speed from rest in a step, 5.6 m/s^2, and the body fell)
+    t_land = clk.time(MERGE)
+    t = np.arange(0.0, t_land + 0.5 * SAMPLE, SAMPLE)
+    t[-1] = t_land
+    middle = 0.5 * (feet["left"] + feet["right"]) - anchors["right"][:2]
+    p = np.array([
+        middle + float(smooth_step((ti - 0.1) / (go - 0.1))) * (_zmp(cycle, phase0) - middle)
+        if ti < go else _zmp(cycle, clk.phase(ti))
+        for ti in t
+    ])  # fmt: skip
+    c_end, dc_end, _ = cycle.com.at(MERGE)
+    c0 = c_stand[:2] - anchors["right"][:2]
+    xy = pendulum_path(p, omega2, SAMPLE, (c0, np.zeros(2)), (c_end[:2], dc_end[:2]))
+    w = smooth_step(t / t_land)
+    z = (1 - w) * c_stand[2] + w * np.array(
+        [cycle.com.at(max(clk.phase(ti), phase0))[0][2] for ti in t]
+    )
+    return _com_piece(t, xy, z, "right", 0)
+
+
+class _Stop:
+    """The stop's footsteps and supports, and its centre of mass planned over them.
+
+    The braking foot B lands at the (steps-1)-th heel strike, the closing foot C (the other)
+    beside it at the steps-th; planned in B's frame from the step before B's landing (the body
+    starts braking over the foot before).
+    """
+
+    def __init__(self, h, cycle, clk: _Clock, steps: int, rest: float) -> None:
+        self.cycle, self.clk = cycle, clk
+        self.flat, T = cycle.gait["opposite_foot_off"], cycle.period
+        flat = self.flat
+        strike = [0.5 * (i + 1) for i in range(steps)]  # the heel strikes' phases (left first)
+        p_b = strike[-2]
+        (b_side, k_b), (c_side, k_c) = _striking(p_b), _striking(strike[-1])
+        self.brake, self.closing = (b_side, k_b), (c_side, k_c)
+        self.t_stop = clk.time(strike[-1] + flat)
+        self.t_end = self.t_stop + rest
+        self.t_from = clk.time(p_b - BRAKE + flat)  # braking starts at a double support's end
+        t = np.arange(self.t_from, self.t_end + 0.5 * SAMPLE, SAMPLE)
+        t[-1] = self.t_end
+        self.t = t
+        # the braking steps (those landing after the plan leaves the cycle, B the last), each
+        # moved back by how far the braking body is behind the cycle's at its heel strike (a
+        # full step, and the leg did not reach the floor: the foot hovered 2 cm up for 0.2 s,
+        # the trailing toe bounced); C lands beside B
+        self.middle = {sd: float(np.mean(h.sole_points(sd)[:, 0])) for sd in SIDES}
+        self.step0 = step0 = {sd: _footstep(cycle, sd) for sd in SIDES}
+        self.x_b0, self.y_b = step0[b_side] + [cycle.stride * k_b, 0.0]
+        self.x_c, self.y_c = step0[c_side] + [cycle.stride * k_c, 0.0]
+        self.t_land_b, self.t_land_c = clk.time(p_b), clk.time(strike[-1])
+        self.flat_from = self.t_land_b + flat * T  # the braking foot flat
+        self.edges = {sd: (float(h.sole_points(sd)[:, 0].min()),
+                           float(h.sole_points(sd)[:, 0].max())) for sd in SIDES}  # fmt: skip
+        # (side, footstep) -> its landing phase
+        self.braking = {_striking(ph): ph for ph in strike[:-1] if ph > clk.phase(self.t_from)}
+        # (it does not depend on how far steps move back)
+        self.bearing = [self.stance(ti) for ti in t]
+
+    def footstep(self, sd, k, back) -> float:
+        """The x of a side's footstep k, the braking ones moved back by ``back`` [m]."""
+        (b_side, k_b), (c_side, k_c) = self.brake, self.closing
+        x = self.step0[sd][0] + self.cycle.stride * k
+        if (sd, k) == (c_side, k_c):
+            return x - (self.x_c - self.x_b0) - back[(b_side, k_b)]
+        return x - back.get((sd, k), 0.0)
+
+    def stance(self, ti) -> dict:
+        """Each bearing side's (footstep, contact kind) at ti, as the controller has them
+        (the heel from heel strike, the sole from foot flat, the toe from heel off; the
+        braking foot flat once flat, both feet flat once stopped)."""
+        phase = self.clk.phase(min(ti, self.t_stop))
+        b_side, k_b = self.brake
+        out = {}
+        for sd in SIDES:
+            k, psi = footstep_phase(sd, phase)
+            kind = contact_kind(self.cycle.gait, psi)
+            if sd == b_side and ti >= self.flat_from:  # the braking foot stays flat
+                k, kind = k_b, 2
+            if ti >= self.t_stop:
+                kind = 2
+            if kind:
+                out[sd] = (k, kind, psi)
+        return out
+
+    def support_x(self, on, back) -> tuple[float, float]:
+        """The x range [m] the loaded parts of the soles ``on`` (a :meth:`stance`) span, in the
+        cycle's frame, less MARGIN each end."""
+        spans = []
+        for sd, (k, kind, _) in on.items():
+            x = self.footstep(sd, k, back)
+            heel, toe = x + self.edges[sd][0], x + self.edges[sd][1]
+            quarter = 0.25 * (toe - heel)
+            spans.append({1: (heel, heel + quarter), 2: (heel, toe), 3: (toe - quarter, toe)}[kind])
+        return min(a for a, _ in spans) + MARGIN, max(b for _, b in spans) - MARGIN
+
+    def lead_back(self, on, back) -> float:
+        """How far the footstep that landed last among ``on`` (a :meth:`stance`) is moved
+        back [m]."""
+        sd = min(on, key=lambda x: on[x][2])
+        return back.get((sd, on[sd][0]), 0.0)
+
+    def path(self, omega2: float) -> tuple[np.ndarray, dict]:
+        """The stop's centre of mass path (n, 2) [m], and how far each braking step is moved
+        back [m]: where the body meets it as in the cycle."""
+        cycle, clk, t, bearing = self.cycle, self.clk, self.t, self.bearing
+        b_side, k_b = self.brake
+        c_side = self.closing[0]
+        c_a, dc_a, _ = cycle.com.at(clk.phase(self.t_from))
+        back = dict.fromkeys(self.braking, 0.0)
+        for _ in range(SHORTEN_ITERATIONS):  # each braking step where the body meets it as in
+            # the cycle (a fixed point: for B, 6.5 cm, then 9.7, 11.3, ... 12.7 for the male)
+            x_b = self.footstep(b_side, k_b, back)
+            on_b = np.array([x_b + self.middle[b_side], self.y_b])
+            rest_point = np.array([x_b + 0.5 * (self.middle[b_side] + self.middle[c_side]),
+                                   0.5 * (self.y_b + self.y_c)])  # fmt: skip
+            p = []
+            for ti, on in zip(t, bearing, strict=True):
+                if ti < self.flat_from:
+                    p.append(_zmp(cycle, clk.phase(ti)) - [self.lead_back(on, back), 0.0])
+                else:
+                    u = (float(smooth_step((ti - self.t_land_c) / (self.flat * cycle.period)))
+                         if ti > self.t_land_c else 0.0)  # fmt: skip
+                    p.append(on_b + u * (rest_point - on_b))
+            lo = np.full((len(t), 2), -np.inf)
+            hi = np.full((len(t), 2), np.inf)
+            for i, on in enumerate(bearing):
+                lo[i, 0], hi[i, 0] = self.support_x(on, back)
+            xy = pendulum_path(np.array(p), omega2, SAMPLE, (c_a[:2], dc_a[:2]),
+                               (rest_point, np.zeros(2)), bounds=(lo, hi),
+                               smooth=SMOOTH)  # fmt: skip
+            before = dict(back)
+            behind = 0.0
+            for key, ph in sorted(self.braking.items(), key=lambda kv: kv[1]):
+                lag = cycle.com.at(ph)[0][0] - np.interp(clk.time(ph), t, xy[:, 0])
+                behind = max(behind, float(lag))  # never a step longer than the one before's
+                back[key] = behind
+            if max(abs(back[key] - before[key]) for key in back) < 1e-3:
+                break
+        return xy, back
+
+    def piece(self, xy: np.ndarray, back: dict, z_stand: float) -> tuple[ComPiece, dict]:
+        """The stop's :class:`ComPiece` on the path ``xy``, rising to the standing height
+        ``z_stand`` [m], and each footstep's own share of its move back [m]."""
+        cycle, clk, t = self.cycle, self.clk, self.t
+        t_lean = self.t_land_c
+        w = smooth_step((t - t_lean) / (self.t_stop + LEAN - t_lean))
+        # the height the cycle has where the centre of mass is (relative to the footsteps),
+        # not when: a braking body is behind the cycle's, and at the cycle's height for the
+        # instant the stance leg could not reach the floor (the foot hovered, toes up, its
+        # heel loaded)
+        grid = np.linspace(clk.phase(self.t_from) - 0.5, clk.phase(self.t_end) + 0.5, 2000)
+        x_grid, z_grid = np.array([cycle.com.at(ph)[0][[0, 2]] for ph in grid]).T
+        x_eff = xy[:, 0] + np.array([self.lead_back(on, back) for on in self.bearing])
+        z_cyc = np.interp(x_eff, x_grid, z_grid)
+        z = (1 - w) * z_cyc + w * z_stand
+        # the controller moves each footstep back by its own share (the anchors chain)
+        order = sorted(self.braking.items(), key=lambda kv: kv[1])
+        moved = {key: back[key] - (back[order[i - 1][0]] if i else 0.0)
+                 for i, (key, _) in enumerate(order)}  # fmt: skip
+        moved[self.closing] = float(self.x_c - self.x_b0)
+        return _com_piece(t, xy, z, *self.brake), moved
+
+
 def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> StartStop:
     """The start and stop of a ``steps``-step walk of ``h`` on its fitted ``cycle`` (see the
     module docstring): the left foot steps first; the ``steps``-th heel strike is the closing
@@ -243,7 +454,7 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     data = model.createData()
     g = cycle.gait
     T = cycle.period
-    off, flat = g["foot_off"], g["opposite_foot_off"]
+    off = g["foot_off"]
     q0 = h.reference_configuration()
     pin.framesForwardKinematics(model, data, q0)
     c_stand = pin.centerOfMass(model, data, q0)
@@ -257,170 +468,15 @@ def start_stop(h, cycle, steps: int, go: float = GO, rest: float = REST) -> Star
     phase0 = off - 0.5  # the left foot's foot off: the right foot flat, the left to swing
     z_mean = float(np.mean(cycle.com.c[:, 2]))
     omega2 = float(np.linalg.norm(model.gravity.linear)) / z_mean
-
-    def clock(t):
-        return phase0 + (t - go) / T
-
-    def time(phase):
-        return go + (phase - phase0) * T
-
-    def zmp(phase):
-        u = phase - math.floor(phase)
-        p = np.array([np.interp(u, cycle.com.phase, cycle.com.zmp[:, i], period=1.0)
-                      for i in range(2)])  # fmt: skip
-        p[0] += cycle.stride * math.floor(phase)
-        return p
-
-    def piece(t, c_xy, z, side, k):
-        c = np.column_stack([c_xy, z])
-        dc = np.gradient(c, SAMPLE, axis=0)
-        ddc = np.gradient(dc, SAMPLE, axis=0)
-        return ComPiece(t, c, dc, ddc, side, k)
-
-    # the start, in the right footstep 0's frame: from standing still to the steady cycle at
-    # the right foot's second heel strike (the first step's landing was too soon: the centre
-    # of mass had to reach the cycle's speed from rest in a step, 5.6 m/s^2, and the body fell)
-    t_land = time(MERGE)
-    t = np.arange(0.0, t_land + 0.5 * SAMPLE, SAMPLE)
-    t[-1] = t_land
-    middle = 0.5 * (feet["left"] + feet["right"]) - anchors["right"][:2]
-    p = np.array([
-        middle + float(smooth_step((ti - 0.1) / (go - 0.1))) * (zmp(phase0) - middle)
-        if ti < go else zmp(clock(ti))
-        for ti in t
-    ])  # fmt: skip
-    c_end, dc_end, _ = cycle.com.at(MERGE)
-    c0 = c_stand[:2] - anchors["right"][:2]
-    xy = pendulum_path(p, omega2, SAMPLE, (c0, np.zeros(2)), (c_end[:2], dc_end[:2]))
-    w = smooth_step(t / t_land)
-    z = (1 - w) * c_stand[2] + w * np.array(
-        [cycle.com.at(max(clock(ti), phase0))[0][2] for ti in t]
-    )
-    start = piece(t, xy, z, "right", 0)
-
-    # the stop: the braking foot B lands at the (steps-1)-th heel strike, the closing foot C
-    # (the other) beside it at the steps-th; planned in B's frame from the step before B's
-    # landing (the body starts braking over the foot before)
-    strike = [0.5 * (i + 1) for i in range(steps)]  # the heel strikes' phases (left first)
-
-    def striking(phase) -> tuple[str, int]:
-        """(side, footstep) of the heel strike at ``phase`` (a whole or half number)."""
-        side = "left" if round(2 * phase) % 2 else "right"
-        return side, footstep_phase(side, phase + 0.25)[0]
-
-    p_b = strike[-2]
-    (b_side, k_b), (c_side, k_c) = striking(p_b), striking(strike[-1])
-    t_stop = time(strike[-1] + flat)
-    t_end = t_stop + rest
-    t_from = time(p_b - BRAKE + flat)  # braking starts at a double support's end
-    t = np.arange(t_from, t_end + 0.5 * SAMPLE, SAMPLE)
-    t[-1] = t_end
-    # the braking steps (those landing after the plan leaves the cycle, B the last), each
-    # moved back by how far the braking body is behind the cycle's at its heel strike (a full
-    # step, and the leg did not reach the floor: the foot hovered 2 cm up for 0.2 s, the
-    # trailing toe bounced); C lands beside B
-    middle = {sd: float(np.mean(h.sole_points(sd)[:, 0])) for sd in SIDES}
-    step0 = {sd: _footstep(cycle, sd) for sd in SIDES}
-    x_b0, y_b = step0[b_side] + [cycle.stride * k_b, 0.0]
-    x_c, y_c = step0[c_side] + [cycle.stride * k_c, 0.0]
-    t_land_b, t_land_c = time(p_b), time(strike[-1])
-    c_a, dc_a, _ = cycle.com.at(clock(t_from))
-    edges = {sd: (float(h.sole_points(sd)[:, 0].min()), float(h.sole_points(sd)[:, 0].max()))
-             for sd in SIDES}  # fmt: skip
-    # (side, footstep) -> its landing phase
-    braking = {striking(ph): ph for ph in strike[:-1] if ph > clock(t_from)}
-
-    def footstep(sd, k, back) -> float:
-        """The x of a side's footstep k, the braking ones moved back by ``back`` [m]."""
-        x = step0[sd][0] + cycle.stride * k
-        if (sd, k) == (c_side, k_c):
-            return x - (x_c - x_b0) - back[(b_side, k_b)]
-        return x - back.get((sd, k), 0.0)
-
-    def stance(ti) -> dict:
-        """Each bearing side's (footstep, contact kind) at ti, as the controller has them
-        (the heel from heel strike, the sole from foot flat, the toe from heel off; the
-        braking foot flat once flat, both feet flat once stopped)."""
-        phase = clock(min(ti, t_stop))
-        out = {}
-        for sd in SIDES:
-            k, psi = footstep_phase(sd, phase)
-            kind = contact_kind(g, psi)
-            if sd == b_side and ti >= t_land_b + flat * T:  # the braking foot stays flat
-                k, kind = k_b, 2
-            if ti >= t_stop:
-                kind = 2
-            if kind:
-                out[sd] = (k, kind, psi)
-        return out
-
-    bearing = [stance(ti) for ti in t]  # (it does not depend on how far steps move back)
-
-    def support_x(on, back) -> tuple[float, float]:
-        """The x range [m] the loaded parts of the soles ``on`` (a :func:`stance`) span, in the
-        cycle's frame, less MARGIN each end."""
-        spans = []
-        for sd, (k, kind, _) in on.items():
-            x = footstep(sd, k, back)
-            heel, toe = x + edges[sd][0], x + edges[sd][1]
-            quarter = 0.25 * (toe - heel)
-            spans.append({1: (heel, heel + quarter), 2: (heel, toe), 3: (toe - quarter, toe)}[kind])
-        return min(a for a, _ in spans) + MARGIN, max(b for _, b in spans) - MARGIN
-
-    def lead_back(on, back) -> float:
-        """How far the footstep that landed last among ``on`` (a :func:`stance`) is moved
-        back [m]."""
-        sd = min(on, key=lambda x: on[x][2])
-        return back.get((sd, on[sd][0]), 0.0)
-
-    back = dict.fromkeys(braking, 0.0)
-    for _ in range(SHORTEN_ITERATIONS):  # each braking step where the body meets it as in the
-        # cycle (a fixed point: for B, 6.5 cm, then 9.7, 11.3, ... 12.7 for the male body)
-        x_b = footstep(b_side, k_b, back)
-        on_b = np.array([x_b + middle[b_side], y_b])
-        rest_point = np.array([x_b + 0.5 * (middle[b_side] + middle[c_side]),
-                               0.5 * (y_b + y_c)])  # fmt: skip
-        p = []
-        for ti, on in zip(t, bearing, strict=True):
-            if ti < t_land_b + flat * T:
-                p.append(zmp(clock(ti)) - [lead_back(on, back), 0.0])
-            else:
-                u = float(smooth_step((ti - t_land_c) / (flat * T))) if ti > t_land_c else 0.0
-                p.append(on_b + u * (rest_point - on_b))
-        lo = np.full((len(t), 2), -np.inf)
-        hi = np.full((len(t), 2), np.inf)
-        for i, on in enumerate(bearing):
-            lo[i, 0], hi[i, 0] = support_x(on, back)
-        xy = pendulum_path(np.array(p), omega2, SAMPLE, (c_a[:2], dc_a[:2]),
-                           (rest_point, np.zeros(2)), bounds=(lo, hi), smooth=SMOOTH)  # fmt: skip
-        before = dict(back)
-        behind = 0.0
-        for key, ph in sorted(braking.items(), key=lambda kv: kv[1]):
-            lag = cycle.com.at(ph)[0][0] - np.interp(time(ph), t, xy[:, 0])
-            behind = max(behind, float(lag))  # never a step longer than the one before's
-            back[key] = behind
-        if max(abs(back[key] - before[key]) for key in back) < 1e-3:
-            break
-    t_lean = t_land_c
-    w = smooth_step((t - t_lean) / (t_stop + LEAN - t_lean))
-    # the height the cycle has where the centre of mass is (relative to the footsteps), not
-    # when: a braking body is behind the cycle's, and at the cycle's height for the instant
-    # the stance leg could not reach the floor (the foot hovered, toes up, its heel loaded)
-    grid = np.linspace(clock(t_from) - 0.5, clock(t_end) + 0.5, 2000)
-    x_grid, z_grid = np.array([cycle.com.at(ph)[0][[0, 2]] for ph in grid]).T
-    x_eff = xy[:, 0] + np.array([lead_back(on, back) for on in bearing])
-    z_cyc = np.interp(x_eff, x_grid, z_grid)
-    z = (1 - w) * z_cyc + w * c_stand[2]
-    # the controller moves each footstep back by its own share (the anchors chain)
-    order = sorted(braking.items(), key=lambda kv: kv[1])
-    moved = {key: back[key] - (back[order[i - 1][0]] if i else 0.0)
-             for i, (key, _) in enumerate(order)}  # fmt: skip
-    moved[(c_side, k_c)] = float(x_c - x_b0)
-    stop = piece(t, xy, z, b_side, k_b)
+    clk = _Clock(phase0, go, T)
+    start = _start_piece(cycle, clk, feet, anchors, c_stand, omega2)
+    plan = _Stop(h, cycle, clk, steps, rest)
+    xy, back = plan.path(omega2)
+    stop, moved = plan.piece(xy, back, c_stand[2])
     return StartStop(
-        q0=q0, phase0=phase0, t_go=go, t_stop=t_stop, t_end=t_end, anchors=anchors,
-        brake=(b_side, k_b), closing=(c_side, k_c), moved=moved,
+        q0=q0, phase0=phase0, t_go=go, t_stop=plan.t_stop, t_end=plan.t_end, anchors=anchors,
+        brake=plan.brake, closing=plan.closing, moved=moved,
         start=start, stop=stop,
-        steps=steps, period=T, stop_from=t_land_b + flat * T,
-        lean_from=t_lean,
+        steps=steps, period=T, stop_from=plan.flat_from,
+        lean_from=plan.t_land_c,
     )  # fmt: skip

@@ -394,7 +394,7 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
     Warns:
         TrialWarning: naming what was left out (see :class:`TrialWarning`).
     """
-    from ..motion.coordinates import MAPS, generalized_forces
+    from ..motion.coordinates import MAPS
     from ..motion.inverse_dynamics import derivatives
 
     model = h.model
@@ -404,10 +404,43 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
         raise TrialError(f"{source}: the subject's mass must be positive [kg], got {mass}")
     tu, qu, vu, _ = derivatives(model, time, q, cutoff=None)
     span = (float(tu[0]), float(tu[-1]))
-    rate = 1.0 / float(tu[1] - tu[0])
     if moments is not None:
         _check_moments(h, moments, cmap)
     force = _foot_loads(loads, span)
+    contacts, where = _trial_contacts(h, tu, qu, span, events, force, threshold, release,
+                                      source)  # fmt: skip
+    te = force[0] if force is not None and set(where.values()) == {SOURCES[1]} else tu
+    # the kinematics, on the motion's samples
+    strikes = [on for on, _ in contacts["right"] if np.isfinite(on)]
+    stride = float(np.median(np.diff(strikes))) if len(strikes) > 1 else 1.0
+    chains = leg_chains(h)
+    arms = arm_chains(h, chains)
+    kinematics = gait_kinematics(h, tu, qu, stride, chains, arms)
+    kinetics = None
+    if moments is not None:  # on the moments' own samples, the motion interpolated onto them
+        kinetics = _trial_kinetics(h, time, q, (tu, qu, vu), moments, cmap)
+    else:
+        warnings.warn(f"{source}: no moments: kinematics only (no moments or powers)",
+                      TrialWarning, stacklevel=2)  # fmt: skip
+    if force is not None:
+        force = (force[0], {s: low_pass(f, force[0]) for s, f in force[1].items()})
+    analysis = cycle_analysis(h, contacts, te, tu, kinematics, mass=mass, force=force,
+                              kinetics=kinetics, window=span, arms=bool(arms), percent=PERCENT,
+                              speed=speed, require_load=force is not None,
+                              source=source)  # fmt: skip
+    _warn_missing(analysis, where, kinetics, force, source)
+    return Trial(analysis, where, kinetics is not None, force is not None, mass, source)
+
+
+def _trial_contacts(h, tu, qu, span: tuple, events, force, threshold: float, release: float,
+                    source: str) -> tuple[dict, dict]:  # fmt: skip
+    """Each side's contacts (foot strike, foot off) [s] and where they came from: the C3D's
+    events, else the plates' loads (the motion's own contacts between the plates' steps), else
+    the motion (a sole point low and still), with a :class:`TrialWarning`."""
+    from ..motion.inverse_dynamics import derivatives
+
+    model = h.model
+    rate = 1.0 / float(tu[1] - tu[0])
     # the events, per side from the first source that has them
     contacts, where = {}, {}
     if len(events):
@@ -437,40 +470,40 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
                 contacts[s], where[s] = c, SOURCES[2]
                 warnings.warn(f"{source}: no {s} foot events or loads: its events from its "
                               "motion (a sole point low and still)", TrialWarning,
-                              stacklevel=2)  # fmt: skip
-    te = force[0] if force is not None and set(where.values()) == {SOURCES[1]} else tu
-    # the kinematics, on the motion's samples
-    strikes = [on for on, _ in contacts["right"] if np.isfinite(on)]
-    stride = float(np.median(np.diff(strikes))) if len(strikes) > 1 else 1.0
-    chains = leg_chains(h)
-    arms = arm_chains(h, chains)
-    kinematics = gait_kinematics(h, tu, qu, stride, chains, arms)
-    kinetics = None
-    if moments is not None:  # on the moments' own samples, the motion interpolated onto them
-        tm, qm, vm = tu, qu, vu
-        if len(moments.time) > 1 and not math.isclose(moments.rate, rate, rel_tol=1e-6):
-            tm, qm, vm, _ = derivatives(model, time, q, cutoff=None, rate=moments.rate)
-        on = _moments_on(moments, tm)
-        inside = np.isin(tm, on.time)
-        tau = generalized_forces(h, qm[inside], on, cmap)
-        kin = leg_kinetics(h, qm[inside], vm[inside], tau)
-        kinetics = (on.time, {s: low_pass(k, on.time) for s, k in kin.items()})
-    else:
-        warnings.warn(f"{source}: no moments: kinematics only (no moments or powers)",
-                      TrialWarning, stacklevel=2)  # fmt: skip
-    if force is not None:
-        force = (force[0], {s: low_pass(f, force[0]) for s, f in force[1].items()})
-    analysis = cycle_analysis(h, contacts, te, tu, kinematics, mass=mass, force=force,
-                              kinetics=kinetics, window=span, arms=bool(arms), percent=PERCENT,
-                              speed=speed, require_load=force is not None,
-                              source=source)  # fmt: skip
+                              stacklevel=3)  # fmt: skip
+    return contacts, where
+
+
+def _trial_kinetics(h, time, q, motion: tuple, moments: Table, cmap) -> tuple:
+    """The legs' kinetics (times, per side (n, 7) moments [N m] and powers [W], low-passed) on
+    the moments' own samples, the motion (``motion``: (t, q, v) on its samples, from ``time``
+    and ``q``) interpolated onto them."""
+    from ..motion.coordinates import generalized_forces
+    from ..motion.inverse_dynamics import derivatives
+
+    model = h.model
+    tu, qu, vu = motion
+    rate = 1.0 / float(tu[1] - tu[0])
+    tm, qm, vm = tu, qu, vu
+    if len(moments.time) > 1 and not math.isclose(moments.rate, rate, rel_tol=1e-6):
+        tm, qm, vm, _ = derivatives(model, time, q, cutoff=None, rate=moments.rate)
+    on = _moments_on(moments, tm)
+    inside = np.isin(tm, on.time)
+    tau = generalized_forces(h, qm[inside], on, cmap)
+    kin = leg_kinetics(h, qm[inside], vm[inside], tau)
+    return (on.time, {s: low_pass(k, on.time) for s, k in kin.items()})
+
+
+def _warn_missing(analysis, where: dict, kinetics, force, source: str) -> None:
+    """A :class:`TrialWarning` for a side without a full cycle, and for cycles without the
+    moments and powers or ground forces that the trial has."""
     for s in SIDES:
         n = len(analysis.cycles[s])
         if n == 0:
             listed = ", ".join(f"{x:.3f}" for x in analysis.events[s]["strike"]) or "none"
             warnings.warn(f"{source}: the {s} side has fewer than one full cycle (heel strikes "
                           f"at {listed} s, from {where.get(s, 'no source')}): nothing of it "
-                          "is drawn or tabled", TrialWarning, stacklevel=2)  # fmt: skip
+                          "is drawn or tabled", TrialWarning, stacklevel=3)  # fmt: skip
             continue
         for what, names, present in (("moments and powers", "hip_power", kinetics),
                                      ("ground forces", "grf_vertical", force)):  # fmt: skip
@@ -478,8 +511,7 @@ def analyse_trial(h, time, q, moments: Table | None = None, loads=(), events=(),
             if present is not None and k < n:
                 warnings.warn(f"{source}: {n - k} of the {s} side's {n} cycles without "
                               f"{what} (the foot on no plate, or outside the file's times)",
-                              TrialWarning, stacklevel=2)  # fmt: skip
-    return Trial(analysis, where, kinetics is not None, force is not None, mass, source)
+                              TrialWarning, stacklevel=3)  # fmt: skip
 
 
 def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
