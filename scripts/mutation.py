@@ -912,8 +912,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "F02",
         "fusion.py",
-        "v[jv : jv + 3] = ((G @ Rs).T @ cols) @ v_euler[iv]",
-        "v[jv : jv + 3] = ((G @ Rs) @ cols) @ v_euler[iv]",
+        "E = (G @ Rs).transpose(0, 2, 1) @ cols",
+        "E = (G @ Rs) @ cols",
         ("tests/test_fusion.py",),
         "hinge rates mapped to a ball's angular velocity without the rotation's transpose",
     ),
