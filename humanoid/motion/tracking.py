@@ -21,8 +21,9 @@ controller's (:mod:`humanoid.walking.tracking`) without its gait cycle, finds th
 - **Tasks.** The root (pelvis position and orientation) and the centre of mass follow the
   motion's, the centre of mass's horizontal acceleration kept to one the loaded soles can carry
   (its centre of pressure moved into their hull); every joint follows its angle; a free foot
-  its pose, moved as it swings by part of the capture point's error (a body behind the motion
-  steps shorter, as a person catching up does: ``TrackGains.placement``); small forces.
+  its pose, moved as it swings by the capture point's error, to land on the error's capture
+  point (a body behind the motion steps shorter, as a person catching up does; one drifting
+  sideways steps under itself: ``TrackGains.placement``); small forces.
 
 The result (:class:`Tracked`) is the simulated run, with its contact forces and torques, and the
 tracking error per joint against the reference.
@@ -110,10 +111,15 @@ class TrackGains:
     # a swinging foot lands this much of the capture point's error (the centre of mass's
     # position error plus its velocity error over omega = sqrt(g / height)) away from the
     # motion's foot, growing from none at lift-off to all of it at landing (0: where the
-    # motion's lands). OpenSim's subject01 treadmill walk, reduced: at 0 the body fell behind
-    # the motion by 30 cm and tipped forward at 2.4 s of 2.5; at 0.5 it completed, 9 cm at
-    # most from it and its joints 2.1 deg RMS off (1.0: 14 cm, 2.1 deg)
-    placement: float = 0.5
+    # motion's lands). 1: on the error's capture point, which stops it (a linear inverted
+    # pendulum's). A fraction p leaves (1 - p) of it to grow by exp(omega T) over the next
+    # stance T (about 4.7 on a walk's 0.5 s at omega 3.1): below p = 1 - exp(-omega T), about
+    # 0.8, an error the stance foot's centre of pressure cannot take back grows step after
+    # step. OpenSim's subject01 treadmill walk, reduced: at 0 the body fell behind the motion
+    # by 30 cm at 2.4 s of 2.5; at 0.5 its converged IK fit fell sideways at 1.65 s, the
+    # capture point's lateral error at the landings 2.4, 16.7, 59.3 cm (its earlier,
+    # unconverged fit completed, the error 3.2, 4.8, 2.7, 3.8 cm); at 1 both complete
+    placement: float = 1.0
     w_toes: float = 10.0  # a free toe hinge's (MTP) weight in the joints' task
 
 
