@@ -720,6 +720,14 @@ MUTATIONS: tuple[Mutation, ...] = (
         ("tests/test_control.py",),
         "the angular-momentum task's drift term with the wrong sign",
     ),
+    M(
+        "CT4",
+        "motion/tracking.py",
+        "placement: float = 1.0",
+        "placement: float = 0.5",
+        ("tests/test_real_trial.py::test_subject01_tracked_to_the_end",),
+        "a tracked swing foot landing half the capture point's error (its lateral error grows)",
+    ),
     # --- gait events, analysis, report ---
     M(
         "GA1",
