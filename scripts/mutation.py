@@ -106,8 +106,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "P03",
         "motion/ik.py",
-        "b = J.T @ (w * r) + reg * e",
-        "b = J.T @ r + reg * e",
+        "b = J.T @ (w * r) - reg * (De.T @ e)",
+        "b = J.T @ r - reg * (De.T @ e)",
         (P,),
         "IK's marker weights dropped from the gradient (J' r, not J' W r)",
     ),
@@ -603,16 +603,16 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "IK1",
         "motion/ik.py",
-        "Jp[k] = Jf[:3] - pin.skew(P[k] - M.translation) @ Jf[3:]",
-        "Jp[k] = Jf[:3] + pin.skew(P[k] - M.translation) @ Jf[3:]",
+        "lever[:, 0, 4], lever[:, 0, 5] = z, -y",
+        "lever[:, 0, 4], lever[:, 0, 5] = -z, y",
         (P, TM + "test_ik_keeps_joints_in_range_and_skips_missing_markers"),
         "a marker's Jacobian with the lever arm's sign flipped",
     ),
     M(
         "IK2",
         "motion/ik.py",
-        "b += smooth * (joints @ pin.difference(model, q, previous))",
-        "b -= smooth * (joints @ pin.difference(model, q, previous))",
+        "smooth = smoothing * total / dt**2",
+        "smooth = -smoothing * total / dt**2",
         (
             P + "::test_ik_smoothing_holds_a_joint_towards_the_frame_before",
             *(
@@ -719,6 +719,14 @@ MUTATIONS: tuple[Mutation, ...] = (
         "return A, self.kd * (k_ref - k) + dA @ v",
         ("tests/test_control.py",),
         "the angular-momentum task's drift term with the wrong sign",
+    ),
+    M(
+        "CT4",
+        "motion/tracking.py",
+        "placement: float = 1.0",
+        "placement: float = 0.5",
+        ("tests/test_real_trial.py::test_subject01_tracked_to_the_end",),
+        "a tracked swing foot landing half the capture point's error (its lateral error grows)",
     ),
     # --- gait events, analysis, report ---
     M(

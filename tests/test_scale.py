@@ -88,7 +88,8 @@ def test_scaling_recovers_the_subject(scaled, subject, unscaled):
     subject's length over the body's, each measured length within 0.5 % of the subject's, the
     stature within 1 %, the mass the subject's; the head, hands and ankle height keep the
     stature scaling and are said; the scaled body's markers fit the static trial within
-    10 mm RMS (3.0 measured, the 2 mm noise's share), the unscaled body's did not (63 mm)."""
+    10 mm RMS (3.0 measured, the 2 mm noise's share), the unscaled body's did not (25 mm;
+    63 mm when IK did not converge on it)."""
     r, said = scaled
     params, _, static = subject
     truth = _truth(params, unscaled)
@@ -104,7 +105,7 @@ def test_scaling_recovers_the_subject(scaled, subject, unscaled):
     assert set(r.unmeasured) == {"head", "hand", "ankle_height"}
     assert r.rms("placed") < 0.010 and r.max("placed") < 0.020
     assert r.rms("scaled") < 0.010
-    assert r.rms("unscaled") > 0.030 and r.rms("unscaled") > 5 * r.rms("placed")
+    assert r.rms("unscaled") > 0.020 and r.rms("unscaled") > 5 * r.rms("placed")
     # placing the markers is what brings the carried set's worst down
     assert r.max("placed") < r.max("scaled")
     assert len(r.fits["placed"].names) == len(static.names)
@@ -325,7 +326,7 @@ def test_scaling_from_a_walk_recovers_the_subject(walk_scaled, subject, unscaled
         if name in truth:
             tol = TRUNK_TOL if name == "trunk" else WALK_TOL
             assert factor == pytest.approx(truth[name], rel=tol), name
-    assert r.rms("placed") < 0.005 and r.rms("unscaled") > 0.02
+    assert r.rms("placed") < 0.005 and r.rms("unscaled") > 0.015
     assert len(r.fits["placed"].time) == WALK_FIT
 
 

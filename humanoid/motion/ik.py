@@ -2,14 +2,24 @@
 
 Each frame solves ``min_q sum_i w_i |p_i(q) - m_i|^2`` over the markers seen in that frame
 (``w_i`` the marker set's weights; a marker missing in a frame, NaN, counts for nothing there)
-by damped Gauss-Newton on the configuration's Lie group: the step ``dq`` solves
-``(J' W J + lambda I) dq = J' W r`` (Pinocchio's frame Jacobians; a marker's Jacobian is its
-frame's, moved to the marker), the configuration moves by ``q (+) dq``, and joints with a
-range are kept inside it (each step is cut back to the range, the joint then held at its bound
-for the rest of the frame's iterations). A small pull towards the standing posture
+plus the pulls below, by Levenberg-Marquardt on the configuration's Lie group: the step ``dq``
+solves ``(J' W J + lambda I) dq = J' W r`` (a marker's Jacobian its joint's, moved to the
+marker: all of them from one :func:`pinocchio.computeJointJacobians`), the configuration moves
+by ``q (+) dq``, and joints with a range are kept inside it (a step that would leave it is
+ProxQP's, with each hinge's box). Each pull on the configuration (towards standing, the held
+coordinates', the smoothing's) is a residual ``q (-) target`` with its exact Jacobian
+(:func:`pinocchio.dDifference`: not the identity on a ball joint), so that the steps stop at
+the frame's cost's minimum. A step is taken only if that whole cost goes down; else it is
+refused and ``lambda`` raised (Nielsen's rule lowers it again); a taken step is moved to the
+minimum of the cost's parabola along it where that is 30 % or more off (a large residual's
+Gauss-Newton steps overshoot or fall short: an unscaled body's elbows zigzagged, 50 steps a
+frame). A frame stops when its next step is below ``tolerance``, or a step lowers its cost
+(or the next would, by the model) by less than :data:`COST_TOLERANCE` of it: converged, either
+way (the step below the bound is not taken). A small pull towards the standing posture
 (``regularization``) settles what the markers cannot see (a spine of two joints seen only at
-its ends, a hand without markers). Frames are solved in order, each from the one before; the
-first from the standing posture moved onto the markers' centroid.
+its ends, a hand without markers). Frames are solved in order, each from the frames before
+moved on at their pace (their velocity and acceleration; with ``ball_ranges``, from the frame
+before); the first from the standing posture moved onto the markers' centroid.
 
 2D keypoints seen by calibrated cameras (:mod:`humanoid.motion.cameras`) are fitted the same
 way, by their reprojection error: each view that sees a marker gives the two rows ``uv -
@@ -45,10 +55,11 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg.lapack import dposv as _posv
 
 from ..errors import IKError
 from .inverse_dynamics import joint_labels
@@ -84,6 +95,18 @@ SINGLE_VIEW_ROOT = 1e-5
 SINGLE_VIEW_SMOOTHING = 1e-6
 AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
 ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
+# Levenberg-Marquardt: a refused step's lambda, first, relative to the system's mean diagonal
+LM_START = 1e-3
+ROUNDING = 1e-12  # a relative change of a frame's cost this small is rounding
+# a frame stops when a step lowers its cost by less than this, relative, or the model says the
+# next would (or when the step is below ``tolerance``); 1e-10 took subject01's walk 16.5 steps a
+# frame, 1e-9 11.7, 1e-8 9.1, the spine's twist, which only the pull towards standing sees,
+# crawling along its valley
+COST_TOLERANCE = 1e-9
+# a taken step is tried at the minimum of the cost's parabola along it where that is this much
+# (relative) shorter or longer, ...
+RESCALE = 0.3
+MAX_EXTEND = 20.0  # ... and at most this many times as long
 REFIT_STEPS = 2  # Gauss-Newton steps of a frame at a bound, solved again with the ranges off
 PAST_LIMIT = math.radians(0.1)  # a joint at its bound is held there if the markers want this more
 # [rad] a ball joint's rows nearer a bound than this enter the step's constraints (its angles
@@ -184,7 +207,8 @@ class IKResult:
 def _limit_reports(model, time, q, wanted) -> list[LimitReport]:
     """The joints held at a bound in ``q`` where ``wanted`` (the fits with the ranges off, NaN
     in frames that needed none) goes past it."""
-    names = {model.joints[j].idx_q: model.names[j] for j in range(1, model.njoints)}
+    joints, labels = model.joints, model.names
+    names = {joints[j].idx_q: labels[j] for j in range(1, model.njoints)}
     out = []
     for _, iq, lo, hi in _ranges(model):
         for limit, bound, sign in (("lower", lo, -1.0), ("upper", hi, 1.0)):
@@ -201,40 +225,80 @@ def _limit_reports(model, time, q, wanted) -> list[LimitReport]:
 def _ranges(model):
     """(index in v, index in q, lower, upper) of the one-coordinate joints with finite ranges."""
     out = []
-    for j in range(1, model.njoints):
-        joint = model.joints[j]
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+    for joint in list(model.joints)[1:]:
         if joint.nq == 1 and joint.nv == 1:
-            lo, hi = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            lo, hi = lower[joint.idx_q], upper[joint.idx_q]
             if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
                 out.append((joint.idx_v, joint.idx_q, float(lo), float(hi)))
     return out
 
 
-def _bounded_step(A, b, q, ranges, balls=None) -> np.ndarray:
+class _Box(NamedTuple):
+    """The ranged hinges of :func:`_ranges` as arrays: their indices in v and q, their bounds."""
+
+    iv: np.ndarray
+    iq: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @classmethod
+    def of(cls, ranges) -> _Box:
+        cols = list(zip(*ranges, strict=True)) or [(), (), (), ()]
+        return cls(np.array(cols[0], dtype=int), np.array(cols[1], dtype=int),
+                   np.array(cols[2], dtype=float), np.array(cols[3], dtype=float))  # fmt: skip
+
+
+def _solve_spd(A, b) -> np.ndarray:
+    """``A^-1 b`` for a symmetric positive definite ``A`` (LAPACK's Cholesky: a third of
+    numpy's general solve's time at the fit's sizes), by LU if it is not."""
+    _, x, info = _posv(A, b)
+    return x if info == 0 else np.linalg.solve(A, b)
+
+
+def _bounded_step(A, b, q, box: _Box, balls=None) -> np.ndarray:
     """The step minimising 1/2 dq'A dq - b'dq with every ranged joint kept in its range: the
     unconstrained one if it stays inside, else ProxQP's solve with each hinge's box and each
     ball joint's angle rows (``balls``: a :class:`~humanoid.constraints.limits.JointRanges`,
     its rows within :data:`BALL_MARGIN` of a bound, linearised: r + J dq >= 0)."""
-    dq = np.linalg.solve(A, b)
-    if not ranges and balls is None:
+    dq = _solve_spd(A, b)
+    if not len(box.iv) and balls is None:
         return dq
-    iv = np.array([r[0] for r in ranges], dtype=int)
-    x = q[[r[1] for r in ranges]]
-    lo = np.array([r[2] for r in ranges]) - x
-    hi = np.array([r[3] for r in ranges]) - x
-    r_b, J_b = _ball_rows(balls, q, len(b), BALL_MARGIN)
-    inside = np.all(dq[iv] >= lo - 1e-12) and np.all(dq[iv] <= hi + 1e-12)
-    if inside and np.all(r_b + J_b @ dq >= -1e-12):
-        return dq
+    x = q[box.iq]
+    lo = box.lo - x
+    hi = box.hi - x
+    step = dq[box.iv]
+    inside = bool(((step >= lo - 1e-12) & (step <= hi + 1e-12)).all())
+    if balls is None:
+        if inside:
+            return dq
+        r_b, J_b = np.zeros(0), np.zeros((0, len(b)))
+    else:
+        r_b, J_b = _ball_rows(balls, q, len(b), BALL_MARGIN)
+        if inside and bool((r_b + J_b @ dq >= -1e-12).all()):
+            return dq
     import proxsuite
 
-    C = np.zeros((len(iv), len(b)))
-    C[np.arange(len(iv)), iv] = 1.0
+    C = np.zeros((len(box.iv), len(b)))
+    C[np.arange(len(box.iv)), box.iv] = 1.0
     C = np.vstack([C, J_b])
     low = np.concatenate([np.minimum(lo, 0.0), -r_b])
     up = np.concatenate([np.maximum(hi, 0.0), np.full(len(r_b), 1e20)])
     res = proxsuite.proxqp.dense.solve(A, -b, None, None, C, low, up, eps_abs=1e-10)
     return np.asarray(res.x)
+
+
+def _room(q, dq, box: _Box, balls) -> float:
+    """How many times ``dq`` the ranged hinges allow from ``q`` (1 with ball ranges: their rows
+    are linearised)."""
+    if balls is not None:
+        return 1.0
+    step = dq[box.iv]
+    x = q[box.iq]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(step > 0.0, (box.hi - x) / step,
+                        np.where(step < 0.0, (box.lo - x) / step, np.inf))  # fmt: skip
+    return float(room.min()) if len(room) else math.inf
 
 
 def _ball_rows(balls, q, nv: int, margin: float) -> tuple[np.ndarray, np.ndarray]:
@@ -292,8 +356,9 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             model markers onto a static trial's the same way), then fit all.
         static: Register on this trial (a person standing still, as labs record one before
             walking) instead of on the motion itself.
-        iterations: Gauss-Newton iterations per frame at most. tolerance: a frame stops when
-            its step is smaller than this [rad or m]. damping: Levenberg's lambda.
+        iterations: Steps per frame at most (Levenberg-Marquardt's). tolerance: a frame stops
+            when its next step is smaller than this [rad or m] (or its cost no longer goes
+            down: module docstring). damping: Levenberg's lambda, at least.
         regularization: The pull towards the standing posture, per unit of marker weight.
         smoothing: The pull of the joints (not the root) towards the frame before, on their
             velocity (the weight is this over the frame interval squared, per unit of marker
@@ -469,6 +534,23 @@ def register_markers(h, markers: MarkerTrajectories, q: np.ndarray, marker_set: 
     return out
 
 
+def _extrapolated(model, t: float, history) -> np.ndarray:
+    """The configuration at time ``t`` from the last frames solved (``history``: 2 or 3
+    (time, q), the last last) at their pace: their velocity and, from 3, their acceleration
+    (a frame's start: on the bench's walk at 100 Hz a frame took 4.0 steps from the frame
+    before, 3.0 from its velocity's start, 2.3 with the acceleration's)."""
+    (t1, q1), (t2, q2) = history[-2:]
+    h, tau1 = t - t2, t2 - t1
+    v1 = pin.difference(model, q1, q2) / tau1
+    step = v1 * h
+    if len(history) > 2:
+        t0, q0 = history[-3]
+        tau0 = t1 - t0
+        accel = (v1 - pin.difference(model, q0, q1) / tau0) / (0.5 * (tau0 + tau1))
+        step += 0.5 * accel * h * (tau1 + h)
+    return pin.integrate(model, q2, step)
+
+
 def _centroid_shift(points, seen, P, i: int, time: float) -> np.ndarray:
     """The mean of ``points - P`` over the seen, finite points (at least 3) of frame ``i``."""
     ok = np.all(np.isfinite(points), axis=1) & seen
@@ -629,6 +711,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
 
         soles = SolePoints(h)
     ranges = _ranges(model)
+    box = _Box.of(ranges)
     balls = None
     if ball_ranges and h.fusion is not None and h.fusion.balls:
         from ..constraints.limits import JointRanges
@@ -648,41 +731,95 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
     joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
     previous = before = None
 
+    # each marker on its frame's joint: its point in the joint's frame (homogeneous), and the
+    # velocity coordinates that move it (the columns of the joint's support), per row
+    model_frames, model_joints = model.frames, model.joints
+    carriers = [model_frames[f].parentJoint for f in frames]
+    unique, on_joint = np.unique(carriers, return_inverse=True)
+    carrying = [int(j) for j in unique]
+    in_joint = np.ones((m, 4, 1))
+    for k, (f, o) in enumerate(zip(frames, offsets, strict=True)):
+        in_joint[k, :3, 0] = model_frames[f].placement.act(o)
+    supports = {j: [(model_joints[a].idx_v, model_joints[a].nv) for a in model.supports[j]
+                    if a > 0] for j in carrying}  # fmt: skip
+    moves = np.zeros((m, 3, model.nv))
+    for k, j in enumerate(carriers):
+        for iv, nv in supports[j]:
+            moves[k, :, iv : iv + nv] = 1
+    moves = moves.reshape(3 * m, model.nv)
+    lever = np.zeros((m, 3, 6))  # a marker's row of [I, -skew(p)]: its velocity from (v, w)
+    lever[:, [0, 1, 2], [0, 1, 2]] = 1.0
+    frames_needed = soles is not None or pins is not None  # (they read data.oMf)
+    cached: list = [None, None, None]  # the last configuration's markers and Jacobians
+
     def model_markers(q):
-        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv)."""
+        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv), all at once: a
+        marker's velocity is its joint's spatial velocity (the world-frame Jacobian of one
+        :func:`pinocchio.computeJointJacobians`, on the columns that move the joint) at the
+        marker, ``v + w x p``."""
+        if cached[0] is not None and np.array_equal(q, cached[0]):
+            return cached[1], cached[2]  # (no floor or pins: nothing else reads data)
         pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
-        P = np.zeros((m, 3))
-        Jp = np.zeros((m, 3, model.nv))
-        for k in range(m):
-            M = data.oMf[frames[k]]
-            P[k] = M.act(offsets[k])
-            Jf = pin.getFrameJacobian(model, data, frames[k], pin.LOCAL_WORLD_ALIGNED)
-            Jp[k] = Jf[:3] - pin.skew(P[k] - M.translation) @ Jf[3:]
+        if frames_needed:
+            pin.updateFramePlacements(model, data)
+        oMi = data.oMi.tolist()  # (a list's items are read in half the time)
+        H = np.array([oMi[j].np[:3] for j in carrying])[on_joint]
+        P = (H @ in_joint)[:, :, 0]
+        x, y, z = P[:, 0], P[:, 1], P[:, 2]
+        lever[:, 0, 4], lever[:, 0, 5] = z, -y
+        lever[:, 1, 3], lever[:, 1, 5] = -z, x
+        lever[:, 2, 3], lever[:, 2, 4] = y, -x
+        Jp = (lever.reshape(3 * m, 6) @ data.J) * moves  # data.J: at the world's origin
+        Jp = Jp.reshape(m, 3, model.nv)
+        if not frames_needed:
+            cached[:] = [q.copy(), P, Jp]
         return P, Jp
 
     def system(q, frame, rows=None):
-        """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` (``rows``: the
-        observations' Jacobian, residuals and weights at ``q``, if known: ``data`` is then at
-        ``q`` already)."""
+        """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` and the frame's cost
+        there (``rows``: the observations' Jacobian, residuals and weights at ``q``, if known:
+        ``data`` is then at ``q`` already). The cost is the weighted sum of squares whose
+        Gauss-Newton model ``A``, ``b`` are (``damping`` aside, Levenberg's lambda, not a cost):
+        the observations', the pull towards standing, the held coordinates', the smoothing's,
+        one view's root pull, floor rows and pinned feet."""
         i, seen, reg, keep, target, smooth, previous, total, root_pull = frame
         J, r, w = obs.rows(i, seen, *model_markers(q)) if rows is None else rows
+        # the pulls on the configuration: residuals q (-) target with their exact Jacobians
+        # (a ball joint's is not the identity: with it, the steps' fixed point is the cost's
+        # minimum)
         e = pin.difference(model, q, standing)
-        A = J.T @ (w[:, None] * J) + (damping + reg) * eye + keep
-        b = J.T @ (w * r) + reg * e + keep @ pin.difference(model, q, target)
+        De = pin.dDifference(model, q, standing, pin.ARG0)
+        A = J.T @ (w[:, None] * J) + reg * (De.T @ De) + damping * eye
+        b = J.T @ (w * r) - reg * (De.T @ e)
+        c = float(r @ (w * r)) + reg * float(e @ e)
+        if keep is not None:
+            d = pin.difference(model, q, target)
+            Dd = pin.dDifference(model, q, target, pin.ARG0)
+            KD = keep[:, None] * Dd
+            A += Dd.T @ KD
+            b -= KD.T @ d
+            c += float(d @ (keep * d))
         if smooth:  # the joints (not the root) held near the frame before
-            A += smooth * joints
-            b += smooth * (joints @ pin.difference(model, q, previous))
+            dp = pin.difference(model, q, previous)
+            Dp = pin.dDifference(model, q, previous, pin.ARG0)
+            SD = joints @ Dp
+            A += smooth * (SD.T @ SD)
+            b -= smooth * (SD.T @ dp)
+            c += smooth * float(dp @ joints @ dp)
         if root_pull is not None:  # one view: the root near its constant-velocity path
             weight, predicted = root_pull
-            A += weight
-            b += weight @ pin.difference(model, q, predicted)
+            dr = pin.difference(model, q, predicted)
+            Dr = pin.dDifference(model, q, predicted, pin.ARG0)
+            A += Dr.T @ weight @ Dr
+            b -= Dr.T @ (weight @ dr)
+            c += float(dr @ weight @ dr)
         if soles is not None:  # the feet on the floor z = 0 (data is at q)
             from .monocular import floor_rows
 
             Jg, rg, wg = floor_rows(*soles(data), ground * total)
             A += Jg.T @ (wg[:, None] * Jg)
             b += Jg.T @ (wg * rg)
+            c += float(rg @ (wg * rg))
         if pins is not None:  # one view's second pass: the planted feet held still
             from .monocular import STANCE_WEIGHT
 
@@ -691,7 +828,8 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                 Jh, rh, wh = held_rows
                 A += Jh.T @ (wh[:, None] * Jh)
                 b += Jh.T @ (wh * rh)
-        return A, b
+                c += float(rh @ (wh * rh))
+        return A, b, c
 
     def placed(i, seen, q):
         """``q`` moved onto frame ``i``'s observations (the first frame's start)."""
@@ -713,7 +851,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         first = obs.rows(i, seen, *model_markers(q))  # (the first iteration's too)
         column = np.sqrt(first[2] @ first[0] ** 2)
         held_i = column < unseen * column.max()
-        keep = np.diag(np.where(held_i, hold * total, 0.0))
+        keep = np.where(held_i, hold * total, 0.0) if held_i.any() else None  # (diagonal)
         target = previous if previous is not None else standing
         root_pull = None
         if single and root_smoothing and before is not None:
@@ -725,19 +863,59 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             weight[:3, :3] = np.outer(u, u) * root_smoothing * total / dt**2
             root_pull = (weight, predicted)
         frame = (i, seen, reg, keep, target, smooth, previous, total, root_pull)
+        A, b, c = system(q, frame, first)
+        extra, grow = 0.0, 2.0  # Levenberg-Marquardt's lambda beyond ``damping``, its growth
         done, it = False, 0
-        for it in range(iterations):
-            A, b = system(q, frame, first if it == 0 else None)
-            dq = _bounded_step(A, b, q, ranges, balls)
-            q_new = pin.integrate(model, q, dq)
-            for _, iq, lo, hi in ranges:  # (rounding)
-                q_new[iq] = min(max(q_new[iq], lo), hi)
+        while it < iterations:
+            it += 1
+            dq = _bounded_step(A + extra * eye if extra else A, b, q, box, balls)
             step = float(np.abs(dq).max())
-            q = q_new
-            if step < tolerance:
-                done = True
+            if step < tolerance and (not extra or float(np.abs(
+                    _bounded_step(A, b, q, box, balls)).max()) < tolerance):  # fmt: skip
+                done = True  # (the step below tolerance is not taken)
                 break
-        return q, it + 1, done, held_i, frame
+            if not extra and float(dq @ (2.0 * b - A @ dq)) <= COST_TOLERANCE * c:
+                done = True  # (nor one the model says lowers the cost by less than that)
+                break
+            q_new = pin.integrate(model, q, dq)
+            q_new[box.iq] = np.clip(q_new[box.iq], box.lo, box.hi)  # (rounding)
+            A_new, b_new, c_new = system(q_new, frame)
+            if c_new <= c + ROUNDING * c:  # the cost went down (or by rounding only): taken
+                # a large residual's Gauss-Newton model is not the cost's curvature: its steps
+                # can overshoot a valley's floor, zigzagging across it (on an unscaled body's
+                # elbow each step went about twice too far, and the frame took 50), or fall
+                # short. Where the parabola through the cost at 0 (with its slope) and at the
+                # step puts the minimum elsewhere, the step is tried that long
+                small = c - c_new <= COST_TOLERANCE * c
+                slope = -2.0 * float(b @ dq)
+                bend = c_new - c - slope
+                if not small and bend > 0.0 and slope < 0.0:
+                    scale = -slope / (2.0 * bend)
+                    if scale > 1.0 + RESCALE:
+                        scale = min(scale, MAX_EXTEND, _room(q, dq, box, balls))
+                    if abs(scale - 1.0) > RESCALE:
+                        q_far = pin.integrate(model, q, scale * dq)
+                        q_far[box.iq] = np.clip(q_far[box.iq], box.lo, box.hi)  # (rounding)
+                        far = system(q_far, frame)
+                        if far[2] < c_new:
+                            q_new, (A_new, b_new, c_new) = q_far, far
+                            dq = scale * dq
+                        elif frames_needed:  # (data back at q_new: the floor's rows read it)
+                            A_new, b_new, c_new = system(q_new, frame)
+                if extra:  # Nielsen's update of lambda from the gain ratio
+                    predicted = float(dq @ (2.0 * b - A @ dq))  # (the model's decrease)
+                    ratio = min((c - c_new) / predicted, 1.0) if predicted > 0.0 else 1.0
+                    extra *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
+                    extra = extra if extra > damping else 0.0
+                    grow = 2.0
+                q, A, b, c = q_new, A_new, b_new, c_new
+                if small:  # (a large residual's slow last steps: the cost no longer moves)
+                    done = True
+                    break
+            else:  # it went up: the step is refused, and shortened
+                extra = extra * grow if extra else LM_START * float(np.trace(A)) / model.nv
+                grow *= 2.0
+        return q, it, done, held_i, frame
 
     def cost(i, seen, q) -> float:
         """The observations' weighted squared residual of frame ``i`` at ``q``."""
@@ -745,6 +923,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         return float(r @ (w * r))
 
     last = 0  # the frame solved before (``previous``'s)
+    history: list[tuple[float, np.ndarray]] = []  # the last 3 frames solved: (time, q)
     for i in range(n - 1, -1, -1) if backward else range(n):
         seen = obs.seen(i)
         if q is None and single:  # one view: the heading that fits best (module monocular)
@@ -760,28 +939,31 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         else:
             if q is None:
                 q = placed(i, seen, standing)
+            elif len(history) > 1 and balls is None:  # on at the frames before's pace
+                q = _extrapolated(model, float(markers.time[i]), history)
+                q[box.iq] = np.clip(q[box.iq], box.lo, box.hi)
             q, iters[i], converged[i], held[i], frame = fit_frame(i, seen, q)
         at_ball = bool(np.any(_ball_rows(balls, q, model.nv, BALL_AT_LIMIT)[0] < BALL_AT_LIMIT))
-        if at_ball or any(min(q[iq] - lo, hi - q[iq]) < AT_LIMIT for _, iq, lo, hi in ranges):
+        x = q[box.iq]
+        if at_ball or bool((np.minimum(x - box.lo, box.hi - x) < AT_LIMIT).any()):
             free = q.copy()  # the frame solved again, from there, with every range off (two
             # Gauss-Newton steps: within 0.1 degree of converged on the tests' 5-degree excess,
             # at a third of the cost of converging)
             for _ in range(min(iterations, REFIT_STEPS)):
-                dq = np.linalg.solve(*system(free, frame))
+                dq = np.linalg.solve(*system(free, frame)[:2])
                 free = pin.integrate(model, free, dq)
                 if float(np.abs(dq).max()) < tolerance:
                     break
             wanted[i] = free
         if single:  # the root's depth: its sd for one pixel of noise, from the curvature
             assert isinstance(obs, _Views)  # only views are single
-            A, _ = system(q, frame)  # (data at q)
+            A, _, _ = system(q, frame)  # (data at q)
             J, _, w = obs.rows(i, seen, *model_markers(q))
             depth[i] = obs.root_depth(q, A, J, w)
-        pin.framesForwardKinematics(model, data, q)
-        P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
-        residuals[i] = obs.error(i, seen, P)
+        residuals[i] = obs.error(i, seen, model_markers(q)[0])
         out_q[i] = q
         before, previous, last = previous, q.copy(), i
+        history = [*history[-2:], (float(markers.time[i]), previous)]
         if progress is not None:
             progress(i)
     result = IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,

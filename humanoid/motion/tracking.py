@@ -21,8 +21,9 @@ controller's (:mod:`humanoid.walking.tracking`) without its gait cycle, finds th
 - **Tasks.** The root (pelvis position and orientation) and the centre of mass follow the
   motion's, the centre of mass's horizontal acceleration kept to one the loaded soles can carry
   (its centre of pressure moved into their hull); every joint follows its angle; a free foot
-  its pose, moved as it swings by part of the capture point's error (a body behind the motion
-  steps shorter, as a person catching up does: ``TrackGains.placement``); small forces.
+  its pose, moved as it swings by the capture point's error, to land on the error's capture
+  point (a body behind the motion steps shorter, as a person catching up does; one drifting
+  sideways steps under itself: ``TrackGains.placement``); small forces.
 
 The result (:class:`Tracked`) is the simulated run, with its contact forces and torques, and the
 tracking error per joint against the reference.
@@ -110,10 +111,15 @@ class TrackGains:
     # a swinging foot lands this much of the capture point's error (the centre of mass's
     # position error plus its velocity error over omega = sqrt(g / height)) away from the
     # motion's foot, growing from none at lift-off to all of it at landing (0: where the
-    # motion's lands). OpenSim's subject01 treadmill walk, reduced: at 0 the body fell behind
-    # the motion by 30 cm and tipped forward at 2.4 s of 2.5; at 0.5 it completed, 9 cm at
-    # most from it and its joints 2.1 deg RMS off (1.0: 14 cm, 2.1 deg)
-    placement: float = 0.5
+    # motion's lands). 1: on the error's capture point, which stops it (a linear inverted
+    # pendulum's). A fraction p leaves (1 - p) of it to grow by exp(omega T) over the next
+    # stance T (about 4.7 on a walk's 0.5 s at omega 3.1): below p = 1 - exp(-omega T), about
+    # 0.8, an error the stance foot's centre of pressure cannot take back grows step after
+    # step. OpenSim's subject01 treadmill walk, reduced: at 0 the body fell behind the motion
+    # by 30 cm at 2.4 s of 2.5; at 0.5 its converged IK fit fell sideways at 1.65 s, the
+    # capture point's lateral error at the landings 2.4, 16.7, 59.3 cm (its earlier,
+    # unconverged fit completed, the error 3.2, 4.8, 2.7, 3.8 cm); at 1 both complete
+    placement: float = 1.0
     w_toes: float = 10.0  # a free toe hinge's (MTP) weight in the joints' task
 
 
@@ -486,31 +492,14 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     """
     import time as clock
 
-    from ..model import lock_foot_hinges, restrict_configurations
+    from ..model import lock_foot_hinges
     from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
     from ..simulation import Simulation
+    from .floor import LEVEL
 
     full, h = h, h if toes else lock_foot_hinges(h)
-    if np.shape(q)[-1] != h.model.nq:
-        q = restrict_configurations(q, full, h)
-    q, clamped = inside_ranges(h, q)
-    if clamped:
-        import warnings
-
-        warnings.warn("the motion to track goes past joint ranges, clamped: " + describe_clamped(
-            clamped, len(q)), ReferenceRangeWarning, stacklevel=2)  # fmt: skip
+    q, floor, gravity, turned = _motion_on_floor(full, h, time, q, floor, toes)
     model = h.model
-    gravity = np.asarray(model.gravity.linear, dtype=float)
-    if floor is not None:
-        from .floor import LEVEL, fit_floor
-
-        if isinstance(floor, str):
-            floor = fit_floor(h, time, q)
-        q = floor.onto(model, time, q)
-        gravity = floor.gravity(gravity)
-    turned: dict[str, tuple[int, float]] = {}
-    if toes:
-        q, turned = toes_on_floor(h, q, None if floor is None else 0.0)
     if cutoff == "auto":
         cutoff = min(max(residual_cutoff(model, time, q), LOWEST_CUTOFF), HIGHEST_CUTOFF)
     t, qf, vf, af = derivatives(model, time, q, cutoff=cutoff)
@@ -536,24 +525,51 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     traj = sim.run(quiet=quiet, controller=ctl, monitors=[FallMonitor(sim.model, q0)],
                    initial=(q0, v0))  # fmt: skip
     wall = clock.perf_counter() - start
-    ref_q = np.array([shifted.state(float(x))[0] for x in traj.t])
+    ref_q, err = _errors(model, traj, shifted, ctl)
+    # (cutoff is a number or None here: "auto" was resolved above)
+    return Tracked(traj, (traj.t + t[0], ref_q), err, contacts, wall, h,
+                   cutoff, floor, turned)  # type: ignore[arg-type]  # fmt: skip
+
+
+def _motion_on_floor(full, h, time, q, floor, toes: bool):
+    """:func:`track`'s motion on the body ``h`` that moves (``full`` with its toes locked, or
+    itself), inside its ranges (a :class:`ReferenceRangeWarning` if clamped), in the floor's
+    frame (``floor`` a :class:`~humanoid.motion.floor.Floor`, ``"fit"`` or None) and with its
+    toes on the floor with ``toes``: (q, floor, gravity in its frame, the toes turned)."""
+    from ..model import restrict_configurations
+
+    if np.shape(q)[-1] != h.model.nq:
+        q = restrict_configurations(q, full, h)
+    q, clamped = inside_ranges(h, q)
+    if clamped:
+        import warnings
+
+        warnings.warn("the motion to track goes past joint ranges, clamped: " + describe_clamped(
+            clamped, len(q)), ReferenceRangeWarning, stacklevel=3)  # fmt: skip
+    gravity = np.asarray(h.model.gravity.linear, dtype=float)
+    if floor is not None:
+        if isinstance(floor, str):
+            from .floor import fit_floor
+
+            floor = fit_floor(h, time, q)
+        q = floor.onto(h.model, time, q)
+        gravity = floor.gravity(gravity)
+    turned: dict[str, tuple[int, float]] = {}
+    if toes:
+        q, turned = toes_on_floor(h, q, None if floor is None else 0.0)
+    return q, floor, gravity, turned
+
+
+def _errors(model, traj, reference: MotionReference, ctl: MotionTracker):
+    """(the reference at a run's records, each record's error against it); a failed run's
+    message says how it lost the motion (:func:`_lost`)."""
+    ref_q = np.array([reference.state(float(x))[0] for x in traj.t])
     err = np.array([pin.difference(model, a, b) for a, b in zip(traj.q, ref_q, strict=True)])
     if traj.status != "completed" and len(err):
         cause = _lost(traj.t, err, ctl)
         if cause:
             traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
-    # (cutoff is a number or None here: "auto" was resolved above)
-    return Tracked(
-        traj,
-        (traj.t + t[0], ref_q),
-        err,
-        contacts,
-        wall,
-        h,
-        cutoff,  # type: ignore[arg-type]
-        floor,
-        turned,
-    )
+    return ref_q, err
 
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)
