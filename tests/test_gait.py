@@ -112,10 +112,14 @@ def test_the_erd_human_walks_eight_steps_through_the_same_pipeline():
 
 
 def test_the_male_body_walks_twenty_steps_heel_to_toe(male, male_walk):
+    """The male body's twenty steps (:func:`_assert_a_persons_walk`), and the recorded ground
+    forces changing its momentum (:func:`_assert_forces_change_the_momentum`): one test, so
+    that the walk is made once, not once in each pytest-xdist worker (about 50 s each)."""
     walk, a = male_walk
     # issue 13 asks slides under 2 mm (measured 2.1: not yet) and 1.25 m/s or more (1.40)
     _assert_a_persons_walk(male, walk, a, slip=4e-3, speed=1.25)
     assert 0.65 <= a.summary["step_length"] <= 0.80, a.summary["step_length"]  # 0.739
+    _assert_forces_change_the_momentum(male, walk, a)
 
 
 def test_the_female_body_walks_twenty_steps_heel_to_toe(female_walk):
@@ -130,10 +134,9 @@ def _momentum(model, data, rec, i: int) -> np.ndarray:
     return rec.mass * data.vcom[0].copy()
 
 
-def test_the_recorded_ground_forces_change_the_momentum(male, male_walk):
+def _assert_forces_change_the_momentum(male, walk, a) -> None:
     """Over every analysed cycle, the feet's recorded forces and gravity change the body's
     linear momentum by their impulse (the record's forces are the plant's, in newtons)."""
-    walk, a = male_walk
     rec, model = walk.record, male.model
     data = model.createData()
     g = model.gravity.linear
