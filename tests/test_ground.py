@@ -337,6 +337,17 @@ def test_a_posture_hold_on_the_floor_is_stepped_implicitly():
     assert speed < 5.0  # [rad/s, m/s]: it rocked, nothing flew
 
 
+def _feet_ground():
+    """The male body and a ground of its feet's geometries alone (rearfoot and toes)."""
+    h = hm.load(BODIES / "adult_male.urdf")
+    model = h.model
+    roots = [model.frames[h.frame_id(f)].parentJoint for f in h.feet]
+    feet = {j for root in roots for j in model.subtrees[root]}
+    geometry = h.collision_model
+    chosen = [i for i, g in enumerate(geometry.geometryObjects) if g.parentJoint in feet]
+    return h, Ground(model, geometry, chosen)
+
+
 def test_a_foot_and_its_toes_share_no_ground_point():
     """At an MTP angle near zero the rearfoot's front corners and the toes' rear corners are one
     point: the ground keeps the toes' alone (a coincident pair is split arbitrarily by the
@@ -344,13 +355,8 @@ def test_a_foot_and_its_toes_share_no_ground_point():
     two and the toe tip's two, no two of them closer than 1 mm, and the metatarsal heads' are
     on the toes. With the toes bent up 20 degrees the rearfoot's front corners are contacts
     again (left out, the rearfoot's front sank into the floor)."""
-    h = hm.load(BODIES / "adult_male.urdf")
+    h, ground = _feet_ground()
     model = h.model
-    roots = [model.frames[h.frame_id(f)].parentJoint for f in h.feet]
-    feet = {j for root in roots for j in model.subtrees[root]}
-    geometry = h.collision_model
-    chosen = [i for i, g in enumerate(geometry.geometryObjects) if g.parentJoint in feet]
-    ground = Ground(model, geometry, chosen)
     data = model.createData()
     q = h.standing_configuration()
     pin.framesForwardKinematics(model, data, q)
@@ -382,13 +388,8 @@ def test_a_detection_at_the_last_configuration_is_the_last_one_and_any_other_is_
     controller's, then its plant's) returns the first's contacts; a call at another
     configuration, or without ``at``, detects them, and a call back at the first is detected
     again (only the last call is kept)."""
-    h = hm.load(BODIES / "adult_male.urdf")
+    (h, ground), (_, fresh) = _feet_ground(), _feet_ground()
     model = h.model
-    roots = [model.frames[h.frame_id(f)].parentJoint for f in h.feet]
-    feet = {j for root in roots for j in model.subtrees[root]}
-    geometry = h.collision_model
-    chosen = [i for i, g in enumerate(geometry.geometryObjects) if g.parentJoint in feet]
-    ground, fresh = Ground(model, geometry, chosen), Ground(model, geometry, chosen)
     data = model.createData()
     standing = h.standing_configuration()
     pin.framesForwardKinematics(model, data, standing)
