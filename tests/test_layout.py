@@ -236,20 +236,30 @@ def test_the_command_line_is_thin():
 
 SIMULATION = PACKAGE / "simulation"
 MAX_CLASS_LINES, MAX_FUNCTION_LINES = 250, 80
+# the per-frame IK solve (its Levenberg-Marquardt loop and the closures over one trial's
+# markers, 301 lines) and its entry point (141), rewritten in the last change and not split yet
+NOT_YET_SPLIT = {("motion/ik.py", "_solve"), ("motion/ik.py", "inverse_kinematics")}
 
 
-def test_the_simulation_package_is_made_of_small_pieces():
-    """No class in humanoid/simulation/ over 250 lines, no function over 80 (issue 38: the
-    763-line module and its 650-line class are not to grow back)."""
-    big = []
-    for path in sorted(SIMULATION.rglob("*.py")):
+def test_the_package_is_made_of_small_pieces():
+    """No class in the package over 250 lines, no function or method over 80, nested ones
+    too (issue 38: 26 were, from a 432-line viewer class to a 201-line IK solve; the
+    simulation's 763-line module and its 650-line class are not to grow back)."""
+    big, known = [], []
+    for path in sorted(PACKAGE.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
                 lines = node.end_lineno - node.lineno + 1
                 limit = MAX_CLASS_LINES if isinstance(node, ast.ClassDef) else MAX_FUNCTION_LINES
+                rel = path.relative_to(PACKAGE).as_posix()
                 if lines > limit:
-                    big.append(f"{path.name}: {node.name} {lines} lines (> {limit})")
+                    if (rel, node.name) in NOT_YET_SPLIT:
+                        known.append((rel, node.name))
+                    else:
+                        big.append(f"{rel}:{node.lineno} {node.name} {lines} lines (> {limit})")
     assert not big, big
+    # the list shrinks as they are split: a name split already is taken off it
+    assert sorted(known) == sorted(NOT_YET_SPLIT), set(NOT_YET_SPLIT) - set(known)
 
 
 PLUG_INS = {"controller", "schedule", "monitors"}
