@@ -337,13 +337,12 @@ def _ball_reports(balls, time, q, wanted) -> list[LimitReport]:
 
 def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Marker], *,
                        register: bool = False, static: MarkerTrajectories | None = None,
-                       iterations: int = 50, tolerance: float = 1e-6,
-                       damping: float = 1e-6,
+                       iterations: int = 50, tolerance: float = 1e-6, damping: float = 1e-6,
                        regularization: float | None = None, smoothing: float | None = None,
-                       unseen: float = 1e-3, hold: float = 1e-2,
-                       q0: np.ndarray | None = None, cameras=None, ball_ranges: bool = False,
-                       ground: float | None = None, root_smoothing: float | None = None,
-                       stances: bool | None = None, progress=None) -> IKResult:  # fmt: skip
+                       unseen: float = 1e-3, hold: float = 1e-2, q0: np.ndarray | None = None,
+                       cameras=None, ball_ranges: bool = False, ground: float | None = None,
+                       root_smoothing: float | None = None, stances: bool | None = None,
+                       progress=None) -> IKResult:  # fmt: skip
     """Fit the body to measured markers, or to 2D keypoints seen by calibrated cameras (see
     the module docstring).
 
@@ -394,8 +393,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
             (module :mod:`~humanoid.motion.monocular`); said in the
             :class:`~humanoid.motion.monocular.DepthReport`. Default: on from one view with
             ``ground``, off otherwise (several views or markers see the depth).
-        progress: Called with the frame index after each frame (a progress bar; the first
-            pass's only).
+        progress: Called with the frame index after each frame (the first pass's only).
 
     Warns:
         RangeLimitWarning: joints held at their range's bounds (:attr:`IKResult.at_limit`).
@@ -405,68 +403,92 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         IKError: no marker in common, a marker on a frame the body does not have, a frame
             with fewer than 3 markers seen in total for the first frame.
     """
+    settings = _settings(markers, marker_set, cameras, register or static is not None,
+                         iterations=iterations, tolerance=tolerance, damping=damping,
+                         regularization=regularization, smoothing=smoothing, unseen=unseen,
+                         hold=hold, ground=ground, root_smoothing=root_smoothing)  # fmt: skip
+    if register:
+        marker_set, q0 = _registered(h, markers, marker_set, settings, static, q0, progress)
+    result = _solve(h, markers, marker_set, settings, q0, progress, cameras, ball_ranges)
+    if len(cameras or ()) == 1 and (bool(settings.ground) if stances is None else stances):
+        result = _planted(h, markers, marker_set, settings, result, cameras, ball_ranges)
+    result.marker_set = marker_set
+    _warn(result, cameras, settings.ground)
+    return result
+
+
+def _settings(markers, marker_set, cameras, registering: bool, **given) -> _Settings:
+    """The fit's settings, the defaults of one view or of few markers filled in, checked."""
     from .cameras import CameraKeypoints
 
     if isinstance(markers, CameraKeypoints) != (cameras is not None):
         raise IKError("2D keypoints (CameraKeypoints) need their cameras, and cameras "
                       "need 2D keypoints")  # fmt: skip
-    if cameras is not None and (register or static is not None):
+    if cameras is not None and registering:
         raise IKError("registering technical markers needs 3D markers, not 2D keypoints")
     single = cameras is not None and len(cameras) == 1  # (the defaults of one view)
-    if ground is None:
-        ground = SINGLE_VIEW_GROUND if single else 0.0
-    if root_smoothing is None:
-        root_smoothing = SINGLE_VIEW_ROOT if single else 0.0
-    if regularization is None:
-        regularization = SINGLE_VIEW_REGULARIZATION if single else 1e-6
-    _check_settings(iterations=iterations, tolerance=tolerance, damping=damping,
-                    regularization=regularization, smoothing=smoothing, unseen=unseen, hold=hold,
-                    ground=ground, root_smoothing=root_smoothing)  # fmt: skip
+    if given["ground"] is None:
+        given["ground"] = SINGLE_VIEW_GROUND if single else 0.0
+    if given["root_smoothing"] is None:
+        given["root_smoothing"] = SINGLE_VIEW_ROOT if single else 0.0
+    if given["regularization"] is None:
+        given["regularization"] = SINGLE_VIEW_REGULARIZATION if single else 1e-6
+    _check_settings(**given)
     names = [n for n in markers.names if n in marker_set]
     heavy = [n for n in names if not 0.0 <= marker_set[n].weight <= MAX_WEIGHT]
     if heavy:
         raise IKError(f"marker {heavy[0]!r}: weight {marker_set[heavy[0]].weight} must be "
                       f"in [0, {MAX_WEIGHT:g}]")  # fmt: skip
-    if smoothing is None:
+    if given["smoothing"] is None:
         smoothing = 0.0 if len(names) >= 40 else SPARSE_SMOOTHING
-        smoothing = SINGLE_VIEW_SMOOTHING if single else smoothing
-    technical = [n for n in names if not marker_set[n].anatomical]
-    if register and technical and len(technical) < len(names):
-        first = {n: (replace(m, weight=0.0, anatomical=False) if n in technical else m)
-                 for n, m in marker_set.items()}  # fmt: skip
-        source = static if static is not None else markers
-        technical = [n for n in technical if n in source.names]
-        fit = _solve(h, source, first, iterations, tolerance, damping, regularization,
-                     smoothing, unseen, hold, q0,
-                     progress if static is None else None)  # fmt: skip
-        marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical,
-                                                         fit.held)  # fmt: skip
-        if static is None:
-            q0 = fit.q[0]
-    result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
-                    smoothing, unseen, hold, q0, progress, cameras, ball_ranges,
-                    ground, root_smoothing)  # fmt: skip
-    if stances is None:
-        stances = bool(single and ground)
-    if stances and single:  # one view: solved again, backwards, the planted feet held still
-        from .monocular import StancePins, find_stances
+        given["smoothing"] = SINGLE_VIEW_SMOOTHING if single else smoothing
+    return _Settings(**given)
 
-        found = find_stances(h, result.time, result.q)
-        pins = StancePins(h, found, len(result.time)) if found else None
-        result = _solve(h, markers, marker_set, iterations, tolerance, damping, regularization,
-                        smoothing, unseen, hold, result.q[-1], None, cameras, ball_ranges,
-                        ground, root_smoothing, pins, backward=True)  # fmt: skip
-        assert result.depth is not None  # one view: the solve reported the depth
-        result.depth = replace(result.depth, stances=tuple(found))
-    result.marker_set = marker_set
+
+def _registered(h, markers, marker_set, settings: _Settings, static, q0, progress):
+    """The marker set with its technical markers registered (:func:`inverse_kinematics`'
+    ``register``), and the first frame's start (the registering fit's, on the motion)."""
+    names = [n for n in markers.names if n in marker_set]
+    technical = [n for n in names if not marker_set[n].anatomical]
+    if not technical or len(technical) == len(names):
+        return marker_set, q0
+    first = {n: (replace(m, weight=0.0, anatomical=False) if n in technical else m)
+             for n, m in marker_set.items()}  # fmt: skip
+    source = static if static is not None else markers
+    technical = [n for n in technical if n in source.names]
+    fit = _solve(h, source, first, _Settings(*settings[:7]), q0,
+                 progress if static is None else None)  # fmt: skip
+    marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical,
+                                                     fit.held)  # fmt: skip
+    return marker_set, (fit.q[0] if static is None else q0)
+
+
+def _planted(h, markers, marker_set, settings: _Settings, result: IKResult, cameras,
+             ball_ranges: bool) -> IKResult:  # fmt: skip
+    """One view: the fit solved again, backwards, the feet ``result`` planted held still."""
+    from .monocular import StancePins, find_stances
+
+    found = find_stances(h, result.time, result.q)
+    pins = StancePins(h, found, len(result.time)) if found else None
+    result = _solve(h, markers, marker_set, settings, result.q[-1], None, cameras, ball_ranges,
+                    pins, backward=True)  # fmt: skip
+    assert result.depth is not None  # one view: the solve reported the depth
+    result.depth = replace(result.depth, stances=tuple(found))
+    return result
+
+
+def _warn(result: IKResult, cameras, ground: float) -> None:
+    """The warnings of what the fit hid (module docstring; one view's depth:
+    :func:`~humanoid.motion.monocular.check_single_view`), at :func:`inverse_kinematics`'
+    caller."""
     if result.depth is not None:
         from .monocular import check_single_view
 
-        check_single_view(result.depth, cameras[0], ground)
+        check_single_view(result.depth, cameras[0], ground, stacklevel=4)
     if result.at_limit:
         warnings.warn("inverse kinematics: " + "; ".join(
             r.describe(len(result.time)) for r in result.at_limit),
-            RangeLimitWarning, stacklevel=2)  # fmt: skip
+            RangeLimitWarning, stacklevel=3)  # fmt: skip
     if result.unconstrained:
         assert result.held is not None  # unconstrained coordinates are held ones
         counts = result.held.sum(axis=0)
@@ -474,8 +496,7 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
                  for k, c in enumerate(result.coordinates) if counts[k]]  # fmt: skip
         warnings.warn("inverse kinematics: no marker sees " + ", ".join(named)
                       + "; held at the frame before (the standing posture at first)",
-                      UnconstrainedWarning, stacklevel=2)  # fmt: skip
-    return result
+                      UnconstrainedWarning, stacklevel=3)  # fmt: skip
 
 
 # the largest value of an IK setting (a weight or pull per unit of marker weight, a tolerance):
@@ -679,12 +700,89 @@ class _Views:
             return np.where(count > 0, np.sqrt(ray2 / count), np.nan)
 
 
-def _solve(h, markers, marker_set, iterations, tolerance, damping, regularization, smoothing,
-           unseen, hold, q0, progress, cameras=None, ball_ranges=False,
-           ground=0.0, root_smoothing=0.0, pins=None,
-           backward=False) -> IKResult:  # fmt: skip
+class _Settings(NamedTuple):
+    """The fit's settings (:func:`inverse_kinematics`' arguments, their defaults resolved)."""
+
+    iterations: int
+    tolerance: float
+    damping: float
+    regularization: float
+    smoothing: float
+    unseen: float
+    hold: float
+    ground: float = 0.0
+    root_smoothing: float = 0.0
+
+
+class _MarkerKinematics:
+    """The model's markers (m, 3) at a configuration and their Jacobians (m, 3, nv), all at
+    once: a marker's velocity is its joint's spatial velocity (the world-frame Jacobian of one
+    :func:`pinocchio.computeJointJacobians`, on the columns that move the joint) at the marker,
+    ``v + w x p``."""
+
+    def __init__(self, model, data, frames, offsets, frames_needed: bool) -> None:
+        self.model, self.data, self.m = model, data, len(frames)
+        self.frames_needed = frames_needed  # (the floor's and the pins' rows read data.oMf)
+        m = self.m
+        # each marker on its frame's joint: its point in the joint's frame (homogeneous), and
+        # the velocity coordinates that move it (the columns of the joint's support), per row
+        model_frames, model_joints = model.frames, model.joints
+        carriers = [model_frames[f].parentJoint for f in frames]
+        unique, self.on_joint = np.unique(carriers, return_inverse=True)
+        self.carrying = [int(j) for j in unique]
+        self.in_joint = np.ones((m, 4, 1))
+        for k, (f, o) in enumerate(zip(frames, offsets, strict=True)):
+            self.in_joint[k, :3, 0] = model_frames[f].placement.act(o)
+        supports = {j: [(model_joints[a].idx_v, model_joints[a].nv) for a in model.supports[j]
+                        if a > 0] for j in self.carrying}  # fmt: skip
+        moves = np.zeros((m, 3, model.nv))
+        for k, j in enumerate(carriers):
+            for iv, nv in supports[j]:
+                moves[k, :, iv : iv + nv] = 1
+        self.moves = moves.reshape(3 * m, model.nv)
+        self.lever = np.zeros((m, 3, 6))  # a marker's row of [I, -skew(p)]: its velocity
+        self.lever[:, [0, 1, 2], [0, 1, 2]] = 1.0  # from (v, w)
+        self.cached: list = [None, None, None]  # the last configuration's markers, Jacobians
+
+    def __call__(self, q):
+        """The model's markers at ``q`` and their Jacobians (``data`` is then at ``q``)."""
+        cached, model, data, m, lever = self.cached, self.model, self.data, self.m, self.lever
+        if cached[0] is not None and np.array_equal(q, cached[0]):
+            return cached[1], cached[2]  # (no floor or pins: nothing else reads data)
+        pin.computeJointJacobians(model, data, q)
+        if self.frames_needed:
+            pin.updateFramePlacements(model, data)
+        oMi = data.oMi.tolist()  # (a list's items are read in half the time)
+        H = np.array([oMi[j].np[:3] for j in self.carrying])[self.on_joint]
+        P = (H @ self.in_joint)[:, :, 0]
+        x, y, z = P[:, 0], P[:, 1], P[:, 2]
+        lever[:, 0, 4], lever[:, 0, 5] = z, -y
+        lever[:, 1, 3], lever[:, 1, 5] = -z, x
+        lever[:, 2, 3], lever[:, 2, 4] = y, -x
+        Jp = (lever.reshape(3 * m, 6) @ data.J) * self.moves  # data.J: at the world's origin
+        Jp = Jp.reshape(m, 3, model.nv)
+        if not self.frames_needed:
+            cached[:] = [q.copy(), P, Jp]
+        return P, Jp
+
+
+class _Frame(NamedTuple):
+    """A frame's terms of the fit (:meth:`_Fit.terms`)."""
+
+    i: int
+    seen: np.ndarray
+    reg: float  # the pull towards standing
+    keep: np.ndarray | None  # the held coordinates' pulls (diagonal), or none held
+    target: np.ndarray  # where the held coordinates are pulled
+    smooth: float  # the joints' pull towards the frame before
+    previous: np.ndarray | None  # the frame before
+    total: float  # the frame's seen marker weight (at least 1)
+    root_pull: tuple | None  # one view: (weight, predicted) of the root's pull
+
+
+def _names_on(h, markers, marker_set) -> list[str]:
+    """The markers both ``markers`` and ``marker_set`` have, each on a frame of the body."""
     model = h.model
-    data = model.createData()
     names = [n for n in markers.names if n in marker_set]
     if not names:
         raise IKError(
@@ -696,100 +794,66 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
         if not model.existFrame(marker_set[n].frame):
             raise IKError(f"marker {n!r} is on frame {marker_set[n].frame!r}, which "
                           f"{h.source} does not have")  # fmt: skip
-    frames = [model.getFrameId(marker_set[n].frame) for n in names]
-    offsets = np.array([marker_set[n].offset for n in names])
-    weights = np.array([marker_set[n].weight for n in names])
-    obs: _Points | _Views
-    if cameras is None:
-        obs = _Points(markers, names, weights)
-    else:
-        obs = _Views(markers, cameras, names, weights)
-    single = getattr(obs, "single", False)
-    soles = None
-    if ground:
-        from .monocular import SolePoints
+    return names
 
-        soles = SolePoints(h)
-    ranges = _ranges(model)
-    box = _Box.of(ranges)
-    balls = None
-    if ball_ranges and h.fusion is not None and h.fusion.balls:
-        from ..constraints.limits import JointRanges
 
-        balls = JointRanges(h)
-    standing = h.standing_configuration()
-    n, m = len(markers.time), len(names)
-    out_q = np.zeros((n, model.nq))
-    wanted = np.full((n, model.nq), np.nan)  # the fits with the ranges off, where they acted
-    held = np.zeros((n, model.nv), dtype=bool)
-    residuals = np.full((n, m), np.nan)
-    iters = np.zeros(n, dtype=int)
-    converged = np.zeros(n, dtype=bool)
-    depth = np.full((n, 3), np.nan)  # one view: the root's depth sd, across sd, distance
-    q = None if q0 is None else np.asarray(q0, dtype=float).copy()
-    eye = np.eye(model.nv)
-    joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
-    previous = before = None
+class _Fit:
+    """One pass of the fit over a trial: its observations, the terms of its cost, and the
+    Levenberg-Marquardt solve of one frame (module docstring). ``previous``, ``before`` and
+    ``last``: the frame solved before, the one before that, and the former's index."""
 
-    # each marker on its frame's joint: its point in the joint's frame (homogeneous), and the
-    # velocity coordinates that move it (the columns of the joint's support), per row
-    model_frames, model_joints = model.frames, model.joints
-    carriers = [model_frames[f].parentJoint for f in frames]
-    unique, on_joint = np.unique(carriers, return_inverse=True)
-    carrying = [int(j) for j in unique]
-    in_joint = np.ones((m, 4, 1))
-    for k, (f, o) in enumerate(zip(frames, offsets, strict=True)):
-        in_joint[k, :3, 0] = model_frames[f].placement.act(o)
-    supports = {j: [(model_joints[a].idx_v, model_joints[a].nv) for a in model.supports[j]
-                    if a > 0] for j in carrying}  # fmt: skip
-    moves = np.zeros((m, 3, model.nv))
-    for k, j in enumerate(carriers):
-        for iv, nv in supports[j]:
-            moves[k, :, iv : iv + nv] = 1
-    moves = moves.reshape(3 * m, model.nv)
-    lever = np.zeros((m, 3, 6))  # a marker's row of [I, -skew(p)]: its velocity from (v, w)
-    lever[:, [0, 1, 2], [0, 1, 2]] = 1.0
-    frames_needed = soles is not None or pins is not None  # (they read data.oMf)
-    cached: list = [None, None, None]  # the last configuration's markers and Jacobians
+    def __init__(self, h, markers, marker_set, settings: _Settings, cameras, ball_ranges: bool,
+                 pins) -> None:  # fmt: skip
+        model = self.model = h.model
+        self.data = model.createData()
+        self.markers, self.settings, self.pins = markers, settings, pins
+        self.names = names = _names_on(h, markers, marker_set)
+        self.frames = [model.getFrameId(marker_set[n].frame) for n in names]
+        self.offsets = np.array([marker_set[n].offset for n in names])
+        self.weights = weights = np.array([marker_set[n].weight for n in names])
+        self.obs: _Points | _Views
+        if cameras is None:
+            self.obs = _Points(markers, names, weights)
+        else:
+            self.obs = _Views(markers, cameras, names, weights)
+        self.single = getattr(self.obs, "single", False)
+        self.soles = None
+        if settings.ground:
+            from .monocular import SolePoints
 
-    def model_markers(q):
-        """The model's markers (m, 3) at ``q`` and their Jacobians (m, 3, nv), all at once: a
-        marker's velocity is its joint's spatial velocity (the world-frame Jacobian of one
-        :func:`pinocchio.computeJointJacobians`, on the columns that move the joint) at the
-        marker, ``v + w x p``."""
-        if cached[0] is not None and np.array_equal(q, cached[0]):
-            return cached[1], cached[2]  # (no floor or pins: nothing else reads data)
-        pin.computeJointJacobians(model, data, q)
-        if frames_needed:
-            pin.updateFramePlacements(model, data)
-        oMi = data.oMi.tolist()  # (a list's items are read in half the time)
-        H = np.array([oMi[j].np[:3] for j in carrying])[on_joint]
-        P = (H @ in_joint)[:, :, 0]
-        x, y, z = P[:, 0], P[:, 1], P[:, 2]
-        lever[:, 0, 4], lever[:, 0, 5] = z, -y
-        lever[:, 1, 3], lever[:, 1, 5] = -z, x
-        lever[:, 2, 3], lever[:, 2, 4] = y, -x
-        Jp = (lever.reshape(3 * m, 6) @ data.J) * moves  # data.J: at the world's origin
-        Jp = Jp.reshape(m, 3, model.nv)
-        if not frames_needed:
-            cached[:] = [q.copy(), P, Jp]
-        return P, Jp
+            self.soles = SolePoints(h)
+        self.box = _Box.of(_ranges(model))
+        self.balls = None
+        if ball_ranges and h.fusion is not None and h.fusion.balls:
+            from ..constraints.limits import JointRanges
 
-    def system(q, frame, rows=None):
+            self.balls = JointRanges(h)
+        self.standing = h.standing_configuration()
+        self.eye = np.eye(model.nv)
+        self.joints = np.diag([0.0] * 6 + [1.0] * (model.nv - 6))
+        floor_or_pins = self.soles is not None or pins is not None
+        self.model_markers = _MarkerKinematics(model, self.data, self.frames, self.offsets,
+                                               floor_or_pins)  # fmt: skip
+        self.previous: np.ndarray | None = None
+        self.before: np.ndarray | None = None
+        self.last = 0
+
+    def system(self, q, frame: _Frame, rows=None):
         """The Gauss-Newton step's ``A dq = b`` at ``q`` in ``frame`` and the frame's cost
         there (``rows``: the observations' Jacobian, residuals and weights at ``q``, if known:
         ``data`` is then at ``q`` already). The cost is the weighted sum of squares whose
         Gauss-Newton model ``A``, ``b`` are (``damping`` aside, Levenberg's lambda, not a cost):
         the observations', the pull towards standing, the held coordinates', the smoothing's,
         one view's root pull, floor rows and pinned feet."""
+        model, standing, damping = self.model, self.standing, self.settings.damping
         i, seen, reg, keep, target, smooth, previous, total, root_pull = frame
-        J, r, w = obs.rows(i, seen, *model_markers(q)) if rows is None else rows
+        J, r, w = self.obs.rows(i, seen, *self.model_markers(q)) if rows is None else rows
         # the pulls on the configuration: residuals q (-) target with their exact Jacobians
         # (a ball joint's is not the identity: with it, the steps' fixed point is the cost's
         # minimum)
         e = pin.difference(model, q, standing)
         De = pin.dDifference(model, q, standing, pin.ARG0)
-        A = J.T @ (w[:, None] * J) + reg * (De.T @ De) + damping * eye
+        A = J.T @ (w[:, None] * J) + reg * (De.T @ De) + damping * self.eye
         b = J.T @ (w * r) - reg * (De.T @ e)
         c = float(r @ (w * r)) + reg * float(e @ e)
         if keep is not None:
@@ -800,6 +864,7 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             b -= KD.T @ d
             c += float(d @ (keep * d))
         if smooth:  # the joints (not the root) held near the frame before
+            joints = self.joints
             dp = pin.difference(model, q, previous)
             Dp = pin.dDifference(model, q, previous, pin.ARG0)
             SD = joints @ Dp
@@ -813,57 +878,76 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
             A += Dr.T @ weight @ Dr
             b -= Dr.T @ (weight @ dr)
             c += float(dr @ weight @ dr)
-        if soles is not None:  # the feet on the floor z = 0 (data is at q)
-            from .monocular import floor_rows
-
-            Jg, rg, wg = floor_rows(*soles(data), ground * total)
+        for Jg, rg, wg in self._data_rows(i, total):  # the floor's and the pinned feet's
             A += Jg.T @ (wg[:, None] * Jg)
             b += Jg.T @ (wg * rg)
             c += float(rg @ (wg * rg))
-        if pins is not None:  # one view's second pass: the planted feet held still
-            from .monocular import STANCE_WEIGHT
-
-            held_rows = pins.rows(data, i, STANCE_WEIGHT * total)
-            if held_rows is not None:
-                Jh, rh, wh = held_rows
-                A += Jh.T @ (wh[:, None] * Jh)
-                b += Jh.T @ (wh * rh)
-                c += float(rh @ (wh * rh))
         return A, b, c
 
-    def placed(i, seen, q):
+    def _data_rows(self, i: int, total: float) -> list:
+        """The rows read from ``data`` (at the configuration): the feet on the floor z = 0,
+        and, in one view's second pass, the planted feet held still."""
+        out = []
+        if self.soles is not None:
+            from .monocular import floor_rows
+
+            out.append(floor_rows(*self.soles(self.data), self.settings.ground * total))
+        if self.pins is not None:
+            from .monocular import STANCE_WEIGHT
+
+            held_rows = self.pins.rows(self.data, i, STANCE_WEIGHT * total)
+            if held_rows is not None:
+                out.append(held_rows)
+        return out
+
+    def placed(self, i, seen, q):
         """``q`` moved onto frame ``i``'s observations (the first frame's start)."""
+        model, data = self.model, self.data
         pin.framesForwardKinematics(model, data, q)
-        P = np.array([data.oMf[f].act(o) for f, o in zip(frames, offsets, strict=True)])
+        P = np.array([data.oMf[f].act(o) for f, o in zip(self.frames, self.offsets, strict=True)])
         q = q.copy()
-        q[:3] += obs.place(i, seen, P, markers.time[i])
+        q[:3] += self.obs.place(i, seen, P, self.markers.time[i])
         return q
 
-    def fit_frame(i, seen, q):
-        """Frame ``i`` fitted from ``q``: (q, iterations, converged, held, the frame's terms)."""
-        total = max(float(np.where(seen, weights, 0.0).sum()), 1.0)
+    def terms(self, i, seen, q):
+        """Frame ``i``'s terms (:class:`_Frame`) from ``q``, the observations' rows at ``q``
+        and the coordinates no marker sees there (held where they were)."""
+        model, previous, time, s = self.model, self.previous, self.markers.time, self.settings
+        regularization, smoothing, root_smoothing = s.regularization, s.smoothing, s.root_smoothing
+        unseen, hold = s.unseen, s.hold
+        total = max(float(np.where(seen, self.weights, 0.0).sum()), 1.0)
         reg = regularization * total
         smooth = 0.0
         if previous is not None and smoothing:  # a pull on the joints' velocity: per 1/dt^2
-            dt = abs(float(markers.time[i] - markers.time[last]))
+            dt = abs(float(time[i] - time[self.last]))
             smooth = smoothing * total / dt**2
         # the coordinates no marker sees (at the frame's start): held where they were
-        first = obs.rows(i, seen, *model_markers(q))  # (the first iteration's too)
+        first = self.obs.rows(i, seen, *self.model_markers(q))  # (the first iteration's too)
         column = np.sqrt(first[2] @ first[0] ** 2)
         held_i = column < unseen * column.max()
         keep = np.where(held_i, hold * total, 0.0) if held_i.any() else None  # (diagonal)
-        target = previous if previous is not None else standing
+        target = previous if previous is not None else self.standing
         root_pull = None
-        if single and root_smoothing and before is not None:
-            dt = abs(float(markers.time[i] - markers.time[last]))
-            predicted = pin.integrate(model, previous, pin.difference(model, before, previous))
+        if self.single and root_smoothing and self.before is not None:
+            assert isinstance(self.obs, _Views)  # only views are single
+            dt = abs(float(time[i] - time[self.last]))
+            predicted = pin.integrate(model, previous, pin.difference(model, self.before,
+                                                                      previous))  # fmt: skip
             weight = np.zeros((model.nv, model.nv))
             R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
-            u = R.T @ obs.ray(q[:3])  # the ray through the root, in the root's frame
+            u = R.T @ self.obs.ray(q[:3])  # the ray through the root, in the root's frame
             weight[:3, :3] = np.outer(u, u) * root_smoothing * total / dt**2
             root_pull = (weight, predicted)
-        frame = (i, seen, reg, keep, target, smooth, previous, total, root_pull)
-        A, b, c = system(q, frame, first)
+        frame = _Frame(i, seen, reg, keep, target, smooth, previous, total, root_pull)
+        return frame, first, held_i
+
+    def fit_frame(self, i, seen, q):
+        """Frame ``i`` fitted from ``q``: (q, iterations, converged, held, the frame's terms)."""
+        model, eye, box, balls = self.model, self.eye, self.box, self.balls
+        s = self.settings
+        iterations, tolerance, damping = s.iterations, s.tolerance, s.damping
+        frame, first, held_i = self.terms(i, seen, q)
+        A, b, c = self.system(q, frame, first)
         extra, grow = 0.0, 2.0  # Levenberg-Marquardt's lambda beyond ``damping``, its growth
         done, it = False, 0
         while it < iterations:
@@ -879,36 +963,18 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                 break
             q_new = pin.integrate(model, q, dq)
             q_new[box.iq] = np.clip(q_new[box.iq], box.lo, box.hi)  # (rounding)
-            A_new, b_new, c_new = system(q_new, frame)
-            if c_new <= c + ROUNDING * c:  # the cost went down (or by rounding only): taken
-                # a large residual's Gauss-Newton model is not the cost's curvature: its steps
-                # can overshoot a valley's floor, zigzagging across it (on an unscaled body's
-                # elbow each step went about twice too far, and the frame took 50), or fall
-                # short. Where the parabola through the cost at 0 (with its slope) and at the
-                # step puts the minimum elsewhere, the step is tried that long
-                small = c - c_new <= COST_TOLERANCE * c
-                slope = -2.0 * float(b @ dq)
-                bend = c_new - c - slope
-                if not small and bend > 0.0 and slope < 0.0:
-                    scale = -slope / (2.0 * bend)
-                    if scale > 1.0 + RESCALE:
-                        scale = min(scale, MAX_EXTEND, _room(q, dq, box, balls))
-                    if abs(scale - 1.0) > RESCALE:
-                        q_far = pin.integrate(model, q, scale * dq)
-                        q_far[box.iq] = np.clip(q_far[box.iq], box.lo, box.hi)  # (rounding)
-                        far = system(q_far, frame)
-                        if far[2] < c_new:
-                            q_new, (A_new, b_new, c_new) = q_far, far
-                            dq = scale * dq
-                        elif frames_needed:  # (data back at q_new: the floor's rows read it)
-                            A_new, b_new, c_new = system(q_new, frame)
+            new = self.system(q_new, frame)
+            if new[2] <= c + ROUNDING * c:  # the cost went down (or by rounding only): taken
+                small = c - new[2] <= COST_TOLERANCE * c
+                if not small:
+                    q_new, dq, new = self.rescaled(q, dq, b, c, q_new, new, frame)
                 if extra:  # Nielsen's update of lambda from the gain ratio
                     predicted = float(dq @ (2.0 * b - A @ dq))  # (the model's decrease)
-                    ratio = min((c - c_new) / predicted, 1.0) if predicted > 0.0 else 1.0
+                    ratio = min((c - new[2]) / predicted, 1.0) if predicted > 0.0 else 1.0
                     extra *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
                     extra = extra if extra > damping else 0.0
                     grow = 2.0
-                q, A, b, c = q_new, A_new, b_new, c_new
+                q, (A, b, c) = q_new, new
                 if small:  # (a large residual's slow last steps: the cost no longer moves)
                     done = True
                     break
@@ -917,66 +983,138 @@ def _solve(h, markers, marker_set, iterations, tolerance, damping, regularizatio
                 grow *= 2.0
         return q, it, done, held_i, frame
 
-    def cost(i, seen, q) -> float:
+    def rescaled(self, q, dq, b, c, q_new, new, frame):
+        """A taken step ``dq`` (to ``q_new``, its system ``new``) tried at another length: a
+        large residual's Gauss-Newton model is not the cost's curvature: its steps can
+        overshoot a valley's floor, zigzagging across it (on an unscaled body's elbow each step
+        went about twice too far, and the frame took 50), or fall short. Where the parabola
+        through the cost at 0 (with its slope) and at the step puts the minimum elsewhere, the
+        step is tried that long; (q, dq, system) of the better."""
+        box = self.box
+        c_new = new[2]
+        slope = -2.0 * float(b @ dq)
+        bend = c_new - c - slope
+        if bend > 0.0 and slope < 0.0:
+            scale = -slope / (2.0 * bend)
+            if scale > 1.0 + RESCALE:
+                scale = min(scale, MAX_EXTEND, _room(q, dq, box, self.balls))
+            if abs(scale - 1.0) > RESCALE:
+                q_far = pin.integrate(self.model, q, scale * dq)
+                q_far[box.iq] = np.clip(q_far[box.iq], box.lo, box.hi)  # (rounding)
+                far = self.system(q_far, frame)
+                if far[2] < c_new:
+                    return q_far, scale * dq, far
+                if self.model_markers.frames_needed:  # (data back at q_new: the floor reads it)
+                    return q_new, dq, self.system(q_new, frame)
+        return q_new, dq, new
+
+    def cost(self, i, seen, q) -> float:
         """The observations' weighted squared residual of frame ``i`` at ``q``."""
-        _, r, w = obs.rows(i, seen, *model_markers(q))
+        _, r, w = self.obs.rows(i, seen, *self.model_markers(q))
         return float(r @ (w * r))
 
-    last = 0  # the frame solved before (``previous``'s)
-    history: list[tuple[float, np.ndarray]] = []  # the last 3 frames solved: (time, q)
-    for i in range(n - 1, -1, -1) if backward else range(n):
-        seen = obs.seen(i)
-        if q is None and single:  # one view: the heading that fits best (module monocular)
-            from .monocular import HEADINGS
+    def start(self, i, seen, q, history):
+        """Frame ``i``'s start from the frames before (``q`` the last; None: none)."""
+        box = self.box
+        if q is None:
+            return self.placed(i, seen, self.standing)
+        if len(history) > 1 and self.balls is None:  # on at the frames before's pace
+            q = _extrapolated(self.model, float(self.markers.time[i]), history)
+            q[box.iq] = np.clip(q[box.iq], box.lo, box.hi)
+        return q
 
-            tries = []
-            for yaw in HEADINGS:
-                start = standing.copy()
-                start[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
-                fitted = fit_frame(i, seen, placed(i, seen, start))
-                tries.append((cost(i, seen, fitted[0]), fitted))
-            q, iters[i], converged[i], held[i], frame = min(tries, key=lambda x: x[0])[1]
-        else:
-            if q is None:
-                q = placed(i, seen, standing)
-            elif len(history) > 1 and balls is None:  # on at the frames before's pace
-                q = _extrapolated(model, float(markers.time[i]), history)
-                q[box.iq] = np.clip(q[box.iq], box.lo, box.hi)
-            q, iters[i], converged[i], held[i], frame = fit_frame(i, seen, q)
+    def wanted(self, q, frame):
+        """Where frame ``q`` would go with every range off if it is at a bound (else None):
+        solved again from there (two Gauss-Newton steps: within 0.1 degree of converged on the
+        tests' 5-degree excess, at a third of the cost of converging)."""
+        box, balls, model = self.box, self.balls, self.model
         at_ball = bool(np.any(_ball_rows(balls, q, model.nv, BALL_AT_LIMIT)[0] < BALL_AT_LIMIT))
         x = q[box.iq]
-        if at_ball or bool((np.minimum(x - box.lo, box.hi - x) < AT_LIMIT).any()):
-            free = q.copy()  # the frame solved again, from there, with every range off (two
-            # Gauss-Newton steps: within 0.1 degree of converged on the tests' 5-degree excess,
-            # at a third of the cost of converging)
-            for _ in range(min(iterations, REFIT_STEPS)):
-                dq = np.linalg.solve(*system(free, frame)[:2])
-                free = pin.integrate(model, free, dq)
-                if float(np.abs(dq).max()) < tolerance:
-                    break
-            wanted[i] = free
-        if single:  # the root's depth: its sd for one pixel of noise, from the curvature
-            assert isinstance(obs, _Views)  # only views are single
-            A, _, _ = system(q, frame)  # (data at q)
-            J, _, w = obs.rows(i, seen, *model_markers(q))
-            depth[i] = obs.root_depth(q, A, J, w)
-        residuals[i] = obs.error(i, seen, model_markers(q)[0])
-        out_q[i] = q
-        before, previous, last = previous, q.copy(), i
-        history = [*history[-2:], (float(markers.time[i]), previous)]
+        if not (at_ball or bool((np.minimum(x - box.lo, box.hi - x) < AT_LIMIT).any())):
+            return None
+        free = q.copy()
+        for _ in range(min(self.settings.iterations, REFIT_STEPS)):
+            dq = np.linalg.solve(*self.system(free, frame)[:2])
+            free = pin.integrate(model, free, dq)
+            if float(np.abs(dq).max()) < self.settings.tolerance:
+                break
+        return free
+
+
+def _first_view(fit: _Fit, i: int, seen):
+    """One view's first frame: fitted from each of :data:`~humanoid.motion.monocular.
+    HEADINGS`, the best (module :mod:`~humanoid.motion.monocular`)."""
+    from .monocular import HEADINGS
+
+    tries = []
+    for yaw in HEADINGS:
+        start = fit.standing.copy()
+        start[3:7] = pin.Quaternion(pin.rpy.rpyToMatrix(0.0, 0.0, yaw)).coeffs()
+        fitted = fit.fit_frame(i, seen, fit.placed(i, seen, start))
+        tries.append((fit.cost(i, seen, fitted[0]), fitted))
+    return min(tries, key=lambda x: x[0])[1]
+
+
+class _Record:
+    """A pass's per-frame outcomes (:class:`IKResult`'s arrays)."""
+
+    def __init__(self, n: int, nq: int, nv: int, m: int) -> None:
+        self.q = np.zeros((n, nq))
+        self.wanted = np.full((n, nq), np.nan)  # the fits with the ranges off, where they acted
+        self.held = np.zeros((n, nv), dtype=bool)
+        self.residuals = np.full((n, m), np.nan)
+        self.iterations = np.zeros(n, dtype=int)
+        self.converged = np.zeros(n, dtype=bool)
+        self.depth = np.full((n, 3), np.nan)  # one view: the root's depth sd, across sd, distance
+
+    def result(self, fit: _Fit) -> IKResult:
+        """The pass's :class:`IKResult`."""
+        model, time, balls = fit.model, fit.markers.time, fit.balls
+        at_limit = sorted(_limit_reports(model, time, self.q, self.wanted)
+                          + _ball_reports(balls, time, self.q, self.wanted),
+                          key=lambda r: -r.excess)  # fmt: skip
+        result = IKResult(time.copy(), self.q, fit.names, self.residuals, self.iterations,
+                          self.converged, at_limit=at_limit,
+                          coordinates=joint_labels(model, root=ROOT_VELOCITY), held=self.held,
+                          pixels=getattr(fit.obs, "pixels", None))  # fmt: skip
+        if fit.single:
+            from .monocular import DepthReport
+
+            obs = fit.obs
+            assert isinstance(obs, _Views) and result.pixels is not None  # a reprojection
+            px = float(np.sqrt(np.nanmean(result.pixels**2)))
+            result.depth = DepthReport(obs.cameras[0].name, self.depth[:, 0], self.depth[:, 1],
+                                       self.depth[:, 2], px)  # fmt: skip
+        return result
+
+
+def _solve(h, markers, marker_set, settings: _Settings, q0, progress, cameras=None,
+           ball_ranges=False, pins=None, backward=False) -> IKResult:  # fmt: skip
+    """One pass of the fit over the frames, in order (``backward``: from the last)."""
+    fit = _Fit(h, markers, marker_set, settings, cameras, ball_ranges, pins)
+    n = len(markers.time)
+    rec = _Record(n, fit.model.nq, fit.model.nv, len(fit.names))
+    q = None if q0 is None else np.asarray(q0, dtype=float).copy()
+    history: list[tuple[float, np.ndarray]] = []  # the last 3 frames solved: (time, q)
+    for i in range(n - 1, -1, -1) if backward else range(n):
+        seen = fit.obs.seen(i)
+        if q is None and fit.single:  # one view: the heading that fits best
+            fitted = _first_view(fit, i, seen)
+        else:
+            fitted = fit.fit_frame(i, seen, fit.start(i, seen, q, history))
+        q, rec.iterations[i], rec.converged[i], rec.held[i], frame = fitted
+        wanted = fit.wanted(q, frame)
+        if wanted is not None:
+            rec.wanted[i] = wanted
+        if fit.single:  # the root's depth: its sd for one pixel of noise, from the curvature
+            assert isinstance(fit.obs, _Views)  # only views are single
+            A, _, _ = fit.system(q, frame)  # (data at q)
+            J, _, w = fit.obs.rows(i, seen, *fit.model_markers(q))
+            rec.depth[i] = fit.obs.root_depth(q, A, J, w)
+        rec.residuals[i] = fit.obs.error(i, seen, fit.model_markers(q)[0])
+        rec.q[i] = q
+        fit.before, fit.previous, fit.last = fit.previous, q.copy(), i
+        history = [*history[-2:], (float(markers.time[i]), fit.previous)]
         if progress is not None:
             progress(i)
-    result = IKResult(markers.time.copy(), out_q, names, residuals, iters, converged,
-                      at_limit=sorted(_limit_reports(model, markers.time, out_q, wanted)
-                                      + _ball_reports(balls, markers.time, out_q, wanted),
-                                      key=lambda r: -r.excess),
-                      coordinates=joint_labels(model, root=ROOT_VELOCITY), held=held,
-                      pixels=getattr(obs, "pixels", None))  # fmt: skip
-    if single:
-        from .monocular import DepthReport
-
-        assert isinstance(obs, _Views) and result.pixels is not None  # a view's reprojection
-        px = float(np.sqrt(np.nanmean(result.pixels**2)))
-        result.depth = DepthReport(obs.cameras[0].name, depth[:, 0], depth[:, 1], depth[:, 2],
-                                   px)  # fmt: skip
-    return result
+    return rec.result(fit)

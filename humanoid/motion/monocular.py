@@ -185,22 +185,23 @@ class DepthReport:
                 f"foot up to {worst * 1e3:.0f} mm)")  # fmt: skip
 
 
-def check_single_view(report: DepthReport, camera, ground: float) -> None:
+def check_single_view(report: DepthReport, camera, ground: float, stacklevel: int = 3) -> None:
     """Warn (:class:`SingleViewWarning`) where one view's fit cannot be trusted: it reprojects
     more than :data:`OFF` px off (the calibration is not the recording's: a wrong focal
     length or axis cannot be fitted with the feet on the floor), or the floor was used and the
     camera is within :data:`LOW_CAMERA` of its height (its rays meet the floor at a grazing
-    angle: the feet do not fix the depth)."""
+    angle: the feet do not fix the depth). ``stacklevel``: the warnings', from here."""
     import warnings
 
     if report.pixels > OFF:
         warnings.warn(f"one camera ({camera.name}): the fit reprojects {report.pixels:.0f} px "
                       f"off (RMS): is the calibration this recording's (its focal length, its "
-                      f"axes, the floor at z = 0)?", SingleViewWarning, stacklevel=3)  # fmt: skip
+                      f"axes, the floor at z = 0)?", SingleViewWarning,
+                      stacklevel=stacklevel)  # fmt: skip
     if ground and abs(float(camera.centre[2])) < LOW_CAMERA:
         warnings.warn(f"one camera ({camera.name}) {camera.centre[2]:.2f} m above the floor: "
                       f"its rays graze the floor, the feet on it do not fix the depth",
-                      SingleViewWarning, stacklevel=3)  # fmt: skip
+                      SingleViewWarning, stacklevel=stacklevel)  # fmt: skip
 
 
 # Stances (:func:`find_stances`): a walking or standing person's foot on the floor does not
