@@ -623,6 +623,14 @@ MUTATIONS: tuple[Mutation, ...] = (
         "IK's smoothing pushing the joints away from the frame before",
     ),
     M(
+        "IK3",
+        "motion/ik.py",
+        "if down or _inward(balls, q, q_new):  # taken",
+        "if down:  # taken",
+        ("tests/test_real_trial.py::test_subject01_with_ball_ranges_holds_the_trunk_at_its_bound",),
+        "IK's step that brings a ball joint back into its range refused when it raises the cost",
+    ),
+    M(
         "LD1",
         "motion/loads.py",
         "return np.hstack([self.force, np.cross(self.point, self.force) + self.torque])",

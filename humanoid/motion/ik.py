@@ -97,6 +97,10 @@ AT_LIMIT = 1e-6  # [rad]: a joint this close to its range's bound is at it
 ROOT_VELOCITY = ("tx", "ty", "tz", "rx", "ry", "rz")  # the root's coordinates' names' suffixes
 # Levenberg-Marquardt: a refused step's lambda, first, relative to the system's mean diagonal
 LM_START = 1e-3
+# ... and a frame whose steps are refused until lambda is this many times the mean diagonal
+# stops, not converged (its steps are then below rounding; a QP with such a system never
+# returned)
+LM_GIVE_UP = 1e12
 ROUNDING = 1e-12  # a relative change of a frame's cost this small is rounding
 # a frame stops when a step lowers its cost by less than this, relative, or the model says the
 # next would (or when the step is below ``tolerance``); 1e-10 took subject01's walk 16.5 steps a
@@ -260,7 +264,9 @@ def _bounded_step(A, b, q, box: _Box, balls=None) -> np.ndarray:
     """The step minimising 1/2 dq'A dq - b'dq with every ranged joint kept in its range: the
     unconstrained one if it stays inside, else ProxQP's solve with each hinge's box and each
     ball joint's angle rows (``balls``: a :class:`~humanoid.constraints.limits.JointRanges`,
-    its rows within :data:`BALL_MARGIN` of a bound, linearised: r + J dq >= 0)."""
+    its rows within :data:`BALL_MARGIN` of a bound, linearised: r + J dq >= 0: a ball joint
+    outside its range is brought back, :meth:`_Fit.fit_frame` takes that step whatever the
+    cost)."""
     dq = _solve_spd(A, b)
     if not len(box.iv) and balls is None:
         return dq
@@ -377,9 +383,9 @@ def inverse_kinematics(h, markers: MarkerTrajectories, marker_set: dict[str, Mar
         ball_ranges: Keep the ball joints in their ranges too (each angle of the hinge
             triplet a ball replaces), reported as the hinges' are; default: hinges only. On
             OpenSim's subject01 walk the trunk's markers (placed on a static trial with the
-            arms raised, the acromia 8 cm higher) want the thoracic joint flexed 72-84 deg: held
-            at its 45, the pelvis tilts instead and the thighs' markers go from 4-14 to 18-20
-            mm, the root residual from 4.6 to 8.9 % BW.
+            arms raised, the acromia 8 cm higher) want the thoracic joint flexed up to 86 deg:
+            held at its 45, the pelvis tilts instead and the thighs' markers go from 9-14 to
+            17-27 mm RMS, the root residual from 5.0 to 7.1 % BW (``tests/test_real_trial.py``).
         ground: One view: the feet's pull onto the floor z = 0, per marker weight (default
             :data:`SINGLE_VIEW_GROUND` from one view, 0 otherwise: none).
         root_smoothing: One view: the root's pull along the ray towards its constant-velocity
@@ -797,6 +803,19 @@ def _names_on(h, markers, marker_set) -> list[str]:
     return names
 
 
+def _inward(balls, q, q_new) -> bool:
+    """Whether the step from ``q`` to ``q_new`` brings the ball joints (``balls``; None: none)
+    that are outside their ranges back in (their linearised rows leave them up to about 1e-5
+    rad past, and each step must bring them in): taken whatever the cost. Else a frame can
+    refuse every step: subject01's walk with ball ranges stopped in its 20th frame, lambda at
+    1e29 and a QP that never returned (:data:`LM_GIVE_UP` now ends such a frame, not
+    converged: 3 of its 151 frames without this, none with it)."""
+    if balls is None:
+        return False
+    out = float(balls.excess(q).sum())
+    return out > 0.0 and float(balls.excess(q_new).sum()) < out
+
+
 class _Fit:
     """One pass of the fit over a trial: its observations, the terms of its cost, and the
     Levenberg-Marquardt solve of one frame (module docstring). ``previous``, ``before`` and
@@ -964,11 +983,12 @@ class _Fit:
             q_new = pin.integrate(model, q, dq)
             q_new[box.iq] = np.clip(q_new[box.iq], box.lo, box.hi)  # (rounding)
             new = self.system(q_new, frame)
-            if new[2] <= c + ROUNDING * c:  # the cost went down (or by rounding only): taken
-                small = c - new[2] <= COST_TOLERANCE * c
-                if not small:
+            down = new[2] <= c + ROUNDING * c  # the cost went down (or by rounding only)
+            if down or _inward(balls, q, q_new):  # taken
+                small = down and c - new[2] <= COST_TOLERANCE * c
+                if down and not small:
                     q_new, dq, new = self.rescaled(q, dq, b, c, q_new, new, frame)
-                if extra:  # Nielsen's update of lambda from the gain ratio
+                if extra and down:  # Nielsen's update of lambda from the gain ratio
                     predicted = float(dq @ (2.0 * b - A @ dq))  # (the model's decrease)
                     ratio = min((c - new[2]) / predicted, 1.0) if predicted > 0.0 else 1.0
                     extra *= max(1.0 / 3.0, 1.0 - (2.0 * ratio - 1.0) ** 3)
@@ -979,8 +999,11 @@ class _Fit:
                     done = True
                     break
             else:  # it went up: the step is refused, and shortened
-                extra = extra * grow if extra else LM_START * float(np.trace(A)) / model.nv
+                mean = float(np.trace(A)) / model.nv
+                extra = extra * grow if extra else LM_START * mean
                 grow *= 2.0
+                if extra > LM_GIVE_UP * mean:
+                    break
         return q, it, done, held_i, frame
 
     def rescaled(self, q, dq, b, c, q_new, new, frame):
