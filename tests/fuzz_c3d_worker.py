@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from fuzz_tools import finite, outcome
+from fuzz_tools import finite, generator, outcome
 
 from humanoid.motion.c3d import read_events, read_plates
 from humanoid.motion.c3d_file import parameter_table
@@ -83,7 +83,7 @@ def mutated(blob: bytes, params, rng) -> tuple[bytes, str]:
 def main(base: str, n: int, out: str) -> None:
     blob = Path(base).read_bytes()
     params = parameters(base)
-    rng = np.random.default_rng(38)
+    rng = generator(38)
     out = Path(out)
     case, path = out.with_suffix(".case"), out.with_suffix(".c3d")
     with out.open("w") as f:

@@ -5,15 +5,21 @@ A case ends in one of: ``finite`` (a result whose numbers are finite, as its che
 ``typed`` (a :class:`~humanoid.errors.HumanoidError`), ``non-finite`` (a NaN or inf where the
 check wants none), ``hang`` (over its time), or ``untyped <Class>`` (any other exception; a
 numpy RuntimeWarning counts as one: it is a computation on values nobody checked).
+
+A fresh sample of the same kinds of cases (docs/robustness.md): ``HUMANOID_FUZZ_SEED`` (0, the
+default: the suite's own cases) moves every generator and hypothesis's seed, and
+``HUMANOID_FUZZ_SCALE`` multiplies every count (``assert len(rows) == ...`` follows it).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import re
 import signal
 import traceback
 import warnings
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -27,12 +33,32 @@ BAD_NUMBERS = ["nan", "inf", "-inf", "1e300", "-1e300", "-1", "0", "1e-300", "-0
 # a field's value replaced by another type (TOML, JSON)
 BAD_VALUES = ["nan", "inf", "-inf", "1e300", "-1", "0", "99999999999999999999", '"x"', '""',
               "[]", "{}", "true", "[1, 2]", '["a"]', "[nan, nan, nan]", "1e-300"]  # fmt: skip
+SEED = int(os.environ.get("HUMANOID_FUZZ_SEED", "0"))
+SCALE = float(os.environ.get("HUMANOID_FUZZ_SCALE", "1"))
 OPEN_ENDS = {"end"}  # a scene's contact: inf, it never ends
 FIELD = re.compile(r"^(\s*[\w\"'.-]+\s*=\s*)(.+)$", re.M)
 
 
 class Hang(Exception):
     """A case over its time."""
+
+
+def cases(n: int) -> int:
+    """The suite's count ``n`` times :data:`SCALE`."""
+    return max(1, round(n * SCALE))
+
+
+def generator(key: str | int) -> np.random.Generator:
+    """The generator of ``key`` (a name, hashed, or a number), moved by :data:`SEED`."""
+    k = zlib.crc32(key.encode()) if isinstance(key, str) else int(key)
+    return np.random.default_rng(k if not SEED else [k, SEED])
+
+
+def seeded(test):
+    """A hypothesis test given :data:`SEED` (it wins over ``derandomize``; none at 0)."""
+    from hypothesis import seed
+
+    return seed(SEED)(test) if SEED else test
 
 
 def _alarm(signum, frame):

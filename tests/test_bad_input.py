@@ -436,6 +436,49 @@ def test_a_c3d_parameter_of_too_many_dimensions_is_refused(tmp_path):
         check_c3d(tmp_path / "dims.c3d")
 
 
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("translation", "[0.0, 1e300, 4.0]"), ("distortions", "[1e5, 0.0, 0.0, 0.0]")],
+)
+def test_a_calibration_out_of_this_world_is_refused(tmp_path, field, value):
+    """A translation of 1e300 m overflowed the projection (found by the fuzz suite's seed 1)."""
+    from humanoid.motion import cameras as cam
+
+    path = cam.write_calibration(tmp_path / "c.toml", [cam.look_at("a", (4, 0, 1), (0, 0, 1))])
+    text = "\n".join(f"{field} = {value}" if line.startswith(f"{field} =") else line
+                     for line in path.read_text().splitlines())  # fmt: skip
+    path.write_text(text)
+    with pytest.raises(MotionFileError, match=rf"\[a\]: {field} has .*: not a calibration"):
+        cam.read_calibration(path)
+
+
+OVERLAP = r"\(100 characters\) runs into the next entry"
+
+
+@pytest.mark.parametrize(("entry", "length", "words"),
+                         [("parameter", 255, "is 255"), ("group", 255, "is 255"),
+                          ("parameter", 100, OVERLAP)])  # fmt: skip
+def test_a_c3d_description_ezc3d_cannot_read_is_refused(tmp_path, entry, length, words):
+    """ezc3d reads a description's length as a signed byte: 255 is -1, and it crashed the
+    interpreter; a description that runs into the next entry took it 12-28 s to refuse
+    (found by the fuzz suite's seed 1, ``HUMANOID_FUZZ_SEED=1``)."""
+    from humanoid.motion.c3d_file import check_c3d, parameter_table
+
+    path = TRIALS / "walking5.c3d"
+    blob = bytearray(path.read_bytes())
+    if entry == "parameter":
+        rate = parameter_table(path)[("POINT", "RATE")]
+        blob[rate.data + rate.values * abs(rate.kind)] = length
+    else:  # the POINT group's entry: its name's length, a negative id, the name
+        start = (blob[0] - 1) * 512
+        at = next(i for i in range(start, len(blob)) if blob[i : i + 5] == b"POINT"
+                  and blob[i - 2] == 5 and blob[i - 1] >= 128)  # fmt: skip
+        blob[at + 5 + 2] = length
+    (tmp_path / "desc.c3d").write_bytes(bytes(blob))
+    with pytest.raises(MotionFileError, match=rf"{entry} '\w+''s description {words}"):
+        check_c3d(tmp_path / "desc.c3d")
+
+
 def test_a_nan_coordinate_is_refused_naming_the_column(tmp_path):
     h, table = _coordinates(tmp_path, True)
     table.data[2, table.labels.index("knee_angle_r")] = np.nan
@@ -483,3 +526,13 @@ def test_a_map_that_is_not_utf8_is_a_motion_file_error(tmp_path):
     path.write_bytes(MAP.encode() + b"\xff\n")
     with pytest.raises(MotionFileError, match=r"map.toml: not TOML"):
         read_map(path)
+
+
+def test_a_study_body_of_1e300_m_is_refused_by_name():
+    """BMI times height squared overflowed (an OverflowError; found by the fuzz suite's seed
+    1): the height is refused as any height out of range is."""
+    from humanoid.anthropometry import BodyParameterError
+    from humanoid.study.build import body_parameters
+
+    with pytest.raises(BodyParameterError, match="height"):
+        body_parameters({"body.height": 1e300, "body.bmi": 25.0, "body.sex": "male"})

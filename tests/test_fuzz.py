@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import get_model
+from fuzz_tools import SEED, cases, seeded
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -36,9 +37,14 @@ FUZZ = settings(
 )
 
 
-def fuzz(n: int) -> settings:
-    """Seeded (derandomised), n cases, no deadline: a few cases load a body."""
-    return settings(FUZZ, max_examples=n)
+def fuzz(n: int):
+    """Seeded (derandomised; :data:`~fuzz_tools.SEED`'s seed, if set), n cases (times
+    :data:`~fuzz_tools.SCALE`), no deadline: a few cases load a body."""
+
+    def decorate(test):
+        return seeded(settings(FUZZ, max_examples=cases(n), derandomize=not SEED)(test))
+
+    return decorate
 
 
 junk_number = st.one_of(
@@ -111,7 +117,7 @@ def test_fuzz_body_parameters(data):
 def test_fuzz_urdfs_in_a_child_process(tmp_path):
     out = tmp_path / "urdf.jsonl"
     done = subprocess.run(
-        [sys.executable, str(HERE / "fuzz_urdf_worker.py"), "400", str(out)],
+        [sys.executable, str(HERE / "fuzz_urdf_worker.py"), str(cases(400)), str(out)],
         capture_output=True,
         text=True,
         timeout=900,
@@ -122,7 +128,7 @@ def test_fuzz_urdfs_in_a_child_process(tmp_path):
         f"{case.read_text()[:3000] if case.exists() else '?'}\n{done.stderr[-3000:]}"
     )
     rows = [json.loads(line) for line in out.read_text().splitlines()]
-    assert len(rows) >= 300
+    assert len(rows) >= cases(300)
     for r in rows:
         tally("URDFs", r["result"].split(":")[0])
     bad = [r for r in rows if not r["result"].startswith(("typed", "loaded"))]

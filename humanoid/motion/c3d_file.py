@@ -149,6 +149,7 @@ def _parameters(path, buf: bytes, start: int, end: int, order: str) -> dict:
             if j + 3 > end or j + 3 + buf[j + 2] > end:
                 raise MotionFileError(f"{path}: group {name!r}'s description runs past the "
                                       f"parameter section")  # fmt: skip
+            _check_description(path, f"group {name!r}", buf[j + 2], j + 3, j, step)
             groups[-gid] = name
         else:
             if j + 4 > end:
@@ -169,6 +170,7 @@ def _parameters(path, buf: bytes, start: int, end: int, order: str) -> dict:
             if len(dims) != ndims or data + n + 1 > end or data + n + 1 + buf[data + n] > end:
                 raise MotionFileError(f"{path}: parameter {name!r}'s data ({n} bytes) or "
                                       f"description runs past the parameter section")  # fmt: skip
+            _check_description(path, f"parameter {name!r}", buf[data + n], data + n + 1, j, step)
             first = struct.unpack_from(order + "h", buf, data)[0] if kind == 2 and n else None
             ints[(gid, name)] = Parameter(n // abs(kind), first, kind, tuple(dims), data)
         if step == 0:
@@ -181,6 +183,20 @@ def _parameters(path, buf: bytes, start: int, end: int, order: str) -> dict:
     if orphans:
         raise MotionFileError(f"{path}: parameters {orphans[:5]} belong to no group: corrupt")
     return {(groups[g], n): v for (g, n), v in ints.items()}
+
+
+def _check_description(path, what: str, length: int, at: int, j: int, step: int) -> None:
+    """Refuse a description (``length`` characters from byte ``at``) that ezc3d cannot read:
+    255 characters (it reads the length as a signed byte, -1, and crashed the interpreter,
+    measured with ezc3d 1.7) or one that runs into the next entry (at ``j + step``; none if
+    ``step`` is 0): ezc3d then read the next entries from the wrong bytes for 12-28 s before
+    refusing the file."""
+    if length == 255:
+        raise MotionFileError(f"{path}: {what}'s description is 255 characters long, which "
+                              f"ezc3d cannot read: corrupt?")  # fmt: skip
+    if step and at + length > j + step:
+        raise MotionFileError(f"{path}: {what}'s description ({length} characters) runs into "
+                              f"the next entry: corrupt")  # fmt: skip
 
 
 def open_c3d(path: str | Path):

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CameraError, KeypointError
-from .markers import KEYPOINT_LAYOUTS, MarkerTrajectories
+from .markers import KEYPOINT_LAYOUTS, MAX_POSITION, MarkerTrajectories
 from .storage import MotionFileError, read_toml
 
 __all__ = [
@@ -171,6 +171,12 @@ def look_at(name: str, eye, target, size=(1920, 1080), focal: float = 1400.0,
                   R, -R @ eye)  # fmt: skip
 
 
+# a calibration's largest pixel count or matrix entry [px] and distortion coefficient (the
+# projection of a point 1 m away overflowed with a translation of 1e300 m)
+MAX_PIXELS = 1e6
+MAX_DISTORTION = 1e3
+
+
 def _distortions(d, where: str) -> np.ndarray:
     d = np.asarray(d, dtype=float).reshape(-1)
     if len(d) not in (4, 5):
@@ -186,7 +192,8 @@ def read_calibration(path: str | Path) -> list[Camera]:
 
     Raises:
         MotionFileError: no camera in the file, a field missing or malformed (named with its
-            camera), a fisheye camera.
+            camera), a value beyond :data:`MAX_POSITION`, :data:`MAX_PIXELS` or
+            :data:`MAX_DISTORTION`, a fisheye camera.
     """
     path = Path(path)
     doc = read_toml(path, "a camera calibration (TOML)")
@@ -219,6 +226,13 @@ def read_calibration(path: str | Path) -> list[Camera]:
         if not np.all(np.isfinite(values)) or K[0, 0] <= 0 or K[1, 1] <= 0 or min(size) <= 0:
             raise MotionFileError(f"{where}: non-finite values, or a focal length or an image "
                                   f"size that is not positive")  # fmt: skip
+        for field, x, most, unit in (("translation", t, MAX_POSITION, " m"),
+                                     ("matrix", K, MAX_PIXELS, " px"),
+                                     ("size", np.array(size), MAX_PIXELS, " px"),
+                                     ("distortions", dist, MAX_DISTORTION, "")):  # fmt: skip
+            if np.abs(x).max() > most:
+                raise MotionFileError(f"{where}: {field} has {np.abs(x).max():g}{unit}, beyond "
+                                      f"{most:g}{unit}: not a calibration")  # fmt: skip
         cams.append(Camera(str(table.get("name", key)), size, K, dist, R, t))
     if not cams:
         raise MotionFileError(f"{path}: no camera (a table with size, matrix, distortions, "

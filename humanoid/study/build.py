@@ -26,7 +26,7 @@ def body_parameters(params: dict):
         return None
     height = float(params["body.height"])
     mass = params.get("body.mass")
-    mass = float(mass) if mass is not None else float(params["body.bmi"]) * height**2
+    mass = float(mass) if mass is not None else float(params["body.bmi"]) * height * height
     return BodyParameters(height, mass, params["body.sex"], toes=params.get("body.toes", True))
 
 
