@@ -11,7 +11,7 @@
   trial (markers placed within 10 mm RMS: measured 0.9 mm), the walk fitted (the legs' markers
   4-14 mm RMS each; the trunk's and arms' 30-60 mm: they were not put on the same places in
   the two trials, which the test shows), its inverse dynamics under the recorded plates (root
-  residual force 4.6 % of body weight RMS), and the same through the command line.
+  residual force 5.0 % of body weight RMS), and the same through the command line.
 """
 
 from __future__ import annotations
@@ -252,8 +252,8 @@ def test_subject01_residuals_reduced(subject01):
     """The issue's requirement on a recorded walk: with loads estimated on the fitted floor
     (a treadmill's: its belt found at 1.1-1.2 m/s, the floor tilted about 1-2 deg in the
     lab's axes) the root residual before reduction is under 10 % of body weight RMS (measured
-    2.4 %) and after it under 5 % (0.1 %); under the recorded plates 4.6 % before, under
-    1.5 % after (0.6 %), the mass within 2 % and the trunk's mass centre moved at most 5 cm."""
+    1.8 %) and after it under 5 % (0.1 %); under the recorded plates 5.0 % before, under
+    1.5 % after (0.5 %), the mass within 2 % and the trunk's mass centre moved at most 5 cm."""
     from humanoid.motion.commands import read_loads_file
     from humanoid.motion.floor import fit_floor
     from humanoid.motion.inverse_dynamics import derivatives, estimate_loads
@@ -270,7 +270,7 @@ def test_subject01_residuals_reduced(subject01):
     assert red.force_rms() / weight < 0.05
     assert red.mass == h.mass
     plates = reduce_residuals(h, fit.time, fit.q, read_loads_file(GRF))
-    assert plates.force_rms(after=False) / weight == pytest.approx(0.046, abs=0.01)
+    assert plates.force_rms(after=False) / weight == pytest.approx(0.050, abs=0.01)
     assert plates.force_rms() / weight < 0.015
     assert plates.moment_rms() < 0.3 * plates.moment_rms(after=False)
     assert plates.mass == pytest.approx(h.mass, rel=0.02)

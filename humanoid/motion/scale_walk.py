@@ -161,7 +161,10 @@ def _speed(markers: MarkerTrajectories, cols) -> np.ndarray:
 def _vertical_speed(markers: MarkerTrajectories, cols, t: float, half: float = 0.02) -> float:
     """The markers' ``cols`` mean height's rate at ``t`` [m/s]: a line fitted over ``t +-
     half``."""
-    z = np.nanmean(markers.positions[:, cols, 2], axis=1)
+    heights = markers.positions[:, cols, 2]
+    seen = np.isfinite(heights).any(axis=1)  # (frames where none is seen: NaN, not a warning)
+    z = np.full(len(markers.time), np.nan)
+    z[seen] = np.nanmean(heights[seen], axis=1)
     near = (np.abs(markers.time - t) <= half) & np.isfinite(z)
     if near.sum() < 3:
         raise ScalingError(f"{markers.source}: the pelvis markers are not seen at {t:.3f} s")
