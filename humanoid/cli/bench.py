@@ -43,8 +43,11 @@ def add_sweep(command) -> None:
 def run_bench(args) -> int:
     import importlib
 
+    from ..provenance import machine
+
     module, function = BENCHMARKS[args.kind]
     run = getattr(importlib.import_module(f"humanoid.bench.{module}"), function)
+    print(f"machine      {machine()}")  # (the threads each timing ran with among it)
     return run(quick=args.quick, out=args.output)
 
 
