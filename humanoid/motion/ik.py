@@ -59,9 +59,9 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dposv as _posv
 
 from ..errors import IKError
+from ..linalg import spd_solve
 from .inverse_dynamics import joint_labels
 from .markers import MAX_WEIGHT, Marker, MarkerTrajectories
 
@@ -253,13 +253,6 @@ class _Box(NamedTuple):
                    np.array(cols[2], dtype=float), np.array(cols[3], dtype=float))  # fmt: skip
 
 
-def _solve_spd(A, b) -> np.ndarray:
-    """``A^-1 b`` for a symmetric positive definite ``A`` (LAPACK's Cholesky: a third of
-    numpy's general solve's time at the fit's sizes), by LU if it is not."""
-    _, x, info = _posv(A, b)
-    return x if info == 0 else np.linalg.solve(A, b)
-
-
 def _bounded_step(A, b, q, box: _Box, balls=None) -> np.ndarray:
     """The step minimising 1/2 dq'A dq - b'dq with every ranged joint kept in its range: the
     unconstrained one if it stays inside, else ProxQP's solve with each hinge's box and each
@@ -267,7 +260,7 @@ def _bounded_step(A, b, q, box: _Box, balls=None) -> np.ndarray:
     its rows within :data:`BALL_MARGIN` of a bound, linearised: r + J dq >= 0: a ball joint
     outside its range is brought back, :meth:`_Fit.fit_frame` takes that step whatever the
     cost)."""
-    dq = _solve_spd(A, b)
+    dq = spd_solve(A, b)  # (LAPACK's Cholesky: a third of numpy's solve's time here)
     if not len(box.iv) and balls is None:
         return dq
     x = q[box.iq]
@@ -462,8 +455,8 @@ def _registered(h, markers, marker_set, settings: _Settings, static, q0, progres
              for n, m in marker_set.items()}  # fmt: skip
     source = static if static is not None else markers
     technical = [n for n in technical if n in source.names]
-    fit = _solve(h, source, first, _Settings(*settings[:7]), q0,
-                 progress if static is None else None)  # fmt: skip
+    markers_only = replace(settings, ground=0.0, root_smoothing=0.0)  # (3D markers: no view)
+    fit = _solve(h, source, first, markers_only, q0, progress if static is None else None)
     marker_set = dict(marker_set) | register_markers(h, source, fit.q, marker_set, technical,
                                                      fit.held)  # fmt: skip
     return marker_set, (fit.q[0] if static is None else q0)
@@ -706,7 +699,8 @@ class _Views:
             return np.where(count > 0, np.sqrt(ray2 / count), np.nan)
 
 
-class _Settings(NamedTuple):
+@dataclass(frozen=True)
+class _Settings:
     """The fit's settings (:func:`inverse_kinematics`' arguments, their defaults resolved)."""
 
     iterations: int
@@ -1047,7 +1041,7 @@ class _Fit:
         return q
 
     def wanted(self, q, frame):
-        """Where frame ``q`` would go with every range off if it is at a bound (else None):
+        """Where ``q`` would go with every range off if it is at a bound (else None):
         solved again from there (two Gauss-Newton steps: within 0.1 degree of converged on the
         tests' 5-degree excess, at a third of the cost of converging)."""
         box, balls, model = self.box, self.balls, self.model

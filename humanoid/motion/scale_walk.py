@@ -147,24 +147,26 @@ class Weighed:
     stances: tuple[tuple[str, float, float, float], ...]
 
 
+def _mean_seen(values: np.ndarray) -> np.ndarray:
+    """Each row's mean over its finite values; NaN, without numpy's warning, where none is."""
+    out = np.full(len(values), np.nan)
+    ok = np.isfinite(values).any(axis=1)
+    out[ok] = np.nanmean(values[ok], axis=1)
+    return out
+
+
 def _speed(markers: MarkerTrajectories, cols) -> np.ndarray:
     """The mean speed of the markers ``cols`` per frame [m/s] (NaN where none is seen)."""
     v = np.gradient(markers.positions[:, cols], markers.time, axis=0)
     with np.errstate(invalid="ignore"):
         s = np.linalg.norm(v, axis=2)
-    out = np.full(len(markers.time), np.nan)
-    ok = np.isfinite(s).any(axis=1)
-    out[ok] = np.nanmean(s[ok], axis=1)
-    return out
+    return _mean_seen(s)
 
 
 def _vertical_speed(markers: MarkerTrajectories, cols, t: float, half: float = 0.02) -> float:
     """The markers' ``cols`` mean height's rate at ``t`` [m/s]: a line fitted over ``t +-
     half``."""
-    heights = markers.positions[:, cols, 2]
-    seen = np.isfinite(heights).any(axis=1)  # (frames where none is seen: NaN, not a warning)
-    z = np.full(len(markers.time), np.nan)
-    z[seen] = np.nanmean(heights[seen], axis=1)
+    z = _mean_seen(markers.positions[:, cols, 2])
     near = (np.abs(markers.time - t) <= half) & np.isfinite(z)
     if near.sum() < 3:
         raise ScalingError(f"{markers.source}: the pelvis markers are not seen at {t:.3f} s")
