@@ -393,6 +393,30 @@ MUTATIONS: tuple[Mutation, ...] = (
         GROUND,
         "the contact impulses not scaled back from the Jacobi-scaled problem",
     ),
+    M(
+        "G04",
+        "constraints/ground.py",
+        "rows = (J[:3] - skew @ J[3:])",
+        "rows = (J[:3] + skew @ J[3:])",
+        ("tests/test_ground.py::test_the_contact_jacobian_is_pinocchios_point_contact_jacobian",),
+        "a contact point's velocity with w x p the wrong way round",
+    ),
+    M(
+        "G05",
+        "constraints/ground.py",
+        "world[self._sphere, 2] -= self.s_radius",
+        "world[self._sphere, 2] += self.s_radius",
+        ("tests/test_ground.py::test_detection_finds_the_points_each_shape_places_one_by_one",),
+        "a sphere's lowest point at its top",
+    ),
+    M(
+        "G06",
+        "constraints/ground.py",
+        "d = axis[:, 2:3] * axis",
+        "d = -axis[:, 2:3] * axis",
+        ("tests/test_ground.py::test_detection_finds_the_points_each_shape_places_one_by_one",),
+        "a tilted cylinder rim's lowest point found off its rim",
+    ),
     # --- integrators, simulation plant and loop ---
     M(
         "I01",

@@ -364,7 +364,8 @@ def test_a_foot_and_its_toes_share_no_ground_point():
 
     def touching(q):
         pin.framesForwardKinematics(model, data, q)
-        _, _, phi, points = ground.detect(model, data)
+        found = ground.detect(model, data)
+        phi, points = found.phi, found.points
         return points[np.abs(phi) < 1e-6], points[phi < 0.01]
 
     down, _ = touching(q)
@@ -399,10 +400,107 @@ def test_a_detection_at_the_last_configuration_is_the_last_one_and_any_other_is_
     tilted[2] += 0.004  # 4 mm up: inside the margin, other distances
     for q in (standing, standing, tilted, standing, tilted, tilted):
         pin.framesForwardKinematics(model, data, q)
-        _, _, phi, points = ground.detect(model, data, at=q)
-        _, _, phi0, points0 = fresh.detect(model, data)
+        found, found0 = ground.detect(model, data, at=q), fresh.detect(model, data)
+        phi, points, phi0, points0 = found.phi, found.points, found0.phi, found0.points
         np.testing.assert_array_equal(phi, phi0)
         np.testing.assert_array_equal(points, points0)
     # the same configuration on a data not brought to it: the last contacts, as documented
-    _, _, phi, _ = ground.detect(model, model.createData(), at=tilted)
+    phi = ground.detect(model, model.createData(), at=tilted).phi
     np.testing.assert_array_equal(phi, phi0)
+
+
+def _brute_points(g: pin.GeometryObject, M: pin.SE3) -> np.ndarray:
+    """A geometry's candidate points placed at M, one by one from its coal shape: a box's
+    corners, a sphere's bottom, a cylinder's rim samples and each rim's lowest point."""
+    shape = g.geometry
+    if isinstance(shape, coal.Box):
+        h = np.asarray(shape.halfSide)
+        return np.array([M.act(np.array([x, y, z]) * h)
+                         for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])  # fmt: skip
+    if isinstance(shape, coal.Sphere):
+        return (M.translation - [0.0, 0.0, shape.radius])[None]
+    assert isinstance(shape, coal.Cylinder), type(shape)
+    R, out = M.rotation, []
+    for s in (-1.0, 1.0):
+        c = M.act(np.array([0.0, 0.0, s * shape.halfLength]))
+        for a in np.linspace(0.0, 2 * np.pi, 8, endpoint=False):
+            out.append(c + shape.radius * (np.cos(a) * R[:, 0] + np.sin(a) * R[:, 1]))
+        d = np.array([0.0, 0.0, -1.0]) + R[2, 2] * R[:, 2]
+        if np.linalg.norm(d) > 1e-9:
+            out.append(c + shape.radius * d / np.linalg.norm(d))
+    return np.array(out)
+
+
+def _near_the_floor(h, rng):
+    """A random posture of h inside its ranges, the pelvis turned at random, lowered until its
+    lowest geometry is 1 mm into the floor; and the geometries' placements there."""
+    model, geometry = h.model, h.collision_model
+    q = pin.randomConfiguration(model)
+    q[:3] = 0.0
+    q[3:7] = pin.Quaternion(pin.exp3(rng.uniform(-np.pi, np.pi, 3))).coeffs()
+    gd = pin.GeometryData(geometry)
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    pin.updateGeometryPlacements(model, data, geometry, gd)
+    low = min(_brute_points(g, gd.oMg[i])[:, 2].min()
+              for i, g in enumerate(geometry.geometryObjects))  # fmt: skip
+    q[2] = -low - 1e-3
+    pin.forwardKinematics(model, data, q)
+    pin.computeJointJacobians(model, data, q)
+    pin.updateGeometryPlacements(model, data, geometry, gd)
+    return q, data, gd
+
+
+def test_detection_finds_the_points_each_shape_places_one_by_one():
+    """The ground places every geometry's candidate points at once: each detected point is a
+    candidate of a geometry of its joint, placed by Pinocchio's own geometry placements
+    (1e-12 m), with phi its height; and each geometry's lowest candidate within the margin is
+    detected (or, on a rearfoot, its toes' point at the same place), in 20 random postures
+    with the pelvis turned at random."""
+    h = hm.load(BODIES / "adult_male.urdf")
+    geometry = h.collision_model
+    settings = GroundSettings(margin=0.05)
+    ground = Ground(h.model, geometry, range(geometry.ngeoms), settings)
+    rng = np.random.default_rng(3)
+    found_any = 0
+    for _ in range(20):
+        q, data, gd = _near_the_floor(h, rng)
+        found = ground.detect(h.model, data)
+        brute = [(g.parentJoint, _brute_points(g, gd.oMg[i]))
+                 for i, g in enumerate(geometry.geometryObjects)]  # fmt: skip
+        np.testing.assert_array_equal(found.phi, found.points[:, 2])
+        for p, j, local in zip(found.points, found.joints, found.local, strict=True):
+            gap = min(np.linalg.norm(pts - p, axis=1).min() for jj, pts in brute if jj == j)
+            assert gap < 1e-12, (h.model.names[j], p)
+            np.testing.assert_allclose(data.oMi[int(j)].act(local), p, atol=1e-12)
+        for _, pts in brute:
+            lowest = pts[pts[:, 2].argmin()]
+            if lowest[2] < settings.margin:
+                assert np.linalg.norm(found.points - lowest, axis=1).min() < 1e-3, lowest
+        found_any += len(found)
+    assert found_any > 100
+
+
+def test_the_contact_jacobian_is_pinocchios_point_contact_jacobian():
+    """``Ground.jacobian`` (each point's velocity from its joint's world Jacobian, all points
+    at once) against Pinocchio's PointContactConstraintModel for the same points (world axes,
+    floor at joint 0): 1e-12, in random postures with the pelvis turned at random."""
+    h = hm.load(BODIES / "adult_male.urdf")
+    model, geometry = h.model, h.collision_model
+    ground = Ground(model, geometry, range(geometry.ngeoms), GroundSettings(margin=0.05))
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, data, _ = _near_the_floor(h, rng)
+        found = ground.detect(model, data)
+        assert len(found) > 3
+        cms, cds = [], []
+        for j, local, p in zip(found.joints, found.local, found.points, strict=True):
+            floor = pin.SE3(np.eye(3), np.array([p[0], p[1], 0.0]))
+            cm = pin.ConstraintModel(pin.PointContactConstraintModel(
+                model, 0, floor, int(j), pin.SE3(np.eye(3), local)))  # fmt: skip
+            cd = cm.createData()
+            cm.calc(model, data, cd)
+            cms.append(cm)
+            cds.append(cd)
+        expected = pin.getConstraintsJacobian(model, data, cms, cds)
+        np.testing.assert_allclose(ground.jacobian(data, found), expected, atol=1e-12)

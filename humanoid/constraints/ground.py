@@ -55,6 +55,14 @@ class GroundSettings:
         correction: Fraction of a penetration removed per step (0..1).
         tolerance: ADMM feasibility and complementarity tolerances.
         max_iterations: ADMM iteration cap per solve.
+        lanczos: Lanczos iterations of ADMM's estimate of the Delassus operator's spectrum
+            (Pinocchio's default, the problem's size, cost 600 us of 700 on 31 contacts; the
+            iterations the solves took were the same with 10 and 30 in every shipped scene).
+        anderson: Anderson acceleration's memory (0: none, the default). Iterations a step
+            without it and with 3: balance 314 and 39, collapse 118 and 72, slide 80 and 59;
+            but example-robot-data's human, whose walk is fragile (its solves stop at the
+            iteration cap in 13 % of its steps, either way), then fell at 4.1 s of its eight
+            steps (3.4 s with 5).
     """
 
     mu: float = 0.8
@@ -62,6 +70,8 @@ class GroundSettings:
     correction: float = 0.2
     tolerance: float = TOLERANCE
     max_iterations: int = 1000
+    lanczos: int = 10
+    anderson: int = 0
 
 
 RIM_SAMPLES = 8  # points sampled around each rim of a cylinder
@@ -116,20 +126,68 @@ class _Shape:
         """World positions of (some of) the fixed points, the joint at ``oMi``."""
         return self.fixed[rows] @ oMi.rotation.T + oMi.translation
 
-    def lowest(self, oMi: pin.SE3) -> np.ndarray:
-        """World points of the shape that can be lowest, (n, 3)."""
-        R, t = oMi.rotation, oMi.translation
-        pts = [self.placed(oMi)] if len(self.fixed) else []
-        down = np.array([0.0, 0.0, -1.0])
-        for c, r in self.spheres:
-            pts.append((R @ c + t + r * down)[None])
-        for c, a, r in self.rims:
-            axis = R @ a
-            d = down - (down @ axis) * axis  # the rim's lowest direction
-            norm = np.linalg.norm(d)
-            if norm > 1e-9:
-                pts.append((R @ c + t + r * d / norm)[None])
-        return np.vstack(pts)
+
+class _Candidates:
+    """Every shape's candidate points as flat arrays, placed all at once (one placement read
+    per joint, no Python loop over points): fixed points (vertices), sphere bottoms and rim
+    bottoms, each with its shape and its index in the shape (fixed points first, then its
+    spheres, then its rims), so that a point keeps one key from step to step."""
+
+    def __init__(self, shapes: list[_Shape]) -> None:
+        self.joints = np.unique([s.joint for s in shapes]).astype(int)
+        slot = {int(j): k for k, j in enumerate(self.joints)}
+        fixed, sph, rims = [], [], []
+        for i, s in enumerate(shapes):
+            n0, n1 = len(s.fixed), len(s.fixed) + len(s.spheres)
+            fixed += [(slot[s.joint], i, k, p) for k, p in enumerate(s.fixed)]
+            sph += [(slot[s.joint], i, n0 + k, c, r) for k, (c, r) in enumerate(s.spheres)]
+            rims += [(slot[s.joint], i, n1 + k, c, a, r) for k, (c, a, r) in enumerate(s.rims)]
+        self.f_slot, self.f_shape, self.f_index = (np.array([x[k] for x in fixed], dtype=int)
+                                                   for k in range(3))  # fmt: skip
+        self.f_point = np.array([x[3] for x in fixed]).reshape(-1, 3)
+        self.s_slot, self.s_shape, self.s_index = (np.array([x[k] for x in sph], dtype=int)
+                                                   for k in range(3))  # fmt: skip
+        self.s_centre = np.array([x[3] for x in sph]).reshape(-1, 3)
+        self.s_radius = np.array([x[4] for x in sph])
+        self.r_slot, self.r_shape, self.r_index = (np.array([x[k] for x in rims], dtype=int)
+                                                   for k in range(3))  # fmt: skip
+        self.r_centre = np.array([x[3] for x in rims]).reshape(-1, 3)
+        self.r_axis = np.array([x[4] for x in rims]).reshape(-1, 3)
+        self.r_radius = np.array([x[5] for x in rims])
+        self.offset = np.cumsum([0] + [len(s.fixed) for s in shapes])  # shape -> first fixed row
+        # all placed in one product: fixed points, sphere centres, rim centres (in this order)
+        self._local = np.vstack([self.f_point, self.s_centre, self.r_centre])
+        self._slot = np.concatenate([self.f_slot, self.s_slot, self.r_slot])
+        self._shape = np.concatenate([self.f_shape, self.s_shape, self.r_shape])
+        self._index = np.concatenate([self.f_index, self.s_index, self.r_index])
+        self._sphere = np.arange(len(self.f_slot), len(self.f_slot) + len(self.s_slot))
+        self._round = len(self.f_slot) + len(self.s_slot)  # the rims' rows start here
+
+    def place(self, data: pin.Data):
+        """(R (u, 3, 3), t (u, 3)): the placements of the shapes' joints."""
+        oMi = data.oMi
+        placed = [oMi[int(j)] for j in self.joints]
+        return (np.array([M.rotation for M in placed]).reshape(-1, 3, 3),
+                np.array([M.translation for M in placed]).reshape(-1, 3))  # fmt: skip
+
+    def lowest(self, R: np.ndarray, t: np.ndarray):
+        """(world points (N, 3), shape (N,), index in the shape (N,), slot of the joint (N,)):
+        the fixed points placed, each sphere's and each rim's lowest point (a rim lying flat
+        has none: its samples are fixed points)."""
+        slot = self._slot
+        world = np.einsum("nij,nj->ni", R[slot], self._local) + t[slot]
+        n = self._round
+        world[self._sphere, 2] -= self.s_radius
+        if not len(self.r_slot):
+            return world, self._shape, self._index, slot
+        axis = np.einsum("nij,nj->ni", R[self.r_slot], self.r_axis)
+        d = axis[:, 2:3] * axis  # down - (down . axis) axis, down = (0, 0, -1)
+        d[:, 2] -= 1.0
+        norm = np.linalg.norm(d, axis=1)
+        ok = norm > 1e-9
+        world[n:] += (self.r_radius / np.where(ok, norm, 1.0))[:, None] * d
+        keep = np.concatenate([np.ones(n, dtype=bool), ok])
+        return world[keep], self._shape[keep], self._index[keep], slot[keep]
 
 
 SUPPORT_DIRECTIONS = 256  # a convex hull keeps its support points in this many directions
@@ -169,6 +227,17 @@ def _extremes(points: np.ndarray, n: int) -> np.ndarray:
 SHARED = 1e-3  # [m] a parent's point this near its child's is the child's alone
 
 
+def _skew_terms() -> np.ndarray:
+    """(3, 9): p @ _SKEW is the skew matrix [p]x of each row p, flattened."""
+    E = np.zeros((3, 3, 3))
+    for k, i, j in ((0, 2, 1), (1, 0, 2), (2, 1, 0)):  # [p]x = [[0, -z, y], [z, 0, -x], ...]
+        E[k, i, j], E[k, j, i] = 1.0, -1.0
+    return E.reshape(3, 9)
+
+
+_SKEW = _skew_terms()
+
+
 def _shared_corners(model: pin.Model, shapes) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
     """The points that a body's geometry and its child body's have in common at the neutral
     configuration (a foot's front corners and its toes' rear ones on the MTP axis): (parent
@@ -188,132 +257,142 @@ def _shared_corners(model: pin.Model, shapes) -> list[tuple[int, int, np.ndarray
     return out
 
 
+@dataclass(frozen=True)
+class GroundContacts:
+    """The ground contacts of one configuration.
+
+    Attributes:
+        points: World points on the body, (n, 3) [m].
+        phi: Their signed distances to the floor [m] (negative below it).
+        joints: The joint each point is on, (n,).
+        local: The points in their joint's frame, (n, 3) [m].
+    """
+
+    points: np.ndarray
+    phi: np.ndarray
+    joints: np.ndarray
+    local: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.phi)
+
+
+_NO_CONTACTS = GroundContacts(np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=int),
+                              np.zeros((0, 3)))  # fmt: skip
+
+
 class Ground:
-    """The floor and the geometries that may touch it.
+    """The floor z = 0 and the geometries that may touch it.
 
     Args:
         model: The Pinocchio model.
         geometry_model: Collision geometry (visual geometry for models that have none).
         geometries: Indices of the geometries that may touch the floor.
         settings: :class:`GroundSettings`.
+
+    Attributes:
+        joints: The joints that carry those geometries.
     """
 
     def __init__(self, model: pin.Model, geometry_model: pin.GeometryModel, geometries,
                  settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
         self.settings = settings
-        gm = pin.GeometryModel()
-        floor = coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
-        self.floor = gm.addGeometryObject(pin.GeometryObject("floor", 0, pin.SE3.Identity(), floor))
         self.names, self.shapes = [], []
         for i in geometries:
             g = geometry_model.geometryObjects[i].copy()
             g.geometry = _convex(g.geometry)
-            gid = gm.addGeometryObject(g)
-            gm.addCollisionPair(pin.CollisionPair(self.floor, gid))
             self.names.append(g.name)
             self.shapes.append(_Shape(g))
-        self.shared = _shared_corners(model, self.shapes)
-        self.geometry_model = gm
-        self.geometry_data = pin.GeometryData(gm)
-        for req in self.geometry_data.collisionRequests:
-            req.security_margin = settings.margin
+        self._candidates = _Candidates(self.shapes)
+        self.joints = self._candidates.joints
+        off = self._candidates.offset
+        shared = _shared_corners(model, self.shapes)
+        # the parents' and the children's fixed rows that are one point at MTP zero
+        self._shared = (np.concatenate([off[a] + ia for a, _, ia, _ in shared]).astype(int),
+                        np.concatenate([off[b] + ib for _, b, _, ib in shared]).astype(int)
+                        ) if shared else None  # fmt: skip
+        self._key = 1 + max((len(s.fixed) + len(s.spheres) + len(s.rims) for s in self.shapes),
+                            default=0)  # fmt: skip
+        # each joint's column mask in the world Jacobian (the joints it moves with)
+        mask = np.zeros((model.njoints, model.nv))
+        for j in range(1, model.njoints):
+            for k in model.supports[j][1:]:
+                jm = model.joints[k]
+                mask[j, jm.idx_v : jm.idx_v + jm.nv] = 1.0
+        self._mask = mask
         self._pool: list[tuple[pin.ConstraintModel, pin.ConstraintData]] = []
         self._model = model
         self._last: tuple | None = None  # ((model, configuration), contacts) of the last call
 
-    def _contact(self, k: int):
-        """The k-th pooled contact model (created on first use)."""
-        while len(self._pool) <= k:
+    def cones(self, n: int) -> tuple[list, list]:
+        """n friction-cone constraint models and their datas (pooled): what Pinocchio's solver
+        reads of a contact is its cone (its size and mu), not its placement."""
+        while len(self._pool) < n:
             pc = pin.PointContactConstraintModel(
                 self._model, 0, pin.SE3.Identity(), 0, pin.SE3.Identity()
             )
             pc.setFriction(self.settings.mu)
             cm = pin.ConstraintModel(pc)
             self._pool.append((cm, cm.createData()))
-        return self._pool[k]
+        pool = self._pool[:n]
+        return [cm for cm, _ in pool], [cd for _, cd in pool]
 
-    def detect(self, model: pin.Model, data: pin.Data, at=None):
+    def jacobian(self, data: pin.Data, contacts: GroundContacts) -> np.ndarray:
+        """The contacts' Jacobian, (3n, nv), world axes (x, y, z rows per point): the velocity
+        of each point of the body, v_p = v_O + w x p from the world Jacobian of its joint
+        (``data`` must hold the joint Jacobians at the contacts' configuration:
+        ``pin.computeJointJacobians``)."""
+        n = len(contacts)
+        if not n:
+            return np.zeros((0, self._model.nv))
+        J = data.J
+        skew = (contacts.points @ _SKEW).reshape(n, 3, 3)  # [p]x, so w x p = -[p]x w
+        rows = (J[:3] - skew @ J[3:]) * self._mask[contacts.joints][:, None, :]
+        return rows.reshape(3 * n, -1)
+
+    def detect(self, model: pin.Model, data: pin.Data, at=None) -> GroundContacts:
         """Contacts of the current placements (``data.oMi`` must be up to date).
 
         ``at``: the configuration the placements are at. Given, a call at the same model and
         configuration as the last one returns its contacts again without detecting them: a
         controller and its plant detect at the same state every tick (a person's walk spent
         0.37 ms a tick in each).
-
-        Returns:
-            (models, datas, phi, points): the active contact constraints, their signed distances
-            [m] (negative below the floor) and their world points on the body, (n, 3).
         """
         key = None if at is None else (model, np.asarray(at, dtype=float).tobytes())
         last = self._last
         if key is not None and last is not None and last[0][0] is model and last[0][1] == key[1]:
-            cms, cds, phi, points = last[1]
-            return list(cms), list(cds), phi.copy(), points.copy()
-        found = self._detect(model, data)
+            return last[1]
+        found = self._detect(data)
         self._last = None if key is None else (key, found)
-        cms, cds, phi, points = found
-        return list(cms), list(cds), phi.copy(), points.copy()
+        return found
 
-    def _detect(self, model: pin.Model, data: pin.Data):
-        """:meth:`detect`'s contacts, found."""
-        gm, gd = self.geometry_model, self.geometry_data
-        pin.updateGeometryPlacements(model, data, gm, gd)
-        pin.computeCollisions(gm, gd, False)
-        cms: list = []  # Pinocchio's contact models and datas
-        cds: list = []
-        points: list[np.ndarray] = []
-        margin = self.settings.margin
-        placements: dict[int, pin.SE3] = {}  # the joints' placements, read once
-        hidden = self._hidden(data, placements)
-        for pair, shape in enumerate(self.shapes):
-            if not gd.collisionResults[pair].isCollision():
-                continue
-            oMi = _placement(data, shape.joint, placements)
-            pts = shape.lowest(oMi)
-            keep = pts[:, 2] < margin
-            if pair in hidden:
-                keep[hidden[pair]] = False
-            pts = pts[keep]
-            pts = pts[_extremes(pts, MAX_POINTS)] if len(pts) > MAX_POINTS else pts
-            for p in pts:
-                cm, cd = self._contact(len(cms))
-                c = cm.extract()
-                c.joint2_id = shape.joint
-                c.joint1_placement.translation = np.array([p[0], p[1], 0.0])
-                c.joint2_placement.translation = oMi.actInv(p)
-                cms.append(cm)
-                cds.append(cd)
-                points.append(p)
-        found = np.array(points).reshape(-1, 3)
-        return cms, cds, found[:, 2].copy(), found
-
-    def _hidden(self, data: pin.Data, placements: dict | None = None) -> dict:
-        """{shape: indices of its points left out}: a parent's point within :data:`SHARED` of
-        its child's now. There the two are one point of the body (at an MTP angle of zero the
-        rearfoot's front corners are the toes' rear ones): as two contacts they are a
-        degenerate pair that the solver splits between the bodies as its iterations happen to
-        go (the stop's foot carried 260 N on the rearfoot's pair where the controller had
-        planned it on the toes', and flicked the light toes up 0.4 rad). Apart (the joint bent
-        3.4 degrees) both are contacts: left out for good, the rearfoot's front sank 9 mm into
-        the floor under toes bent up."""
-        out: dict[int, list[int]] = {}
-        for a, b, ia, ib in self.shared:
-            pa, pb = self.shapes[a], self.shapes[b]
-            placements = {} if placements is None else placements
-            wa = pa.placed(_placement(data, pa.joint, placements), ia)
-            wb = pb.placed(_placement(data, pb.joint, placements), ib)
-            near = ia[np.linalg.norm(wa - wb, axis=1) < SHARED]
-            if len(near):
-                out.setdefault(a, []).extend(near.tolist())
-        return out
-
-
-def _placement(data: pin.Data, joint: int, placements: dict) -> pin.SE3:
-    """``data.oMi[joint]``, kept in ``placements`` (each read copies it)."""
-    M = placements.get(joint)
-    if M is None:
-        M = placements[joint] = data.oMi[joint]
-    return M
+    def _detect(self, data: pin.Data) -> GroundContacts:
+        """:meth:`detect`'s contacts, found: every candidate point placed at once; those within
+        the margin of the floor, less a parent's points that are its child's now; at most
+        :data:`MAX_POINTS` + 1 per geometry (its support polygon's extremes)."""
+        cand = self._candidates
+        R, t = cand.place(data)
+        pts, shape, index, slot = cand.lowest(R, t)
+        keep = pts[:, 2] < self.settings.margin
+        if self._shared is not None:
+            pa, pb = self._shared  # rows of the fixed points, first in pts
+            near = np.linalg.norm(pts[pa] - pts[pb], axis=1) < SHARED
+            keep[pa[near]] = False
+        keys = shape * self._key + index
+        rows = np.flatnonzero(keep)
+        rows = rows[np.argsort(keys[rows], kind="stable")]  # per geometry, in its order
+        counts = np.bincount(shape[rows], minlength=len(self.shapes))
+        if counts.max(initial=0) > MAX_POINTS:
+            parts = []
+            for s in np.unique(shape[rows]):
+                mine = rows[shape[rows] == s]
+                parts.append(mine[_extremes(pts[mine], MAX_POINTS)] if len(mine) > MAX_POINTS
+                             else mine)  # fmt: skip
+            rows = np.concatenate(parts)
+        p = pts[rows]
+        sl = slot[rows]
+        local = np.einsum("nji,nj->ni", R[sl], p - t[sl])  # R^T (p - t)
+        return GroundContacts(p, p[:, 2].copy(), cand.joints[sl], local)
 
 
 @dataclass(frozen=True)
@@ -369,6 +448,8 @@ class ContactSolver:
         st.absolute_complementarity_tol = st.relative_complementarity_tol = settings.tolerance
         st.max_iterations = settings.max_iterations
         st.admm_update_rule = pin.ADMMUpdateRule.SPECTRAL  # no iteration-cap hits on impacts
+        st.lanczos_size = settings.lanczos
+        st.anderson_capacity = settings.anderson
         self.admm = st
         self.result = pin.ADMMSolverResult()
         self._orthants: dict[int, tuple] = {}
@@ -400,19 +481,18 @@ class ContactSolver:
         (``pin.computeJointJacobians``).
         """
         model = self.model
-        cms, cds, rows = [], [], []
-        g_parts = []
-        phi = points = np.zeros((0,))
-        n_ground = 0
+        rows, g_parts = [], []
+        contacts = _NO_CONTACTS
+        cms: list = []  # the rows' cones, as Pinocchio's constraint models
+        cds: list = []
         if self.ground is not None:
-            cms, cds, phi, points = self.ground.detect(model, data, at=q)
-            n_ground = len(cms)
-            if n_ground:
-                for cm, cd in zip(cms, cds, strict=True):
-                    cm.calc(model, data, cd)
-                Jg = pin.getConstraintsJacobian(model, data, cms, cds)
-                gap = np.where(phi >= 0.0, phi, self.settings.correction * phi) / dt
+            contacts = self.ground.detect(model, data, at=q)
+            if len(contacts):
+                cms, cds = self.ground.cones(len(contacts))
+                Jg = self.ground.jacobian(data, contacts)
+                phi = contacts.phi
                 gg = Jg @ v_free
+                gap = np.where(phi >= 0.0, phi, self.settings.correction * phi) / dt
                 gg[2::3] += gap
                 rows.append(Jg)
                 g_parts.append(gg)
@@ -424,22 +504,24 @@ class ContactSolver:
                 gap = np.where(r >= 0.0, r, self.settings.correction * r) / dt
                 rows.append(Jr)
                 g_parts.append(Jr @ v_free + gap)
-                cm, cd = self._orthant(n_limits)
-                cms, cds = [*cms, cm], [*cds, cd]
         if not rows:
             none = np.zeros((0, 3))
             return v_free, StepContacts(none, np.zeros(0), none, np.zeros(0), 0, True,
                                         limit_generalized=np.zeros(model.nv))  # fmt: skip
-        J = np.vstack(rows)
-        g = np.concatenate(g_parts)
+        J = np.vstack(rows) if len(rows) > 1 else rows[0]
+        g = np.concatenate(g_parts) if len(g_parts) > 1 else g_parts[0]
         MJt = Minv @ J.T
         G = J @ MJt
         # Jacobi scaling: a hand's range row and a foot's contact differ by 1e6 in G; each
         # contact's three rows share one factor, so its friction cone is unchanged
         d = np.diag(G).copy()
+        n_ground = len(contacts)
         if n_ground:
             d[: 3 * n_ground] = np.repeat(d[: 3 * n_ground].reshape(-1, 3).mean(axis=1), 3)
         d = 1.0 / np.sqrt(np.maximum(d, 1e-12 * d.max()))
+        if n_limits:
+            cm, cd = self._orthant(n_limits)
+            cms, cds = [*cms, cm], [*cds, cd]
         res = self.result
         res.clearConstraintImpulseGuess()
         delassus = pin.DelassusOperatorDense(d[:, None] * G * d[None, :])
@@ -449,9 +531,8 @@ class ContactSolver:
             self.failures += 1
         v_new = v_free + MJt @ lam
         impulses = lam[: 3 * n_ground].reshape(-1, 3)
-        joints = np.array([cm.extract().joint2_id for cm in cms[:n_ground]], dtype=int)
         limits = lam[3 * n_ground :]
         generalized = J[3 * n_ground :].T @ limits if n_limits else np.zeros(model.nv)
-        out = StepContacts(points, phi, impulses, limits, int(res.iterations),
-                           bool(res.converged), joints, generalized)  # fmt: skip
+        out = StepContacts(contacts.points, contacts.phi, impulses, limits, int(res.iterations),
+                           bool(res.converged), contacts.joints, generalized)  # fmt: skip
         return v_new, out

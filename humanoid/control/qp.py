@@ -153,16 +153,16 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
 
 
 def feet_contacts(ground, model, data, foot_joint: dict, q=None):
-    """The plant's own ground detection (constraint models and datas, signed distances, world
-    points) and, per point, the side whose foot it is on (None: another body). ``foot_joint``:
+    """The plant's own ground detection (a :class:`~humanoid.constraints.ground.GroundContacts`)
+    and, per point, the side whose foot it is on (None: another body). ``foot_joint``:
     side -> the foot's joint, or a set of joints (a foot with free toes: its rearfoot's and its
     toes'). ``q``: the configuration of ``data``'s placements (the plant's step at the same
     state then finds these contacts without detecting them again)."""
-    cms, cds, phi, points = ground.ground.detect(model, data, at=q)
+    found = ground.ground.detect(model, data, at=q)
     joints = {s: {j} if isinstance(j, int) else set(j) for s, j in foot_joint.items()}
-    side_of = [next((s for s, js in joints.items() if cm.extract().joint2_id in js), None)
-               for cm in cms]  # fmt: skip
-    return cms, cds, phi, points, side_of
+    side_of = [next((s for s, js in joints.items() if j in js), None)
+               for j in found.joints.tolist()]  # fmt: skip
+    return found, side_of
 
 
 @dataclass
@@ -284,7 +284,7 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
                range_time: float, *, drift=None, forces=None, upper=None) -> ContactQP:  # fmt: skip
     """:func:`whole_body_qp` on the plant's rigid ground.
 
-    ``contacts``: the plant's detection (constraint models and datas, signed distances);
+    ``contacts``: the plant's ground and its detection (:func:`feet_contacts`);
     ``loaded`` and ``free``: indices of its points that stick (their forces are unknowns) and
     that only must not go through the floor; ``tasks``: the costs on dv; ``gains``:
     ``w_force``, ``mu``, ``settle``, ``contact_time``, ``horizon``; ``forces``: the force
@@ -304,12 +304,11 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
     moving chain (a stance foot under a walking body) has J' v of a few m/s^2, which the
     velocity-level rule alone leaves out.
     """
-    cms, cds, phi = contacts
+    ground, found = contacts
+    phi = found.phi
     nv = model.nv
     g = gains
-    for cm, cd in zip(cms, cds, strict=True):
-        cm.calc(model, data, cd)
-    Jall = pin.getConstraintsJacobian(model, data, cms, cds) if cms else np.zeros((0, nv))
+    Jall = ground.jacobian(data, found)
     depth = np.where(phi >= 0.0, phi, correction * phi)
     gap = depth / dt
     # the loaded points' three rows each, and the free points' normal rows (gathered)

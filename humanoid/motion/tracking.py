@@ -247,7 +247,7 @@ class MotionTracker(Effect):
         i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
         return bool(on[i])
 
-    def _ball(self, cms, phi, points, loaded, free):
+    def _ball(self, joints, phi, points, loaded, free):
         """(loaded, free) with, of a rearfoot's loaded point and a loaded point of its toes
         within :data:`BALL` of each other (the ball of the foot), the higher made free (the
         rearfoot's with the toes flat and the heel up, the toes' with the toes bent up on a
@@ -255,7 +255,7 @@ class MotionTracker(Effect):
         moves its ball backwards under toes that stand still (walking5's stance foot stood on
         its ball with its heel and toes up, pushed 2.6 BW and flew), and a point 0.7 mm up
         settling onto the floor turned a standing body's toes down from 17 degrees to 0."""
-        joint = {i: cms[i].extract().joint2_id for i in loaded}
+        joint = {i: int(joints[i]) for i in loaded}
         parents = self.model.parents
         out = []
         for i in loaded:
@@ -271,8 +271,8 @@ class MotionTracker(Effect):
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         M, hvec = dynamics_terms(model, data, q, v)
-        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data,
-                                                       self.foot_joints, q)  # fmt: skip
+        found, side_of = feet_contacts(self.ground, model, data, self.foot_joints, q)
+        phi, points = found.phi, found.points
         on = {s: self.in_contact(s, t) for s in SIDES}
         q_r, v_r, a_r = self.ref.state(t)
         rd = self.rdata
@@ -284,8 +284,8 @@ class MotionTracker(Effect):
             ok = False
             if s is not None and on[s] and phi[i] < g.touch:
                 # the point on its own body (the rearfoot or the toes)
-                j = cms[i].extract().joint2_id
-                local = data.oMi[j].actInv(points[i])
+                j = int(found.joints[i])
+                local = found.local[i]
                 # a point of the sole that the motion has on the floor now: low, and not
                 # rising away from it (a heel rising in push-off is not held down; a fitted
                 # noisy motion's standing heel, a centimetre or two up, is)
@@ -297,7 +297,7 @@ class MotionTracker(Effect):
                     ref_z < g.ref_touch or (ref_z < g.ref_reach and rising < g.ref_rise)
                 )
             (loaded if ok else free).append(i)
-        loaded, free = self._ball(cms, phi, points, loaded, free)
+        loaded, free = self._ball(found.joints, phi, points, loaded, free)
         bearing = {side_of[i] for i in loaded}
         if self.toes:  # a bearing foot's free points are the plant's to keep out of the floor
             free = [i for i in free if side_of[i] not in bearing]
@@ -322,7 +322,8 @@ class MotionTracker(Effect):
                 tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
                                               g.w_foot, moved))  # fmt: skip
         tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, self.w_joints, v_r, a_r))
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+        seen = (self.ground.ground, found)
+        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
                        self.weight, g, self.ranges, self.ground.settings.correction,
                        RANGE_MARGIN, RANGE_TIME)  # fmt: skip
         x, relaxed = p.solve(self.qp)

@@ -333,8 +333,8 @@ class CycleTracker(Effect):
         model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
         tc = self._advance_clock(t, q)
         M, hvec = dynamics_terms(model, data, q, v)
-        cms, cds, phi, pts, _ = feet_contacts(self.ground, model, data, {}, q)
-        joint_of = [cm.extract().joint2_id for cm in cms]
+        found, _ = feet_contacts(self.ground, model, data, {}, q)
+        phi, pts, joint_of = found.phi, found.points, found.joints.tolist()
         q_r, v_r, a_r = ref.state(tc)
         # the reference follows the footsteps the body makes (blended in)
         u = min(1.0, (t - self.offset_t) / g.blend) if self.offset_t >= 0 else 1.0
@@ -386,10 +386,11 @@ class CycleTracker(Effect):
         # the cycle's forces: contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2, the
         # normal forces under the cycle's plus a margin that ramps to zero before it lifts
         target, upper = self._cycle_forces(tc, match)
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+        seen = (self.ground.ground, found)
+        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
                        self.weight, g, self.ranges, self.ground.settings.correction,
                        g.range_margin, g.range_time,
-                       drift=[self._drift(cms[i]) for i in loaded],
+                       drift=[self._drift(joint_of[i], found.local[i]) for i in loaded],
                        forces=[ForceTask(target, g.w_force)],
                        upper=upper if loaded else None)  # fmt: skip
         x, relaxed = p.solve(self.qp)
@@ -494,11 +495,9 @@ class CycleTracker(Effect):
             self.landed[s] = heel_down or (self.landed[s] and any(
                 m.startswith(s) for m in match))  # fmt: skip
 
-    def _drift(self, cm) -> np.ndarray:
+    def _drift(self, j: int, r: np.ndarray) -> np.ndarray:
         """A loaded corner's acceleration at dv = 0, J' v, world axes (``data`` holds the
-        kinematics at dv = 0)."""
-        c = cm.extract()
-        j, r = c.joint2_id, c.joint2_placement.translation
+        kinematics at dv = 0): the corner at r in joint j's frame."""
         vj, aj = self.data.v[j], self.data.a[j]
         w = vj.angular
         lin = aj.linear + cross(aj.angular, r)

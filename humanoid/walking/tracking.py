@@ -585,7 +585,8 @@ class GaitController(_CyclePlan, Effect):
         model, data, g, dt = self.model, self.data, self.gains, self.dt
         M, hvec = dynamics_terms(model, data, q, v)
         # contacts: the plant's own detection
-        cms, cds, phi, points, side_of = feet_contacts(self.ground, model, data, self.foot_joint, q)
+        found, side_of = feet_contacts(self.ground, model, data, self.foot_joint, q)
+        phi, points = found.phi, found.points
         near = [s is not None and d < g.touch for s, d in zip(side_of, phi, strict=True)]
         touching = {s for s, n in zip(side_of, near, strict=True) if n}
         q_r, v_r, R_A, com_r, err = self._reference(t, q, v)
@@ -600,7 +601,8 @@ class GaitController(_CyclePlan, Effect):
         share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
         if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
             forces.append(ForceTask(0.0, g.w_share, share))
-        p = contact_qp(model, data, (cms, cds, phi), loaded, free, tasks, M, hvec, q, v, dt,
+        seen = (self.ground.ground, found)
+        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
                        self.weight, g, self.ranges, self.ground.settings.correction,
                        RANGE_MARGIN, RANGE_TIME, forces=forces)  # fmt: skip
         return self._solve(p, t, v, M, hvec, loaded)
