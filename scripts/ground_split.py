@@ -1,0 +1,63 @@
+"""Where a ground-contact step's time goes: each shipped fall (drop, collapse, slide; or the
+scenes named) run for its first 2 s on one thread, with the step's pieces wrapped in timers:
+detection, the contacts' Jacobian, the joint-range rows, Pinocchio's ADMM solve, the whole
+contact step and the whole step (``advance``: the contact step plus the mass matrix with the
+implicit gains and the free velocity). Microseconds per step, means over the run; the wrappers
+add about a microsecond each. docs/benchmarks.md quotes it.
+
+    python scripts/ground_split.py [drop collapse slide]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from humanoid.bench.common import MALE
+from humanoid.data import SCENES
+from humanoid.linalg import one_thread
+from humanoid.scene import Scene
+from humanoid.simulation import Simulation
+
+
+def split(name: str, duration: float = 2.0) -> str:
+    scene = Scene.load(SCENES / f"{name}.toml").replace(duration=duration, body=MALE)
+    sim = Simulation(scene)
+    ground = sim.plant.ground
+    assert ground is not None, f"{name} has no ground contact"
+    solver = ground.solver
+    total: dict[str, float] = {}
+
+    def wrap(owner, attr: str, label: str) -> None:
+        inner = getattr(owner, attr)
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                total[label] = total.get(label, 0.0) + time.perf_counter() - start
+
+        setattr(owner, attr, timed)
+
+    wrap(solver.ground, "detect", "detection")
+    wrap(solver.ground, "jacobian", "jacobian")
+    if solver.ranges is not None:
+        wrap(solver.ranges, "rows", "range rows")
+    wrap(solver.solver, "solve", "ADMM")
+    wrap(solver, "step", "contact step")
+    wrap(ground, "advance", "whole step")
+    traj = sim.run(quiet=True)
+    n = traj.metadata["steps"]
+    parts = ", ".join(f"{k} {v / n * 1e6:.0f}" for k, v in total.items())
+    return f"{name}: {traj.metadata['wall_time'] / n * 1e6:.0f} us a step in the loop; {parts}"
+
+
+def main(names: list[str]) -> None:
+    with one_thread():
+        for name in names or ["drop", "collapse", "slide"]:
+            print(split(name))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
