@@ -2,19 +2,20 @@
 
 Built on what Pinocchio 4.1 and coal ship (the design of Inria's Simple simulator):
 
-- **Detection.** The body's collision geometries (our primitives; meshes as their convex hulls)
-  are paired with a ``coal.Halfspace`` floor; ``pin.computeCollisions`` with a security margin
-  finds the geometries near it. Their contact points are the points of the shape that can be
-  lowest: the vertices of a box or a convex hull, the lowest point of a sphere, of each end of a
-  capsule and of each rim of a cylinder, and samples around the rims (a cylinder standing on its
-  end). Those within the margin of the floor become contacts. (coal's contact patches project
-  their points onto one plane, so a tilted box would rest on its projected corners.) A point
-  that a body and its parent share (the rearfoot's front corners and the toes' rear ones, at
-  an MTP angle near zero) is the child's alone while the two are within a millimetre.
-- **Constraints.** Each contact is a ``pin.PointContactConstraintModel`` between the floor
-  (joint 0, at the point's projection on z = 0, axes world-aligned: tangent x, y, normal z) and
-  the body (at the point, on the geometry's joint), with a ``CoulombFrictionCone`` of friction
-  coefficient mu. Models are pooled and moved in place.
+- **Detection.** The candidate points of the body's collision geometries (our primitives;
+  meshes as their convex hulls) are the points of each shape that can be lowest: the vertices
+  of a box or a convex hull, the lowest point of a sphere, of each end of a capsule and of each
+  rim of a cylinder, and samples around the rims (a cylinder standing on its end). All are
+  placed at once each step from their joints' placements (one product, no Python loop over
+  points), and those within the margin of the floor become contacts. (coal's contact patches
+  project their points onto one plane, so a tilted box would rest on its projected corners.) A
+  point that a body and its parent share (the rearfoot's front corners and the toes' rear
+  ones, at an MTP angle near zero) is the child's alone while the two are within a millimetre.
+- **Constraints.** Each contact is a point of the body against the floor, world axes (tangent
+  x, y, normal z), with a Coulomb friction cone of coefficient mu. Its Jacobian is the point's
+  velocity from its joint's world Jacobian, v_p = v_O + w x p, all points in one product (the
+  same as Pinocchio's ``PointContactConstraintModel``: tests/test_ground.py); Pinocchio's
+  solver reads the cones from pooled constraint models.
 - **Solve.** Velocity level, one solve per time step: with v_free the velocity after the step
   without contacts, find impulses lambda in the friction cones with sigma = G lambda + g in the
   dual cones and lambda . sigma = 0, G = J M^-1 J^T the Delassus operator and
@@ -131,7 +132,7 @@ class _Candidates:
     """Every shape's candidate points as flat arrays, placed all at once (one placement read
     per joint, no Python loop over points): fixed points (vertices), sphere bottoms and rim
     bottoms, each with its shape and its index in the shape (fixed points first, then its
-    spheres, then its rims), so that a point keeps one key from step to step."""
+    spheres, then its rims): the contacts come out geometry by geometry, in that order."""
 
     def __init__(self, shapes: list[_Shape]) -> None:
         self.joints = np.unique([s.joint for s in shapes]).astype(int)
