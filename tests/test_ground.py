@@ -432,10 +432,11 @@ def _brute_points(g: pin.GeometryObject, M: pin.SE3) -> np.ndarray:
 
 
 def _near_the_floor(h, rng):
-    """A random posture of h inside its ranges, the pelvis turned at random, lowered until its
-    lowest geometry is 1 mm into the floor; and the geometries' placements there."""
+    """A random posture of h (each joint turned by up to 0.8 rad from neutral, seeded), the
+    pelvis turned at random, lowered until its lowest geometry is 1 mm into the floor; and the
+    geometries' placements there."""
     model, geometry = h.model, h.collision_model
-    q = pin.randomConfiguration(model)
+    q = pin.integrate(model, pin.neutral(model), rng.uniform(-0.8, 0.8, model.nv))
     q[:3] = 0.0
     q[3:7] = pin.Quaternion(pin.exp3(rng.uniform(-np.pi, np.pi, 3))).coeffs()
     gd = pin.GeometryData(geometry)
@@ -489,10 +490,12 @@ def test_the_contact_jacobian_is_pinocchios_point_contact_jacobian():
     model, geometry = h.model, h.collision_model
     ground = Ground(model, geometry, range(geometry.ngeoms), GroundSettings(margin=0.05))
     rng = np.random.default_rng(4)
+    points = 0
     for _ in range(5):
         q, data, _ = _near_the_floor(h, rng)
         found = ground.detect(model, data)
-        assert len(found) > 3
+        assert len(found) >= 1
+        points += len(found)
         cms, cds = [], []
         for j, local, p in zip(found.joints, found.local, found.points, strict=True):
             floor = pin.SE3(np.eye(3), np.array([p[0], p[1], 0.0]))
@@ -504,3 +507,4 @@ def test_the_contact_jacobian_is_pinocchios_point_contact_jacobian():
             cds.append(cd)
         expected = pin.getConstraintsJacobian(model, data, cms, cds)
         np.testing.assert_allclose(ground.jacobian(data, found), expected, atol=1e-12)
+    assert points >= 15, points
