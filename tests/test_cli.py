@@ -316,6 +316,33 @@ def _assert_the_orders(accuracy_run):
                 ("walk", "adaptive (DP5)")]  # fmt: skip
     assert len(walk_dp5) == 3 and max(walk_dp5) < error("walk", "rk4", 2e-3)
     assert "reference convergence" in text
+    # the falls: MuJoCo's stiffest contacts go less deep than its defaults at every step
+    depth = {(r["method"], r["setting"]): float(r["constraint_drift"]) for r in rows
+             if r["scene"] == "drop" and r["method"].startswith("MuJoCo")}  # fmt: skip
+    if depth:
+        for dt in ("0.002", "0.001", "0.0005"):
+            soft = depth[("MuJoCo soft contacts (Euler)", f"dt={dt}")]
+            assert depth[("MuJoCo stiff contacts (Euler)", f"dt={dt}")] < 0.3 * soft, dt
+
+
+def test_the_falls_alone_replace_their_rows_and_keep_the_others(tmp_path):
+    """``run_fall_benchmark`` (``scripts/bench_accuracy.py --falls``): the falls' rows of an
+    existing accuracy.csv are replaced, every other scene's row is kept as it was."""
+    import csv
+
+    from humanoid.bench.accuracy import Row, run_fall_benchmark
+
+    fields = list(Row.__dataclass_fields__)
+    old = [["tumble", "rk4", "dt=0.001", *["1.5"] * (len(fields) - 3)],
+           ["drop", "stale", "dt=0.001", *["2.5"] * (len(fields) - 3)]]  # fmt: skip
+    with open(tmp_path / "accuracy.csv", "w", newline="") as fh:
+        csv.writer(fh).writerows([fields, *old])
+    assert run_fall_benchmark(quick=True, out=tmp_path) == 0
+    rows = list(csv.reader(open(tmp_path / "accuracy.csv")))
+    assert rows[0] == fields and rows[1] == old[0]
+    assert all(r[1] != "stale" for r in rows)
+    assert {r[0] for r in rows[2:]} == {"collapse", "drop"}
+    assert (tmp_path / "accuracy_drop.png").is_file()
 
 
 def _assert_the_peers(accuracy_run):

@@ -19,7 +19,8 @@ Scenes:
   2 ms ticks (the controller's rate, where the contacts switch);
 - ``collapse`` and ``drop``: the shipped falls onto the floor (rigid ground contact for every
   body, joint ranges as constraints), their first second: the step and the contact solver's
-  tolerance swept, MuJoCo's soft contacts beside them (see :func:`_fall_rows`).
+  tolerance swept, MuJoCo's soft contacts beside them, default and stiffest (see
+  :func:`_fall_rows`).
 
 The error of a run is the largest state difference from the reference over all records (25 Hz),
 on the manifold: max(|pin.difference(q_ref, q)|, |v - v_ref|).
@@ -49,7 +50,7 @@ from .common import (
     state_error,
 )
 
-__all__ = ["run_accuracy_benchmark"]
+__all__ = ["run_accuracy_benchmark", "run_fall_benchmark"]
 
 
 @dataclass(frozen=True)
@@ -229,6 +230,34 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
     return 0
 
 
+def run_fall_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
+    """The falls alone (:func:`_fall_rows`), on one thread: their rows replace the falls' rows
+    of ``out``/accuracy.csv (the other scenes' rows are kept as the last whole run wrote them)
+    and their two figures are drawn again."""
+    from ..linalg import one_thread
+
+    with one_thread():
+        rows, convergence = _fall_rows(load_male(), quick)
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "accuracy.csv"
+    fields = list(Row.__dataclass_fields__)
+    kept = []
+    if path.exists():
+        with open(path, newline="") as fh:
+            kept = [r for r in csv.reader(fh)][1:]
+    kept = [r for r in kept if r and r[0] not in convergence]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(fields)
+        w.writerows(kept)
+        w.writerows([getattr(r, f) for f in fields] for r in rows)
+    for name in convergence:
+        _plot(name, [r for r in rows if r.scene == name], folder / f"accuracy_{name}.png")
+    print(f"wrote the falls' rows into {path} and accuracy_<fall>.png")
+    return 0
+
+
 def _walk_run(h, integrator, dt, tol=1e-6):
     """(trajectory, wall time) of the walking segment with the controller at CONTROL_DT."""
     from ..walking import GaitParameters, walk
@@ -270,8 +299,9 @@ def _fall_rows(h, quick: bool):
     """The shipped falls (``collapse``: standing passive; ``drop``: from 0.5 m) for their
     first T seconds (the impacts and the fall itself): the step swept at the shipped solver
     tolerance, the contact solver's tolerance swept at the shipped 1 ms step, and MuJoCo's
-    soft contacts (its default parameters, Euler-mode body, see :mod:`humanoid.bench.peers`) over
-    the same steps. The reference: our scheme at a quarter of the smallest step and
+    soft contacts (Euler-mode body, see :mod:`humanoid.bench.peers`) over the same steps, with
+    its default parameters and with its stiffest (solref 2 dt, solimp 0.9999: a millimetre deep
+    or less, as ours). The reference: our scheme at a quarter of the smallest step and
     tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
     The error is the configuration error (:func:`_configuration_error`). Returns the rows and
     the references' convergence."""
@@ -320,14 +350,16 @@ def _fall_rows(h, quick: bool):
             add("ours, dt 1 ms", f"tol={tol:g}", *run_scene(variant(1e-3, tol), h))
         if he is None:
             continue
-        for dt in dts:
-            every = int(round(1.0 / (RECORD_RATE * dt)))
-            q0, v0 = ref.q[0], ref.v[0]
-            qs, vs, wall, depth = mujoco_fall(base, h, he, q0, v0, dt, every)
-            states = [h.fusion.to_quaternion(q, v) for q, v in zip(qs, vs, strict=True)]
-            traj = _Records([s[0] for s in states], [s[1] for s in states], ref.t,
-                            {"max_penetration": depth})  # fmt: skip
-            add("MuJoCo soft contacts (Euler)", f"dt={dt:g}", traj, wall)
+        for stiff, method in ((False, "MuJoCo soft contacts (Euler)"),
+                              (True, "MuJoCo stiff contacts (Euler)")):  # fmt: skip
+            for dt in dts:
+                every = int(round(1.0 / (RECORD_RATE * dt)))
+                q0, v0 = ref.q[0], ref.v[0]
+                qs, vs, wall, depth = mujoco_fall(base, h, he, q0, v0, dt, every, stiff=stiff)
+                states = [h.fusion.to_quaternion(q, v) for q, v in zip(qs, vs, strict=True)]
+                traj = _Records([s[0] for s in states], [s[1] for s in states], ref.t,
+                                {"max_penetration": depth})  # fmt: skip
+                add(method, f"dt={dt:g}", traj, wall)
     return rows, convergence
 
 

@@ -469,27 +469,40 @@ def fall_comparison(name: str = "collapse", duration: float | None = None) -> di
     return out
 
 
-def _fall_model(scene, he, dt: float, integrator: str = "Euler"):
+# MuJoCo's stiffest stable contacts for a step dt, as the stiff welds: its smallest time
+# constant (solref 2 dt, critically damped) and an impedance of 0.9999 at every depth
+STIFF_CONTACT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+
+def _fall_model(scene, he, dt: float, integrator: str = "Euler", stiff: bool = False):
     """The MuJoCo model of a fall scene: the Euler-mode body with hinge limits, the scene's
-    joint damping, and a floor with the scene's friction."""
+    joint damping, and a floor with the scene's friction; ``stiff``: every geometry's
+    contacts at solref (2 dt, 1) and solimp :data:`STIFF_CONTACT_SOLIMP` (MuJoCo's defaults
+    otherwise: solref 0.02 1, solimp 0.9 0.95 0.001)."""
     import mujoco
 
     from ..export import to_mjcf
 
     xml = to_mjcf(he, timestep=dt, integrator=integrator, ground=scene.effects.ground.mu,
                   limits=True, damping=scene.effects.damping)  # fmt: skip
-    return mujoco.MjModel.from_xml_string(xml)
+    m = mujoco.MjModel.from_xml_string(xml)
+    if stiff:
+        m.geom_solref[:] = (2.0 * dt, 1.0)
+        m.geom_solimp[:] = STIFF_CONTACT_SOLIMP
+    return m
 
 
-def mujoco_fall(scene, h, he, q0, v0, dt: float, every: int, integrator: str = "Euler"):
+def mujoco_fall(scene, h, he, q0, v0, dt: float, every: int, integrator: str = "Euler",
+                stiff: bool = False):  # fmt: skip
     """A fall scene in MuJoCo from our initial state (q0, v0) of ``h`` (quaternion mode), on
     the Euler-mode body ``he``: Euler-mode states (q, v) every ``every`` steps (the first at
-    t = 0), the wall time of the steps alone, and the deepest penetration [m]."""
+    t = 0), the wall time of the steps alone, and the deepest penetration [m]. ``stiff``:
+    MuJoCo's stiffest contacts (:func:`_fall_model`)."""
     import mujoco
 
     from ..export import StateMap
 
-    m = _fall_model(scene, he, dt, integrator)
+    m = _fall_model(scene, he, dt, integrator, stiff)
     d = mujoco.MjData(m)
     states = StateMap(he, m)
     qe0, ve0 = h.fusion.to_euler(q0, v0)
