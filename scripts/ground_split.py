@@ -11,9 +11,8 @@ add about a microsecond each. docs/benchmarks.md quotes it.
 from __future__ import annotations
 
 import sys
-import time
 
-from humanoid.bench.common import MALE
+from humanoid.bench.common import MALE, Clock
 from humanoid.data import SCENES
 from humanoid.linalg import one_thread
 from humanoid.scene import Scene
@@ -26,30 +25,17 @@ def split(name: str, duration: float = 2.0) -> str:
     ground = sim.plant.ground
     assert ground is not None, f"{name} has no ground contact"
     solver = ground.solver
-    total: dict[str, float] = {}
-
-    def wrap(owner, attr: str, label: str) -> None:
-        inner = getattr(owner, attr)
-
-        def timed(*args, **kwargs):
-            start = time.perf_counter()
-            try:
-                return inner(*args, **kwargs)
-            finally:
-                total[label] = total.get(label, 0.0) + time.perf_counter() - start
-
-        setattr(owner, attr, timed)
-
-    wrap(solver.ground, "detect", "detection")
-    wrap(solver.ground, "jacobian", "jacobian")
+    clock = Clock()
+    clock.wrap(solver.ground, "detect", "detection")
+    clock.wrap(solver.ground, "jacobian", "jacobian")
     if solver.ranges is not None:
-        wrap(solver.ranges, "rows", "range rows")
-    wrap(solver.solver, "solve", "ADMM")
-    wrap(solver, "step", "contact step")
-    wrap(ground, "advance", "whole step")
+        clock.wrap(solver.ranges, "rows", "range rows")
+    clock.wrap(solver.solver, "solve", "ADMM")
+    clock.wrap(solver, "step", "contact step")
+    clock.wrap(ground, "advance", "whole step")
     traj = sim.run(quiet=True)
     n = traj.metadata["steps"]
-    parts = ", ".join(f"{k} {v / n * 1e6:.0f}" for k, v in total.items())
+    parts = ", ".join(f"{k} {v / n * 1e6:.0f}" for k, v in clock.total.items())
     return f"{name}: {traj.metadata['wall_time'] / n * 1e6:.0f} us a step in the loop; {parts}"
 
 

@@ -184,11 +184,7 @@ def _write_results(out: str | Path, rows: list[Row], convergence: dict) -> Path:
     """accuracy.csv, convergence.csv and a work-precision PNG per scene written in ``out``."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "accuracy.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(Row.__dataclass_fields__)
-        for r in rows:
-            w.writerow([getattr(r, f) for f in Row.__dataclass_fields__])
+    _write_csv(folder / "accuracy.csv", rows)
     for name in convergence:
         _plot(name, [r for r in rows if r.scene == name], folder / f"accuracy_{name}.png")
     with open(folder / "convergence.csv", "w", newline="") as fh:
@@ -198,6 +194,16 @@ def _write_results(out: str | Path, rows: list[Row], convergence: dict) -> Path:
           ", ".join(f"{k} {v:.1e}" for k, v in convergence.items()))  # fmt: skip
     print(f"wrote {folder / 'accuracy.csv'}, convergence.csv and accuracy_<scene>.png")
     return folder
+
+
+def _write_csv(path: Path, rows: list[Row], kept=()) -> None:
+    """accuracy.csv: the header, the ``kept`` rows as read (lists of strings), then ``rows``."""
+    fields = list(Row.__dataclass_fields__)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(fields)
+        w.writerows(kept)
+        w.writerows([getattr(r, f) for f in fields] for r in rows)
 
 
 def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
@@ -241,17 +247,11 @@ def run_fall_benchmark(quick: bool = False, out: str | Path = "results/bench") -
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "accuracy.csv"
-    fields = list(Row.__dataclass_fields__)
     kept = []
     if path.exists():
         with open(path, newline="") as fh:
-            kept = [r for r in csv.reader(fh)][1:]
-    kept = [r for r in kept if r and r[0] not in convergence]
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(fields)
-        w.writerows(kept)
-        w.writerows([getattr(r, f) for f in fields] for r in rows)
+            kept = [r for r in list(csv.reader(fh))[1:] if r and r[0] not in convergence]
+    _write_csv(path, rows, kept)
     for name in convergence:
         _plot(name, [r for r in rows if r.scene == name], folder / f"accuracy_{name}.png")
     print(f"wrote the falls' rows into {path} and accuracy_<fall>.png")

@@ -14,6 +14,7 @@ from ..model import load
 
 __all__ = [
     "CONTROL_DT",
+    "Clock",
     "MALE",
     "RECORD_RATE",
     "WALK_STEPS",
@@ -122,3 +123,26 @@ def write_rows(path, rows, columns=None) -> None:
         w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
+
+
+class Clock:
+    """Accumulated wall time of wrapped callables, by label."""
+
+    def __init__(self) -> None:
+        self.total: dict[str, float] = {}
+
+    def timed(self, fn, label: str):
+        """``fn`` with its wall time added to ``label``'s."""
+
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                self.total[label] = self.total.get(label, 0.0) + time.perf_counter() - start
+
+        return timed
+
+    def wrap(self, owner, name: str, label: str) -> None:
+        """Time ``owner.name`` under ``label`` from now on."""
+        setattr(owner, name, self.timed(getattr(owner, name), label))

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from .common import load_male, pinocchio_contacts, write_rows
+from .common import Clock, load_male, pinocchio_contacts, write_rows
 
 if TYPE_CHECKING:
     from ..walking.run import WalkResult
@@ -34,29 +34,6 @@ WALK_COLUMNS = ["control", "real_time_factor", "wall", "bare_plant", "ratio", "q
                 "checks_passed"]  # fmt: skip
 
 
-class _Clock:
-    """Accumulated wall time of wrapped callables, by label."""
-
-    def __init__(self) -> None:
-        self.total: dict[str, float] = {}
-
-    def timed(self, fn, label: str):
-        """``fn`` with its wall time added to ``label``'s."""
-
-        def timed(*args, **kwargs):
-            start = time.perf_counter()
-            try:
-                return fn(*args, **kwargs)
-            finally:
-                self.total[label] = self.total.get(label, 0.0) + time.perf_counter() - start
-
-        return timed
-
-    def wrap(self, owner, name: str, label: str) -> None:
-        """Time ``owner.name`` under ``label`` from now on."""
-        setattr(owner, name, self.timed(getattr(owner, name), label))
-
-
 def _timed_walk(h, gait, control_dt: float) -> tuple[dict, WalkResult, list]:
     """One walk with its pieces timed; returns (seconds by piece, result, states for the bare
     plant: (q, v, welds) samples)."""
@@ -64,7 +41,7 @@ def _timed_walk(h, gait, control_dt: float) -> tuple[dict, WalkResult, list]:
     from ..trajectory import Recorder
     from ..walking import run as walk_run
 
-    clock = _Clock()
+    clock = Clock()
     samples: list[tuple[np.ndarray, np.ndarray, list]] = []
     original = Recorder.add
     record = clock.timed(original, "records")

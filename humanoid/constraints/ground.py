@@ -137,32 +137,25 @@ class _Candidates:
     def __init__(self, shapes: list[_Shape]) -> None:
         self.joints = np.unique([s.joint for s in shapes]).astype(int)
         slot = {int(j): k for k, j in enumerate(self.joints)}
-        fixed, sph, rims = [], [], []
+        # one row per point: (slot of its joint, shape, index in the shape, local point), the
+        # fixed points of every shape first, then the sphere centres, then the rim centres
+        fixed, spheres, rims = [], [], []
         for i, s in enumerate(shapes):
-            n0, n1 = len(s.fixed), len(s.fixed) + len(s.spheres)
-            fixed += [(slot[s.joint], i, k, p) for k, p in enumerate(s.fixed)]
-            sph += [(slot[s.joint], i, n0 + k, c, r) for k, (c, r) in enumerate(s.spheres)]
-            rims += [(slot[s.joint], i, n1 + k, c, a, r) for k, (c, a, r) in enumerate(s.rims)]
-        self.f_slot, self.f_shape, self.f_index = (np.array([x[k] for x in fixed], dtype=int)
-                                                   for k in range(3))  # fmt: skip
-        self.f_point = np.array([x[3] for x in fixed]).reshape(-1, 3)
-        self.s_slot, self.s_shape, self.s_index = (np.array([x[k] for x in sph], dtype=int)
-                                                   for k in range(3))  # fmt: skip
-        self.s_centre = np.array([x[3] for x in sph]).reshape(-1, 3)
-        self.s_radius = np.array([x[4] for x in sph])
-        self.r_slot, self.r_shape, self.r_index = (np.array([x[k] for x in rims], dtype=int)
-                                                   for k in range(3))  # fmt: skip
-        self.r_centre = np.array([x[3] for x in rims]).reshape(-1, 3)
-        self.r_axis = np.array([x[4] for x in rims]).reshape(-1, 3)
-        self.r_radius = np.array([x[5] for x in rims])
+            n0, n1, j = len(s.fixed), len(s.fixed) + len(s.spheres), slot[s.joint]
+            fixed += [(j, i, k, p) for k, p in enumerate(s.fixed)]
+            spheres += [(j, i, n0 + k, c) for k, (c, _) in enumerate(s.spheres)]
+            rims += [(j, i, n1 + k, c) for k, (c, _, _) in enumerate(s.rims)]
+        rows = fixed + spheres + rims
+        self._slot, self._shape, self._index = (np.array([x[k] for x in rows], dtype=int)
+                                                for k in range(3))  # fmt: skip
+        self._local = np.array([x[3] for x in rows]).reshape(-1, 3)
+        self._sphere = np.arange(len(fixed), len(fixed) + len(spheres))
+        self._round = len(fixed) + len(spheres)  # the rims' rows start here
+        self.s_radius = np.array([r for s in shapes for _, r in s.spheres])
+        self.r_slot = self._slot[self._round :]
+        self.r_axis = np.array([a for s in shapes for _, a, _ in s.rims]).reshape(-1, 3)
+        self.r_radius = np.array([r for s in shapes for *_, r in s.rims])
         self.offset = np.cumsum([0] + [len(s.fixed) for s in shapes])  # shape -> first fixed row
-        # all placed in one product: fixed points, sphere centres, rim centres (in this order)
-        self._local = np.vstack([self.f_point, self.s_centre, self.r_centre])
-        self._slot = np.concatenate([self.f_slot, self.s_slot, self.r_slot])
-        self._shape = np.concatenate([self.f_shape, self.s_shape, self.r_shape])
-        self._index = np.concatenate([self.f_index, self.s_index, self.r_index])
-        self._sphere = np.arange(len(self.f_slot), len(self.f_slot) + len(self.s_slot))
-        self._round = len(self.f_slot) + len(self.s_slot)  # the rims' rows start here
 
     def place(self, data: pin.Data):
         """(R (u, 3, 3), t (u, 3)): the placements of the shapes' joints."""
