@@ -65,6 +65,7 @@ bench: $(STAMP)
 	$(PY) -m humanoid bench step -o docs/bench
 	$(PY) -m humanoid bench walk -o docs/bench
 	$(PY) -m humanoid bench scaling -o docs/bench
+	$(PY) -m humanoid bench track -o docs/bench
 	$(PY) scripts/readme_tables.py
 
 studies: $(STAMP)

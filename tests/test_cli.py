@@ -197,6 +197,26 @@ def test_bench_walk_quick_splits_the_wall_time(tmp_path, capsys):
     assert "| 8 ms |" in (tmp_path / "walk.md").read_text()
 
 
+def test_bench_track_times_the_default_step_and_1_ms(tmp_path, capsys):
+    """`bench track` (the male walk alone, quick): a row per step, the default first; each run
+    completed, its real-time factor its simulated over its wall seconds, its parts within the
+    wall time; the table is the CSV's."""
+    from humanoid.bench.track import TRACK_COLUMNS, run_track_benchmark
+    from humanoid.motion.tracking import DT
+
+    assert run_track_benchmark(quick=True, out=tmp_path, walks=("male walk",)) == 0
+    rows = list(csv.DictReader(open(tmp_path / "track.csv")))
+    assert list(rows[0]) == TRACK_COLUMNS
+    assert [r["dt"] for r in rows] == [f"{DT * 1e3:g} ms", "1 ms"]
+    table = (tmp_path / "track.md").read_text()
+    for r in rows:
+        assert r["completed"] == "True" and float(r["joint_rms_deg"]) < 1.0
+        wall, simulated = float(r["wall"]), float(r["simulated"])
+        assert float(r["real_time_factor"]) == pytest.approx(simulated / wall)
+        assert float(r["controller"]) > 0 and float(r["plant"]) > 0 and float(r["other"]) >= 0
+        assert f"| male walk | {r['dt']} | {simulated:.2f} | {wall:.2f} |" in table
+
+
 def test_bench_scaling_quick_fits_the_growth(tmp_path, capsys):
     from humanoid.bench.scaling import EXTRA, SCALING_COLUMNS
 

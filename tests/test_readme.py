@@ -140,7 +140,8 @@ def test_the_speed_tables_are_the_benchmark_output():
     from humanoid.bench.step import STEP_COLUMNS
     from humanoid.bench.walk import WALK_COLUMNS
 
-    for name, file, command in (("speed", "speed.md", "step"), ("walk-speed", "walk.md", "walk")):
+    for name, file, command in (("speed", "speed.md", "step"), ("walk-speed", "walk.md", "walk"),
+                                ("track-speed", "track.md", "track")):  # fmt: skip
         guide = _guide("benchmarks.md")
         block = guide.split(f"<!-- {name}: begin -->\n", 1)[1].split(f"<!-- {name}: end -->")[0]
         written = (ROOT / "docs" / "bench" / file).read_text()

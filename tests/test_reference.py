@@ -335,6 +335,48 @@ def test_the_centre_of_mass_target_is_one_the_feet_can_carry():
     assert np.allclose(closest_in_hull(np.array([3.0, 3.0]), np.array([[1.0, 1.0]])), [1.0, 1.0])
 
 
+def test_the_closest_point_of_the_hull_is_qhulls():
+    """closest_in_hull (its own monotone chain) against Qhull's hull, on seeded supports as a
+    controller sees them (two soles' corners, one sole's, a heel's edge, points on a line, a
+    repeated point) and points inside and out: the same point to 1e-12."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    def reference(p, pts):
+        try:
+            hull = ConvexHull(pts)
+            if np.all(hull.equations[:, :2] @ p + hull.equations[:, 2] <= 1e-12):
+                return p
+            edges = [(pts[a], pts[b]) for a, b in hull.simplices]
+        except (QhullError, ValueError):
+            edges = [(a, b) for a in pts for b in pts]
+        near = []
+        for a, b in edges:
+            ab = b - a
+            u = 0.0 if ab @ ab < 1e-18 else float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
+            near.append(a + u * ab)
+        return min(near, key=lambda x: float(np.linalg.norm(x - p)))
+
+    rng = np.random.default_rng(7)
+    sole = np.array([[-0.05, -0.04], [0.15, -0.04], [0.15, 0.04], [-0.05, 0.04]])
+    for _ in range(300):
+        turn = rng.uniform(-np.pi, np.pi)
+        R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+        kind = rng.integers(5)
+        if kind == 0:  # two soles
+            pts = np.vstack([sole @ R.T, sole @ R.T + rng.uniform(-0.3, 0.3, 2)])
+        elif kind == 1:  # one sole, and a point inside it
+            pts = np.vstack([sole @ R.T, [[0.05, 0.0]]])
+        elif kind == 2:  # a heel's edge
+            pts = sole[[0, 3]] @ R.T
+        elif kind == 3:  # on a line
+            pts = np.outer(rng.uniform(-0.2, 0.2, 4), R[:, 0])
+        else:  # one point, repeated
+            pts = np.repeat(rng.uniform(-0.2, 0.2, (1, 2)), 2, axis=0)
+        pts = pts + rng.uniform(-1.0, 1.0, 2)
+        p = pts.mean(axis=0) + rng.normal(0.0, 0.15, 2)
+        assert np.allclose(closest_in_hull(p, pts), reference(p, pts), atol=1e-12, rtol=0.0)
+
+
 def test_the_centre_of_mass_plan_is_a_pendulum_over_the_feet(male):
     """The planned centre of mass: its derivatives are those of its path (central differences
     on the closed loop, to O(dt^2)); one stride a cycle on average; the floor pushes

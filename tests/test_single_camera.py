@@ -59,9 +59,9 @@ def errors(h, q_fit, q, cam):
 
 
 def test_one_side_camera_fits_the_walk(side_view):
-    """3 px of noise, one view: the joints within 5 deg RMS of the walk's (3.2-3.7 measured on
-    seeds 0-4 by scripts/single_camera.py; four cameras: 2.6-3.7), the root within 10 cm
-    along the ray (34-49 mm) and 1.5 cm across it (6-7 mm); the depth report flags few
+    """3 px of noise, one view: the joints within 5 deg RMS of the walk's (3.2-3.6 measured on
+    seeds 0-4 by scripts/single_camera.py; four cameras: 2.5-2.8), the root within 10 cm
+    along the ray (37-49 mm) and 1.5 cm across it (6-7 mm); the depth report flags few
     frames; the feet on the floor."""
     h, t, q, cam, uv = side_view
     with warnings.catch_warnings():

@@ -11,6 +11,7 @@ BENCHMARKS = {
     "scaling": ("scaling", "run_scaling_benchmark"),
     "accuracy": ("accuracy", "run_accuracy_benchmark"),
     "motion": ("motion", "run_motion_benchmark"),
+    "track": ("track", "run_track_benchmark"),
 }
 
 
@@ -19,7 +20,7 @@ def add_bench(command) -> None:
     bench = command(
         "bench",
         help="benchmarks: step cost, walking cost, work-precision "
-        "(accuracy), motion against OpenSim",
+        "(accuracy), motion against OpenSim, tracking against real time",
     )
     bench.add_argument(
         "kind",
@@ -27,7 +28,7 @@ def add_bench(command) -> None:
         help="step: one step against Pinocchio (and MuJoCo on the ground); walk: a simulated "
         "second of walking, its parts and the bare plant; scaling: cost against nv and the "
         "contacts; motion: inverse dynamics and "
-        "kinematics against OpenSim 4",
+        "kinematics against OpenSim 4; track: tracking recorded walks against real time",
     )
     bench.add_argument("--quick", action="store_true", help="fewer repetitions")
     bench.add_argument("-o", "--output", default="results/bench", help="folder for the CSV")

@@ -97,7 +97,7 @@ def add_track(command) -> None:
                     "estimated on the floor)")  # fmt: skip
     tr.add_argument("--cutoff", type=float, help="low-pass cutoff of the reference [Hz] (0: "
                     "none; default: Winter's residual analysis of the motion)")  # fmt: skip
-    tr.add_argument("--dt", type=float, default=1e-3, help="simulation step [s]")
+    tr.add_argument("--dt", type=float, help="simulation and control step [s] (default 2 ms)")
     tr.add_argument("--toes", action="store_true", dest="free_toes", help="a body with toes "
                     "tracks with its toe hinges free, rolling over them (default: locked, one "
                     "rigid foot)")  # fmt: skip

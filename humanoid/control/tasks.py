@@ -15,7 +15,6 @@ from typing import TypeVar
 
 import numpy as np
 import pinocchio as pin
-from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import ControlError
 
@@ -254,20 +253,41 @@ class ForceTask:
         return self.weight * S.T @ S, -self.weight * S.T @ target
 
 
+def _turn(o, a, b) -> float:
+    """The z of (a - o) x (b - o): positive when o, a, b turn counter-clockwise."""
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def _hull(pts: np.ndarray) -> np.ndarray:
+    """The vertices of the convex hull of 2D points, counter-clockwise (Andrew's monotone
+    chain; collinear points dropped: a segment's two ends, or one point). A support has a few
+    points: this is a fifth of Qhull's call."""
+    p = sorted({(float(x), float(y)) for x, y in pts})
+    if len(p) < 3:
+        return np.array(p)
+
+    def half(seq):
+        out: list[tuple[float, float]] = []
+        for c in seq:
+            while len(out) > 1 and _turn(out[-2], out[-1], c) <= 0.0:
+                out.pop()
+            out.append(c)
+        return out[:-1]
+
+    return np.array(half(p) + half(reversed(p)))
+
+
 def closest_in_hull(p: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """The point of the convex hull of 2D points ``pts`` nearest to p (p itself if inside)."""
-    try:
-        hull = ConvexHull(pts)
-        if np.all(hull.equations[:, :2] @ p + hull.equations[:, 2] <= 1e-12):
-            return p
-        edges = [(pts[a], pts[b]) for a, b in hull.simplices]
-    except (QhullError, ValueError):  # fewer than 3 points, or all on a line
-        edges = [(a, b) for a in pts for b in pts]
-    best, dist = pts[0], np.inf
-    for a, b in edges:
-        ab = b - a
-        u = 0.0 if ab @ ab < 1e-18 else float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
-        x = a + u * ab
-        if np.linalg.norm(x - p) < dist:
-            best, dist = x, float(np.linalg.norm(x - p))
-    return best
+    """The point of the convex hull of 2D points ``pts`` nearest to p (p itself if inside, to
+    1e-12 m)."""
+    a = _hull(pts)
+    if len(a) == 1:
+        return a[0].copy()
+    ab = np.roll(a, -1, axis=0) - a
+    ap = p - a
+    length = np.sqrt((ab * ab).sum(axis=1))
+    if len(a) > 2 and np.all(ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0] >= -1e-12 * length):
+        return p
+    u = np.clip((ap * ab).sum(axis=1) / (length * length), 0.0, 1.0)
+    x = a + u[:, None] * ab
+    return x[np.argmin(((x - p) ** 2).sum(axis=1))]

@@ -732,7 +732,7 @@ def _tracked_html(args, h, traj, recording, t) -> None:
 def run_track(args) -> int:
     """``humanoid track``: a motion followed in forward simulation, by joint torques."""
     from .inverse_dynamics import joint_labels
-    from .tracking import ReferenceRangeWarning, describe_clamped, inside_ranges, track
+    from .tracking import DT, ReferenceRangeWarning, describe_clamped, inside_ranges, track
 
     h, what, t, q, loads, recording = _tracking_input(args)
     cutoff = "auto" if args.cutoff is None else (None if args.cutoff <= 0 else args.cutoff)
@@ -746,7 +746,7 @@ def run_track(args) -> int:
 
     with warnings.catch_warnings(record=True) as caught:  # (the reduction's small excursions)
         warnings.simplefilter("always", ReferenceRangeWarning)
-        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt, quiet=args.quiet, floor=floor,
+        res = track(h, t, q, loads, cutoff=cutoff, dt=args.dt or DT, quiet=args.quiet, floor=floor,
                     toes=getattr(args, "free_toes", False))  # fmt: skip
     again = [m.split(": ", 1)[-1] for m in _said(caught, ReferenceRangeWarning)]
     assert res.body is not None  # track() returns the body it tracked with
