@@ -41,13 +41,18 @@ from .errors import BodyParameterError
 __all__ = [
     "CHAIN",
     "DE_LEVA_1996",
+    "JOINT_RANGES",
     "REFERENCE_SUBJECT",
+    "SIDES",
     "STATURE_FRACTIONS",
     "BodyParameters",
+    "JointRange",
     "Segment",
     "SegmentRow",
     "FootParts",
     "body_dimensions",
+    "range_names",
+    "ranges_text",
     "segments",
     "split_foot",
 ]
@@ -184,6 +189,93 @@ def _check_finite_range(name: str, value: float, lo: float, hi: float, unit: str
     return value
 
 
+SIDES = ("left", "right")
+
+
+@dataclass(frozen=True)
+class JointRange:
+    """Range of motion of one joint axis [deg], positive in the anatomical sense."""
+
+    lower: float
+    upper: float
+    source: str
+
+
+# Clinical ranges of motion.
+# MERCK: Merck Manual "Normal Values for Range of Motion of Joints"; ROM-SHEET: "Normal ROM"
+# sheet; KURZ: Kurz via yoga-age.com; 38CFR: 38 CFR 4.71a Note (2) normals (quoted, unverified),
+# split evenly between the lumbar and thoracic joints for the thoracolumbar spine.
+# fmt: off
+JOINT_RANGES = MappingProxyType({
+    "hip_flexion":        JointRange(-30.0, 125.0, "ROM-SHEET: flexion 125, extension 30"),
+    "hip_adduction":      JointRange(-45.0, 25.0, "ROM-SHEET: abduction 45, adduction 25"),
+    "hip_rotation":       JointRange(-45.0, 45.0, "MERCK: internal 45, external 45"),
+    "knee":               JointRange(0.0, 140.0, "ROM-SHEET: flexion 140; no hyperextension"),
+    "ankle_flexion":      JointRange(-50.0, 20.0, "MERCK: dorsiflexion 20, plantarflexion 50"),
+    "ankle_inversion":    JointRange(-25.0, 35.0, "MERCK: inversion 35, eversion 25"),
+    "lumbar_flexion":     JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
+    "lumbar_bending":     JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
+    "lumbar_rotation":    JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
+    "thoracic_flexion":   JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
+    "thoracic_bending":   JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
+    "thoracic_rotation":  JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
+    "neck_flexion":       JointRange(-45.0, 45.0, "38CFR: cervical flexion 45, extension 45"),
+    "neck_bending":       JointRange(-45.0, 45.0, "38CFR: cervical lateral flexion 45"),
+    "neck_rotation":      JointRange(-80.0, 80.0, "38CFR: cervical rotation 80"),
+    "shoulder_flexion":   JointRange(-50.0, 180.0, "ROM-SHEET: flexion 180; MERCK: extension 50"),
+    "shoulder_abduction": JointRange(-45.0, 180.0, "ROM-SHEET: abduction 180; KURZ: adduction 45"),
+    "shoulder_rotation":  JointRange(-90.0, 90.0, "MERCK: internal 90, external 90"),
+    "elbow":              JointRange(0.0, 145.0, "ROM-SHEET: flexion 145"),
+    "wrist_flexion":      JointRange(-70.0, 80.0, "ROM-SHEET: flexion 80, extension 70"),
+    "wrist_deviation":    JointRange(-45.0, 20.0, "ROM-SHEET: radial 20, ulnar 45"),
+    "mtp":                JointRange(-45.0, 70.0, "AAOS normal first MTP: flexion 45, "
+                                                   "extension 70 (OrthopaedicsOne)"),
+})
+# fmt: on
+
+
+def range_names() -> tuple[str, ...]:
+    """The names :class:`BodyParameters`' ``ranges`` takes: each joint kind (both sides, or the
+    spine's and neck's one joint), then each sided joint (``left_ankle_flexion``)."""
+    kinds = tuple(JOINT_RANGES)
+    sided = [f"{s}_{k}" for s in SIDES for k in kinds
+             if not k.startswith(("lumbar", "thoracic", "neck"))]  # fmt: skip
+    return (*kinds, *sided)
+
+
+def ranges_text(ranges: Mapping[str, tuple[float, float]]) -> str:
+    """``ranges`` as the commands print them: ``ankle_flexion -50 to 30 deg, ...``."""
+    return ", ".join(f"{k} {a:g} to {b:g} deg" for k, (a, b) in ranges.items())
+
+
+def _checked_ranges(given) -> dict[str, tuple[float, float]]:
+    """``ranges`` validated: known names, two finite numbers in [-180, 180] deg, lower first."""
+    try:
+        items = dict(given or {}).items()
+    except (TypeError, ValueError):
+        raise BodyParameterError(f"ranges must be a mapping of joint names to (lower, upper) "
+                                 f"[deg], got {type(given).__name__}") from None  # fmt: skip
+    valid = range_names()
+    out = {}
+    for key, value in items:
+        if key not in valid:
+            raise BodyParameterError(f"unknown joint range {key!r}; valid names: a kind "
+                                     f"({', '.join(valid[:10])}, ...) or a sided joint "
+                                     "(left_ankle_flexion, ...)")  # fmt: skip
+        try:
+            lower, upper = value
+        except (TypeError, ValueError):
+            raise BodyParameterError(f"ranges[{key!r}] must be (lower, upper) [deg], got "
+                                     f"{value!r}") from None  # fmt: skip
+        lower = _check_finite_range(f"ranges[{key!r}] lower", lower, -180.0, 180.0, "deg")
+        upper = _check_finite_range(f"ranges[{key!r}] upper", upper, -180.0, 180.0, "deg")
+        if not lower < upper:
+            raise BodyParameterError(f"ranges[{key!r}]: the lower bound {lower:g} deg must be "
+                                     f"below the upper {upper:g}")  # fmt: skip
+        out[key] = (lower, upper)
+    return out
+
+
 @dataclass(frozen=True)
 class BodyParameters:
     """A person: stature, mass and sex, validated on construction.
@@ -199,6 +291,10 @@ class BodyParameters:
         toes: Split each foot at the metatarsophalangeal joint into a rearfoot and a toes
             segment on a hinge (:func:`split_foot`; the default); the two together keep de
             Leva's foot. False: one-piece feet.
+        ranges: Optional ranges of motion [deg] (lower, upper) that override the clinical
+            normals (:data:`JOINT_RANGES`), keyed by a joint's kind, for both sides
+            (``ankle_flexion``), or by one joint (``right_ankle_flexion``): a subject's own,
+            measured (a contracture, a crouch gait's dorsiflexion past 20 deg).
 
     Raises:
         BodyParameterError: a value is out of range, not finite, or of an unknown name.
@@ -209,6 +305,7 @@ class BodyParameters:
     sex: str = "male"
     segment_lengths: Mapping[str, float] = field(default_factory=dict)
     toes: bool = True
+    ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not isinstance(self.toes, bool):
@@ -237,11 +334,13 @@ class BodyParameters:
                 f"segment_lengths[{key!r}]", value, 0.005, 0.6 * self.height, "m"
             )
         object.__setattr__(self, "segment_lengths", MappingProxyType(lengths))
+        object.__setattr__(self, "ranges", MappingProxyType(_checked_ranges(self.ranges)))
         body_dimensions(self)  # raises if the measured lengths cannot close the chain
 
     def __hash__(self) -> int:
         lengths = tuple(sorted(self.segment_lengths.items()))
-        return hash((self.height, self.mass, self.sex, lengths, self.toes))
+        return hash((self.height, self.mass, self.sex, lengths, self.toes,
+                     tuple(sorted(self.ranges.items()))))  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -43,7 +43,10 @@ from lxml import etree
 
 from .anthropometry import (
     HEEL_TO_ANKLE_FRACTION,
+    JOINT_RANGES,
+    SIDES,
     BodyParameters,
+    JointRange,
     Segment,
     body_dimensions,
     segments,
@@ -52,51 +55,11 @@ from .anthropometry import (
 
 __all__ = ["JOINT_RANGES", "SIDES", "build_urdf", "contact_point_names", "write_urdf"]
 
-SIDES = ("left", "right")
 CONTACT_CORNERS = ("heel_inner", "heel_outer", "toe_inner", "toe_outer")
 TISSUE_DENSITY = 1050.0  # [kg/m^3] used only to size the visual primitives
 
 
-@dataclass(frozen=True)
-class JointRange:
-    """Range of motion of one joint axis [deg], positive in the anatomical sense."""
-
-    lower: float
-    upper: float
-    source: str
-
-
-# Clinical ranges of motion.
-# MERCK: Merck Manual "Normal Values for Range of Motion of Joints"; ROM-SHEET: "Normal ROM"
-# sheet; KURZ: Kurz via yoga-age.com; 38CFR: 38 CFR 4.71a Note (2) normals (quoted, unverified),
-# split evenly between the lumbar and thoracic joints for the thoracolumbar spine.
 # fmt: off
-JOINT_RANGES = MappingProxyType({
-    "hip_flexion":        JointRange(-30.0, 125.0, "ROM-SHEET: flexion 125, extension 30"),
-    "hip_adduction":      JointRange(-45.0, 25.0, "ROM-SHEET: abduction 45, adduction 25"),
-    "hip_rotation":       JointRange(-45.0, 45.0, "MERCK: internal 45, external 45"),
-    "knee":               JointRange(0.0, 140.0, "ROM-SHEET: flexion 140; no hyperextension"),
-    "ankle_flexion":      JointRange(-50.0, 20.0, "MERCK: dorsiflexion 20, plantarflexion 50"),
-    "ankle_inversion":    JointRange(-25.0, 35.0, "MERCK: inversion 35, eversion 25"),
-    "lumbar_flexion":     JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
-    "lumbar_bending":     JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
-    "lumbar_rotation":    JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
-    "thoracic_flexion":   JointRange(-15.0, 45.0, "38CFR/2: flexion 90, extension 30"),
-    "thoracic_bending":   JointRange(-15.0, 15.0, "38CFR/2: lateral flexion 30"),
-    "thoracic_rotation":  JointRange(-15.0, 15.0, "38CFR/2: rotation 30"),
-    "neck_flexion":       JointRange(-45.0, 45.0, "38CFR: cervical flexion 45, extension 45"),
-    "neck_bending":       JointRange(-45.0, 45.0, "38CFR: cervical lateral flexion 45"),
-    "neck_rotation":      JointRange(-80.0, 80.0, "38CFR: cervical rotation 80"),
-    "shoulder_flexion":   JointRange(-50.0, 180.0, "ROM-SHEET: flexion 180; MERCK: extension 50"),
-    "shoulder_abduction": JointRange(-45.0, 180.0, "ROM-SHEET: abduction 180; KURZ: adduction 45"),
-    "shoulder_rotation":  JointRange(-90.0, 90.0, "MERCK: internal 90, external 90"),
-    "elbow":              JointRange(0.0, 145.0, "ROM-SHEET: flexion 145"),
-    "wrist_flexion":      JointRange(-70.0, 80.0, "ROM-SHEET: flexion 80, extension 70"),
-    "wrist_deviation":    JointRange(-45.0, 20.0, "ROM-SHEET: radial 20, ulnar 45"),
-    "mtp":                JointRange(-45.0, 70.0, "AAOS normal first MTP: flexion 45, "
-                                                   "extension 70 (OrthopaedicsOne)"),
-})
-
 # Left-side joint axes for a positive anatomical angle; the right side mirrors them.
 # Peak torque [N m] for a 75 kg adult (scaled with body mass) and peak speed [rad/s]: the order
 # of magnitude of example-robot-data's human.urdf limits (effort 20-190 N m, velocity 2-18.6).
@@ -233,7 +196,11 @@ class _Builder:
 
     def revolute(self, name, kind, side, parent, child, xyz):
         axis, effort, velocity = AXES[kind]
+        own = self.params.ranges  # the subject's, by joint, then by kind
         rng = JOINT_RANGES[kind]
+        if name in own or kind in own:
+            lower, upper = own.get(name, own.get(kind))
+            rng = JointRange(lower, upper, "the subject's")
         passive = PASSIVE_JOINTS.get(kind)
         dynamics = None
         if passive is not None:  # the damping in the URDF; the stiffness in PASSIVE_JOINTS
@@ -557,10 +524,11 @@ def build_urdf(params: BodyParameters) -> str:
     # yourdfpy's write_xml_string drops its keyword arguments (0.0.60), so format with lxml.
     text = etree.tostring(tree, pretty_print=True, encoding="unicode")
     lengths = "".join(f", {k} {v} m" for k, v in sorted(params.segment_lengths.items()))
+    ranges = "".join(f", range {k} {a} {b} deg" for k, (a, b) in sorted(params.ranges.items()))
     return (
         '<?xml version="1.0"?>\n'
         f"<!-- humanoid body: height {params.height} m, mass {params.mass} kg, sex {params.sex}"
-        f"{lengths}{', toes' if params.toes else ''}. Segment parameters: de Leva (1996)"
+        f"{lengths}{', toes' if params.toes else ''}{ranges}. Segment parameters: de Leva (1996)"
         " Table 4. Written by humanoid.build_urdf."
         " -->\n" + text
     )

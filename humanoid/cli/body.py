@@ -7,7 +7,7 @@ import argparse
 import math
 
 from ..variants import REGISTRIES
-from .options import BODY_HELP, load_any, model_options, segment_length
+from .options import BODY_HELP, load_any, model_options, range_option, segment_length
 
 __all__ = [
     "add_build",
@@ -43,6 +43,7 @@ def add_build(command) -> None:
         help="split each foot at the metatarsophalangeal joint into a rearfoot and a toes "
         "segment on a hinge (default; --no-toes: one rigid foot, de Leva's)",
     )
+    range_option(b)
     b.add_argument("-o", "--output", required=True, help="URDF file to write")
 
 
@@ -76,13 +77,15 @@ def add_variants(command) -> None:
 
 
 def run_build(args) -> int:
-    from ..anthropometry import BodyParameters
+    from ..anthropometry import BodyParameters, ranges_text
     from ..body import write_urdf
 
-    params = BodyParameters(args.height, args.mass, args.sex, dict(args.segment), args.toes)
+    params = BodyParameters(args.height, args.mass, args.sex, dict(args.segment), args.toes,
+                            dict(args.ranges))  # fmt: skip
     path = write_urdf(params, args.output)
     toes = ", toes" if params.toes else ""
-    print(f"wrote {path} ({params.sex}, {params.height} m, {params.mass} kg{toes})")
+    own = f"; {ranges_text(params.ranges)}" if params.ranges else ""
+    print(f"wrote {path} ({params.sex}, {params.height} m, {params.mass} kg{toes}{own})")
     return 0
 
 

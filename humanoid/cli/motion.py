@@ -4,7 +4,14 @@ when a command runs)."""
 
 from __future__ import annotations
 
-from .options import BODY_HELP, MARKER_SET_HELP, SCALE_MODES, keypoint_options, subject_options
+from .options import (
+    BODY_HELP,
+    MARKER_SET_HELP,
+    SCALE_MODES,
+    keypoint_options,
+    range_option,
+    subject_options,
+)
 
 __all__ = ["add_id", "add_ik", "add_loads", "add_report", "add_scale", "add_track", "run"]
 
@@ -59,6 +66,7 @@ def add_scale(command) -> None:
                     "default: the toolkit's set); 'fixed = true' keeps one in place")  # fmt: skip
     sc.add_argument("--time-range", nargs=2, type=float, metavar=("START", "END"),
                     help="the frames to use [s] (default: all)")  # fmt: skip
+    range_option(sc, " (over the unscaled body's; written into the scaled URDF)")
     sc.add_argument("-o", "--output", required=True, help="the scaled body (URDF); its marker "
                     "set is written next to it, <name>_markers.toml")  # fmt: skip
 

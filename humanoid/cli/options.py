@@ -51,6 +51,32 @@ def segment_length(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f"length of {name!r} is not a number: {value!r}") from None
 
 
+def joint_range(text: str) -> tuple[str, tuple[float, float]]:
+    """``JOINT=LOWER,UPPER`` [deg] (``ankle_flexion=-50,30``): a subject's range of motion."""
+    name, sep, value = text.partition("=")
+    parts = value.split(",")
+    bad = argparse.ArgumentTypeError(f"expected JOINT=LOWER,UPPER in degrees (ankle_flexion"
+                                     f"=-50,30), got {text!r}")  # fmt: skip
+    if not sep or len(parts) != 2:
+        raise bad
+    try:
+        return name.strip(), (float(parts[0]), float(parts[1]))
+    except ValueError:
+        raise bad from None
+
+
+RANGE_HELP = ("a joint's range of motion for this subject [deg], over the clinical normal: a "
+              "kind for both sides (ankle_flexion=-50,30) or one joint (right_knee=10,120); "
+              "repeatable")  # fmt: skip
+
+
+def range_option(parser, what: str = "") -> None:
+    """``--range JOINT=LOWER,UPPER`` (repeatable)."""
+    parser.add_argument("--range", type=joint_range, action="append", default=[],
+                        dest="ranges", metavar="JOINT=LOWER,UPPER",
+                        help=RANGE_HELP + what)  # fmt: skip
+
+
 def subject_options(parser) -> None:
     """The body of a motion command: a person's (height, mass, sex) or a model."""
     parser.add_argument("--height", type=float, help="the subject's stature [m] (with --mass, "
@@ -58,6 +84,7 @@ def subject_options(parser) -> None:
     parser.add_argument("--mass", type=float, help="the subject's mass [kg]")
     parser.add_argument("--sex", choices=("male", "female"), help="the subject's sex")
     parser.add_argument("--model", help=BODY_HELP + " (default: adult_male, or a run's own)")
+    range_option(parser, " (a body built by --height/--mass/--sex, or one of the toolkit's)")
 
 
 def keypoint_options(parser, calibration: str | None = None) -> None:

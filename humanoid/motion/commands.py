@@ -38,22 +38,39 @@ _FLEXION = ("hip_flexion", "knee_angle", "ankle_angle")
 
 def subject_body(args):
     """The body of the command: built from ``--height --mass --sex`` if given, else
-    ``--model`` (a URDF, a shipped body, an example-robot-data robot)."""
-    from ..anthropometry import BodyParameters
+    ``--model`` (a URDF, a shipped body, an example-robot-data robot); ``--range`` gives it
+    the subject's ranges of motion (one of the toolkit's bodies, rebuilt with them)."""
+    from ..anthropometry import BodyParameters, ranges_text
     from ..body import build_urdf
     from ..model import load
 
+    ranges = dict(getattr(args, "ranges", None) or [])
+    own = f"; {ranges_text(ranges)}" if ranges else ""
     given = [x is not None for x in (args.height, args.mass, args.sex)]
     if any(given):
         if not all(given):
             raise UsageError("--height, --mass and --sex go together (a person's body)")
         if args.model is not None:
             raise UsageError("give either --model or --height/--mass/--sex, not both")
-        params = BodyParameters(args.height, args.mass, args.sex)
-        return load(build_urdf(params)), f"{args.sex}, {args.height} m, {args.mass} kg"
+        params = BodyParameters(args.height, args.mass, args.sex, ranges=ranges)
+        return load(build_urdf(params)), f"{args.sex}, {args.height} m, {args.mass} kg{own}"
     name = args.model or "adult_male"
     h = load(name)
-    return h, f"{name} ({h.mass:.1f} kg)"
+    if ranges:
+        h = _with_ranges(h, ranges)
+    return h, f"{name} ({h.mass:.1f} kg){own}"
+
+
+def _with_ranges(h, ranges: dict):
+    """:func:`~humanoid.motion.scale.with_ranges`, its refusal a usage error."""
+    from .scale import ScalingError, with_ranges
+
+    try:
+        return with_ranges(h, ranges)
+    except ScalingError:
+        raise UsageError(f"--range: {h.source} is not one of the toolkit's bodies (humanoid "
+                         "build or scale, adult_male, adult_female): give its URDF the "
+                         "ranges instead") from None  # fmt: skip
 
 
 MAX_SPEED = 15.0  # [m/s] a person's walk or run (a treadmill's belt) is slower
@@ -120,6 +137,7 @@ def read_motion(args):
     coordinate file (.mot/.sto) with optional ``--loads`` (.mot, or a C3D's plates)."""
     import warnings
 
+    from ..anthropometry import ranges_text
     from ..trajectory import Trajectory
     from .coordinates import UnmappedWarning, configurations
     from .loads import Load
@@ -134,6 +152,10 @@ def read_motion(args):
 
             # as it was loaded (a walk's toes locked)
             h, what = humanoid_for(run), f"{run.metadata.get('model')} (the run's)"
+            ranges = dict(getattr(args, "ranges", None) or [])
+            if ranges:
+                h = _with_ranges(h, ranges)
+                what += f"; {ranges_text(ranges)}"
         else:
             if own:
                 args.model = run.metadata.get("model")
@@ -957,7 +979,7 @@ def run_scale(args) -> int:
     with its placed marker set next to it (``<name>_markers.toml``)."""
     import warnings
 
-    from ..anthropometry import CHAIN
+    from ..anthropometry import CHAIN, ranges_text
     from ..model import load
     from .markers import write_markers
     from .scale import ScaleWarning, scale_body
@@ -974,7 +996,8 @@ def run_scale(args) -> int:
         warnings.simplefilter("always", ScaleWarning)
         r = scale_body(h, static, marker_set, mass, height=args.height, sex=args.sex,
                        time_range=tuple(args.time_range) if args.time_range else None,
-                       fit_frames=args.fit_frames, mode=args.mode)  # fmt: skip
+                       fit_frames=args.fit_frames, mode=args.mode,
+                       ranges=dict(args.ranges))  # fmt: skip
     elapsed = clock.perf_counter() - start
     out = Path(args.output)
     out.write_text(r.urdf, encoding="utf-8")
@@ -1003,6 +1026,8 @@ def run_scale(args) -> int:
     told = "" if args.height else " (stature from the markers)"
     print(f"body         {name} ({r.height[0]:.3f} m, {h.mass:.1f} kg) -> {p.height:.3f} m, "
           f"{p.mass:.1f} kg, {p.sex}{told}")  # fmt: skip
+    if p.ranges:
+        print(f"ranges       {ranges_text(p.ranges)} (the subject's)")
     print(f"{'measurement':13s}{'factor':>8s}  pairs: experimental / unscaled body [mm]")
     for m in r.measured:
         pairs = ", ".join(f"{a}-{b} {e * 1e3:.1f}/{d * 1e3:.1f}" for a, b, e, d, _ in m.pairs)

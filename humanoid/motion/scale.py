@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -62,6 +63,7 @@ __all__ = [
     "ScaleWarning",
     "body_parameters_of",
     "scale_body",
+    "with_ranges",
     "MODES",
 ]
 
@@ -210,7 +212,8 @@ class ScaleResult:
 
 _COMMENT = re.compile(
     r"humanoid body: height (?P<height>[-+.\deE]+) m, mass (?P<mass>[-+.\deE]+) kg, "
-    r"sex (?P<sex>\w+)(?P<lengths>(?:, \w+ [-+.\deE]+ m)*)(?P<toes>, toes)?\."
+    r"sex (?P<sex>\w+)(?P<lengths>(?:, \w+ [-+.\deE]+ m)*)(?P<toes>, toes)?"
+    r"(?P<ranges>(?:, range \w+ [-+.\deE]+ [-+.\deE]+ deg)*)\."
 )
 
 
@@ -228,13 +231,15 @@ def body_parameters_of(h):
     found = _COMMENT.search(text[:2000])
     if found is None:
         raise ScalingError(
-            f"{h.source}: scaling needs one of the toolkit's bodies (humanoid build, "
-            "adult_male, adult_female: their URDF says their height, mass and sex), or "
-            "BodyParameters"
+            f"{h.source}: not one of the toolkit's bodies (humanoid build, "
+            "adult_male, adult_female: their URDF says their height, mass and sex); give "
+            "BodyParameters instead"
         )
     lengths = {k: float(v) for k, v in re.findall(r", (\w+) ([-+.\deE]+) m", found["lengths"])}
+    pattern = r", range (\w+) ([-+.\deE]+) ([-+.\deE]+) deg"
+    ranges = {k: (float(a), float(b)) for k, a, b in re.findall(pattern, found["ranges"])}
     return BodyParameters(float(found["height"]), float(found["mass"]), found["sex"], lengths,
-                          toes=found["toes"] is not None)  # fmt: skip
+                          toes=found["toes"] is not None, ranges=ranges)  # fmt: skip
 
 
 def _unscaled(h_or_params):
@@ -481,16 +486,40 @@ def _height(height, lengths: dict, dims: dict, unscaled: float, where: str) -> f
     return height
 
 
-def _built(h, height, mass, sex, lengths, toes):
-    """The scaled body: its parameters, model (the unscaled one's options), URDF, dimensions."""
+def _built(h, height, mass, sex, lengths, toes, ranges):
+    """The scaled body: its parameters, model (the unscaled one's options), URDF, dimensions;
+    the unscaled body's own joint ranges kept."""
     from ..anthropometry import BodyParameters, body_dimensions
     from ..body import build_urdf
+
+    scaled = BodyParameters(height, mass, sex, lengths, toes=toes, ranges=ranges)
+    urdf = build_urdf(scaled)
+    return scaled, _loaded_as(h, urdf), urdf, body_dimensions(scaled)
+
+
+def _loaded_as(h, urdf: str):
+    """``urdf`` loaded with the options ``h`` was loaded with (ball joints, massless links,
+    locked joints)."""
     from ..model import load
 
-    scaled = BodyParameters(height, mass, sex, lengths, toes=toes)
-    urdf = build_urdf(scaled)
     options = {k: h.recipe[k] for k in ("ball_joints", "massless", "lock") if k in h.recipe}
-    return scaled, load(urdf, **options), urdf, body_dimensions(scaled)
+    return load(urdf, **options)
+
+
+def with_ranges(h, ranges):
+    """One of the toolkit's bodies built again with a subject's ranges of motion [deg]
+    (:class:`~humanoid.anthropometry.BodyParameters`' ``ranges``) over its own, loaded as it
+    was (ball joints, locked joints).
+
+    Raises:
+        ScalingError: the body was not built by the toolkit (its URDF does not say its
+            parameters). BodyParameterError: an unknown joint or a range out of order.
+    """
+    from ..body import build_urdf
+
+    params = body_parameters_of(h)
+    params = replace(params, ranges={**params.ranges, **dict(ranges)})
+    return _loaded_as(h, build_urdf(params))
 
 
 def _ratios(height, params, dims, new, made) -> dict:
@@ -535,7 +564,8 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
                mass: float, *, height: float | None = None, sex: str | None = None,
                measurements=MEASUREMENTS,
                time_range: tuple[float, float] | None = None,
-               fit_frames: int | None = None, mode: str = "auto") -> ScaleResult:  # fmt: skip
+               fit_frames: int | None = None, mode: str = "auto",
+               ranges: Mapping[str, tuple[float, float]] | None = None) -> ScaleResult:  # fmt: skip
     """Scale a body to the subject of a static trial (see the module docstring).
 
     Args:
@@ -557,6 +587,8 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
             pair's distances, pairs across a joint measured in the fitted poses, the markers
             placed on a fit of the walk's frames), or ``"auto"``: a walk if the markers move
             more than :data:`~humanoid.motion.scale_walk.MOVING` (median), else static.
+        ranges: The subject's ranges of motion [deg] (``BodyParameters.ranges``: by kind or
+            by joint) over the unscaled body's own (default: its own).
 
     Returns:
         The :class:`ScaleResult`.
@@ -577,8 +609,9 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
 
     h, params = _unscaled(h_or_params)
     where = static.source or "the static trial"
-    # (the mass first: nothing is worth measuring for a body that cannot be built)
-    BodyParameters(params.height, mass, sex or params.sex)
+    # (the mass and the ranges first: nothing is worth measuring for a body not to be built)
+    own = {**params.ranges, **dict(ranges or {})}
+    BodyParameters(params.height, mass, sex or params.sex, ranges=own)
     marker_set = default_markers(h) if marker_set is None else dict(marker_set)
     static, centres, in_set, mode, moves = _trial_used(static, marker_set, mode, time_range, where)
     walk = mode == "walk"
@@ -590,7 +623,8 @@ def scale_body(h_or_params, static: MarkerTrajectories, marker_set: dict[str, Ma
     dims = body_dimensions(params)
     lengths = _lengths(made, unmeasured, dims)
     height = _height(height, lengths, dims, params.height, where)
-    scaled, body, urdf, new = _built(h, height, mass, sex or params.sex, lengths, params.toes)
+    scaled, body, urdf, new = _built(h, height, mass, sex or params.sex, lengths, params.toes,
+                                     own)  # fmt: skip
     carried = _carry(h, body, marker_set, _ratios(height, params, dims, new, made))
     placed, pose, free, scaled_fit = _placed(body, static, some, carried, fitted, walk, where)
     if pose.unconstrained:
