@@ -25,6 +25,7 @@ __all__ = [
     "run_scene",
     "state_error",
     "write_rows",
+    "write_table",
 ]
 
 # The benchmarks' body: the shipped male (1.75 m, 75 kg) with one-piece feet, the body every
@@ -123,6 +124,19 @@ def write_rows(path, rows, columns=None) -> None:
         w = csv.DictWriter(fh, fieldnames=columns, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
+
+
+def write_table(out, name: str, rows, columns, text: str) -> None:
+    """A benchmark's rows as ``<out>/<name>.csv`` and its table ``text`` as ``<name>.md``,
+    the table printed (the folder made if needed)."""
+    from pathlib import Path
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_rows(folder / f"{name}.csv", rows, columns)
+    (folder / f"{name}.md").write_text(text)
+    print(text)
+    print(f"wrote {folder / f'{name}.csv'} and {folder / f'{name}.md'}")
 
 
 class Clock:

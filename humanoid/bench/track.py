@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import Clock, load_male, write_rows
+from .common import Clock, load_male, write_table
 
 __all__ = ["TRACK_COLUMNS", "run_track_benchmark"]
 
@@ -118,13 +118,7 @@ def run_track_benchmark(quick: bool = False, out: str | Path = "results/bench",
             print(f"{name}, step {row['dt']}: {row['simulated']:.2f} s tracked in "
                   f"{row['wall']:.2f} s ({row['real_time_factor']:.2f}x real time); completed: "
                   f"{row['completed']}, joints {row['joint_rms_deg']:.2f} deg RMS off")  # fmt: skip
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    write_rows(folder / "track.csv", rows, TRACK_COLUMNS)
-    text = _markdown(rows, machine(), rounds)
-    (folder / "track.md").write_text(text)
-    print(text)
-    print(f"wrote {folder / 'track.csv'} and {folder / 'track.md'}")
+    write_table(out, "track", rows, TRACK_COLUMNS, _markdown(rows, machine(), rounds))
     return 0
 
 

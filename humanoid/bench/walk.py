@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pinocchio as pin
 
-from .common import Clock, load_male, pinocchio_contacts, write_rows
+from .common import Clock, load_male, pinocchio_contacts, write_table
 
 if TYPE_CHECKING:
     from ..walking.run import WalkResult
@@ -154,13 +154,7 @@ def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -
         print(f"control every {row['control']}: {result.summary['simulated']:.2f} s walked in "
               f"{seconds['wall']:.2f} s ({row['real_time_factor']:.1f}x real time), "
               f"{row['ratio']:.1f}x the bare plant; every check passed: {result.ok}")  # fmt: skip
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    write_rows(folder / "walk.csv", rows, WALK_COLUMNS)
-    text = _markdown(rows, machine(), gait.steps)
-    (folder / "walk.md").write_text(text)
-    print(text)
-    print(f"wrote {folder / 'walk.csv'} and {folder / 'walk.md'}")
+    write_table(out, "walk", rows, WALK_COLUMNS, _markdown(rows, machine(), gait.steps))
     return 0
 
 
