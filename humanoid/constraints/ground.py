@@ -123,9 +123,9 @@ class _Shape:
         else:
             raise ModelError(f"no contact points for a {type(shape).__name__} ({g.name})")
 
-    def placed(self, oMi: pin.SE3, rows=slice(None)) -> np.ndarray:
-        """World positions of (some of) the fixed points, the joint at ``oMi``."""
-        return self.fixed[rows] @ oMi.rotation.T + oMi.translation
+    def placed(self, oMi: pin.SE3) -> np.ndarray:
+        """World positions of the fixed points, the joint at ``oMi``."""
+        return self.fixed @ oMi.rotation.T + oMi.translation
 
 
 class _Candidates:
@@ -386,7 +386,10 @@ class Ground:
         p = pts[rows]
         sl = slot[rows]
         local = np.einsum("nji,nj->ni", R[sl], p - t[sl])  # R^T (p - t)
-        return GroundContacts(p, p[:, 2].copy(), cand.joints[sl], local)
+        found = GroundContacts(p, p[:, 2].copy(), cand.joints[sl], local)
+        for a in (found.points, found.phi, found.joints, found.local):
+            a.flags.writeable = False  # (detect hands the same record to plant and controller)
+        return found
 
 
 @dataclass(frozen=True)

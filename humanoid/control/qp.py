@@ -152,13 +152,14 @@ def dynamics_terms(model, data, q, v) -> tuple[np.ndarray, np.ndarray]:
     return M, pin.nle(model, data, q, v)  # (Pinocchio's binding fills both triangles)
 
 
-def feet_contacts(ground, model, data, foot_joint: dict, q=None):
-    """The plant's own ground detection (a :class:`~humanoid.constraints.ground.GroundContacts`)
-    and, per point, the side whose foot it is on (None: another body). ``foot_joint``:
-    side -> the foot's joint, or a set of joints (a foot with free toes: its rearfoot's and its
-    toes'). ``q``: the configuration of ``data``'s placements (the plant's step at the same
-    state then finds these contacts without detecting them again)."""
-    found = ground.ground.detect(model, data, at=q)
+def feet_contacts(solver, model, data, foot_joint: dict, q=None):
+    """The plant's own ground detection (a :class:`~humanoid.constraints.ground.GroundContacts`;
+    ``solver``: the plant's contact solver) and, per point, the side whose foot it is on (None:
+    another body). ``foot_joint``: side -> the foot's joint, or a set of joints (a foot with
+    free toes: its rearfoot's and its toes'). ``q``: the configuration of ``data``'s
+    placements (the plant's step at the same state then finds these contacts without detecting
+    them again)."""
+    found = solver.ground.detect(model, data, at=q)
     joints = {s: {j} if isinstance(j, int) else set(j) for s, j in foot_joint.items()}
     side_of = [next((s for s, js in joints.items() if j in js), None)
                for j in found.joints.tolist()]  # fmt: skip
@@ -279,12 +280,13 @@ def frame_jacobians(model, data, frames) -> np.ndarray:
     return np.vstack([pin.getFrameJacobian(model, data, f, lwa)[:3] for f in frames])
 
 
-def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: float,
-               weight: float, gains, ranges, correction: float, range_margin: float,
-               range_time: float, *, drift=None, forces=None, upper=None) -> ContactQP:  # fmt: skip
+def contact_qp(model, data, solver, found, loaded, free, tasks, M, hvec, q, v, dt: float,
+               weight: float, gains, ranges, range_margin: float, range_time: float, *,
+               drift=None, forces=None, upper=None) -> ContactQP:  # fmt: skip
     """:func:`whole_body_qp` on the plant's rigid ground.
 
-    ``contacts``: the plant's ground and its detection (:func:`feet_contacts`);
+    ``solver``: the plant's :class:`~humanoid.constraints.ground.ContactSolver` (its ground
+    and its penetration correction); ``found``: its detection (:func:`feet_contacts`);
     ``loaded`` and ``free``: indices of its points that stick (their forces are unknowns) and
     that only must not go through the floor; ``tasks``: the costs on dv; ``gains``:
     ``w_force``, ``mu``, ``settle``, ``contact_time``, ``horizon``; ``forces``: the force
@@ -304,11 +306,11 @@ def contact_qp(model, data, contacts, loaded, free, tasks, M, hvec, q, v, dt: fl
     moving chain (a stance foot under a walking body) has J' v of a few m/s^2, which the
     velocity-level rule alone leaves out.
     """
-    ground, found = contacts
     phi = found.phi
+    correction = solver.settings.correction
     nv = model.nv
     g = gains
-    Jall = ground.jacobian(data, found)
+    Jall = solver.ground.jacobian(data, found)
     depth = np.where(phi >= 0.0, phi, correction * phi)
     gap = depth / dt
     # the loaded points' three rows each, and the free points' normal rows (gathered)

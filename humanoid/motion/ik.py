@@ -444,7 +444,7 @@ def _ankle_columns(h) -> np.ndarray:
     return out
 
 
-def level_rows(model, data, soles: list[int], ankles: np.ndarray, weight: float,
+def _level_rows(model, data, soles: list[int], ankles: np.ndarray, weight: float,
                keep: np.ndarray):  # fmt: skip
     """The stance soles' tilt from level (J, r, w): for each sole no more than
     :data:`LEVEL_HEIGHT` above the lowest, the rotation about the world's x and y that brings
@@ -975,7 +975,7 @@ class _Fit:
 
             out.append(floor_rows(*self.soles(self.data), self.settings.ground * total))
         if self.level is not None and keep is not None:
-            out.append(level_rows(self.model, self.data, *self.level,
+            out.append(_level_rows(self.model, self.data, *self.level,
                                   self.settings.level * total, keep))  # fmt: skip
         if self.pins is not None:
             from .monocular import STANCE_WEIGHT

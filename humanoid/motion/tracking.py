@@ -327,10 +327,8 @@ class MotionTracker(Effect):
                 tasks.add(FrameTask.following(model, rd, self.sole[s], g.foot_kp, g.foot_kd,
                                               g.w_foot, moved))  # fmt: skip
         tasks.add(PostureTask(q_r, g.joint_kp, g.joint_kd, self.w_joints, v_r, a_r))
-        seen = (self.ground.ground, found)
-        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
-                       self.weight, g, self.ranges, self.ground.settings.correction,
-                       RANGE_MARGIN, RANGE_TIME)  # fmt: skip
+        p = contact_qp(model, data, self.ground, found, loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, RANGE_MARGIN, RANGE_TIME)  # fmt: skip
         x, relaxed = p.solve(self.qp)
         self.relaxed += relaxed
         tau, dv, f = p.torques(checked(x, "tracking", t, self.qp), M, hvec, self.weight)

@@ -386,10 +386,8 @@ class CycleTracker(Effect):
         # the cycle's forces: contact_qp's w_force |f|^2 becomes w_force |f - f_cycle|^2, the
         # normal forces under the cycle's plus a margin that ramps to zero before it lifts
         target, upper = self._cycle_forces(tc, match)
-        seen = (self.ground.ground, found)
-        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
-                       self.weight, g, self.ranges, self.ground.settings.correction,
-                       g.range_margin, g.range_time,
+        p = contact_qp(model, data, self.ground, found, loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, g.range_margin, g.range_time,
                        drift=[self._drift(joint_of[i], found.local[i]) for i in loaded],
                        forces=[ForceTask(target, g.w_force)],
                        upper=upper if loaded else None)  # fmt: skip

@@ -601,10 +601,9 @@ class GaitController(_CyclePlan, Effect):
         share = self.load_share(steps, kinds, side_of, loaded) if g.w_share else None
         if share is not None:  # w f_trail - (1 - w) f_lead = 0, the plan's split of the load
             forces.append(ForceTask(0.0, g.w_share, share))
-        seen = (self.ground.ground, found)
-        p = contact_qp(model, data, seen, loaded, free, tasks, M, hvec, q, v, dt,
-                       self.weight, g, self.ranges, self.ground.settings.correction,
-                       RANGE_MARGIN, RANGE_TIME, forces=forces)  # fmt: skip
+        p = contact_qp(model, data, self.ground, found, loaded, free, tasks, M, hvec, q, v, dt,
+                       self.weight, g, self.ranges, RANGE_MARGIN, RANGE_TIME,
+                       forces=forces)  # fmt: skip
         return self._solve(p, t, v, M, hvec, loaded)
 
     def load_share(self, steps, kinds, side_of, loaded) -> np.ndarray | None:
