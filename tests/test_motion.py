@@ -420,23 +420,26 @@ def test_user_map_in_toml(tmp_path):
         read_map(tmp_path / "none.toml")
 
 
-def test_floor_puts_the_lowest_sole_point_on_the_floor():
-    """Each sole point where its own frame has it (the toe points ride on the toes: with the
-    toes bent they are not where the rearfoot's sole would have them)."""
+def test_floor_puts_the_stances_on_the_floor():
+    """The median over the frames of the lowest sole point goes to z = 0 (where a walk's
+    stances are; the lowest of all is an outlier: here a frame dropped 5 cm, which the stances
+    must not float over). Each sole point where its own frame has it (the toe points ride on
+    the toes: with the toes bent they are not where the rearfoot's sole would have them)."""
     from humanoid.motion.coordinates import MAPS, configurations, coordinates_table
 
     h = get_model("male", "quaternion")
     qs = _random_configurations(h, 5, 4)
     qs[:, 2] += 0.3
+    qs[3, 2] -= 0.05
     table = coordinates_table(h, np.arange(5) * 0.01, qs, "rajagopal")
     _, q, _ = configurations(h, table, MAPS["rajagopal"])
     data = h.model.createData()
     names = [n for s in ("left", "right") for n in h.contact_points[s]]
-    low = np.inf
+    low = []
     for qi in q:
         pin.framesForwardKinematics(h.model, data, qi)
-        low = min(low, *(data.oMf[h.frame_id(n)].translation[2] for n in names))
-    assert low == pytest.approx(0.0, abs=1e-12)
+        low.append(min(data.oMf[h.frame_id(n)].translation[2] for n in names))
+    assert np.median(low) == pytest.approx(0.0, abs=1e-12)
 
 
 def test_generalized_forces_do_the_same_work():
@@ -873,6 +876,29 @@ def test_contact_schedule_is_not_fooled_by_a_foot_through_the_floor(walk_1khz):
         assert np.mean(before[s][1] == after[s][1]) >= 0.97
 
 
+def test_contact_schedule_keeps_a_stance_the_record_cuts(walk_1khz):
+    """A record that ends 50 ms after a foot lands (shorter than the 0.1 s a stance must last
+    to count: a flicker): that foot is on the ground to the end, and so at its start (without
+    it the last frames had no foot down, the loads estimated there were nothing, and residual
+    reduction made the body fall there: a hemiparetic walk's reduced motion ended 4 cm
+    through the floor)."""
+    from humanoid.motion.inverse_dynamics import contact_schedule, derivatives
+    from humanoid.walking.gait import contact_runs
+
+    h, tr = walk_1khz
+    t, q = tr.t[::10], tr.q[::10]
+    right = tr.forces["ground_right"][::10, 2] > 20.0
+    (_, lift), (land, _), *_ = contact_runs(right, t, 0.1)  # (the right foot stands first)
+    cut = land + 5
+    d = derivatives(h.model, t[:cut], q[:cut])[:3]
+    on = contact_schedule(h, *d)["right"][1]
+    assert on[-3:].all() and not on[lift + 5 : land - 5].any()
+    start = land - 5  # (the left foot, mid-swing at the start, and the right's stance cut)
+    d = derivatives(h.model, t[start:], q[start:])[:3]
+    on = contact_schedule(h, *d)["right"][1]
+    assert on[5:10].all()
+
+
 def test_contact_schedule_fills_the_steps_the_plates_missed(walk_1khz):
     """The walk's own ground forces with the left foot's first stance taken out (a step beside
     the plates): that stance is in the schedule all the same, from the motion (within 50 ms of
@@ -1115,9 +1141,10 @@ def test_joint_centres_alone_stand_on_level_feet_and_track(walk_1khz, monkeypatc
     """Human3.6M's 17 joint centres (the ankles' centres, nothing of the feet): the fit pulls a
     stance foot's sole level through the ankle (its coordinates no point sees), and the walk
     with 1 cm of noise tracks to the end (measured: fitted 3.3 deg RMS off, tracked 2.9);
-    without the pull the ankles are held as they fall and the tracked body falls within a
-    second. The clean points' knees come back to 0.5 deg (the pull moves no coordinate the
-    points see). COCO's 17 see no foot either; BODY_25 (toes and heels) and markers do."""
+    without the pull the ankles are held as they fall and the tracked body loses the motion
+    within a second (measured: at 0.6 s; it then stands 1.3 m behind it, or falls). The clean
+    points' knees come back to 0.5 deg (the pull moves no coordinate the points see). COCO's
+    17 see no foot either; BODY_25 (toes and heels) and markers do."""
     import humanoid.motion.ik as ik
     from humanoid.motion.markers import (
         KEYPOINT_LAYOUTS,
@@ -1125,7 +1152,7 @@ def test_joint_centres_alone_stand_on_level_feet_and_track(walk_1khz, monkeypatc
         default_markers,
         marker_positions,
     )
-    from humanoid.motion.tracking import track
+    from humanoid.motion.tracking import lost_at, track
 
     h, tr = walk_1khz
     t, q = tr.t[::10], tr.q[::10]
@@ -1160,7 +1187,9 @@ def test_joint_centres_alone_stand_on_level_feet_and_track(walk_1khz, monkeypatc
     assert res.completed, res.trajectory.metadata.get("message")
     ref = q[np.clip(np.round(res.trajectory.t * 100).astype(int), 0, len(q) - 1)]
     assert rms(res.trajectory.q, ref) < min(5.0, rms(fit.q, q))
-    assert not fell.completed and fell.trajectory.t[-1] < 1.0
+    # (the run may end standing where it lost the motion, or on the floor: lost either way)
+    lost = lost_at(fell.joint_error)
+    assert lost is not None and fell.trajectory.t[lost] < 1.0
 
 
 def test_inverse_dynamics_ignores_quaternion_signs(walk_1khz):

@@ -97,7 +97,7 @@ def add_track(command) -> None:
     tr.add_argument("--static", help="a static trial to register the technical markers on")
     tr.add_argument("--floor", choices=("auto", "fit", "motion"), default="auto",
                     help="the floor the motion is followed on: fitted to its stances ('fit'), "
-                    "the plane of its lowest sole point ('motion'), or 'auto' (default): the "
+                    "the plane of its stances ('motion'), or 'auto' (default): the "
                     "fitted one if it has a treadmill's belt, a tilt over 0.5 deg or a height "
                     "over 5 mm")  # fmt: skip
     tr.add_argument("--reduce", action="store_true", help="reduce the pelvis residuals first "
@@ -161,7 +161,8 @@ def add_id(command) -> None:
     d.add_argument("--rate", type=float, help="resample to this rate [Hz] (default: the "
                    "motion's own)")  # fmt: skip
     d.add_argument("--no-floor", action="store_true", help="keep the motion's height as it is "
-                   "(default: its lowest sole point is put on the floor)")  # fmt: skip
+                   "(default: its stances are put on the floor: the median over its frames of "
+                   "the lowest sole point)")  # fmt: skip
     d.add_argument(
         "-o", "--output", default="id.sto", help="generalised forces to write (.sto, or .csv)"
     )

@@ -244,7 +244,7 @@ def _estimated_loads(h, t, q, loads, cutoff, args):
         floor = fit_floor(h, d[0], d[1])
         floor_line = floor.summary()
     except HumanoidError as exc:
-        floor_line = f"not fitted ({exc}): the plane of the lowest sole point"
+        floor_line = f"not fitted ({exc}): the plane of the motion's stances"
     estimated = estimate_loads(h, *d, floor=floor)
     for x in estimated:
         measured = [m for m in loads if m.body == x.body]
@@ -816,16 +816,16 @@ def _covered(h, d, loads, floor=None) -> float:
 
 def _tracking_floor(h, t, q, choice: str):
     """(the floor to track on or None, a line saying which): ``choice`` ``"fit"``,
-    ``"motion"`` (the plane of the lowest sole point) or ``"auto"`` (the fitted one if it has a
+    ``"motion"`` (the plane of the motion's stances) or ``"auto"`` (the fitted one if it has a
     belt, a tilt over 0.5 deg or a height over 5 mm)."""
     from .floor import fit_floor
 
     if choice == "motion":
-        return None, "the plane of the motion's lowest sole point (--floor motion)"
+        return None, "the plane of the motion's stances (--floor motion)"
     try:
         floor = fit_floor(h, t, q)
     except HumanoidError as exc:
-        return None, f"not fitted ({exc}): the plane of the motion's lowest sole point"
+        return None, f"not fitted ({exc}): the plane of the motion's stances"
     off = (floor.speed > 0.0 or max(abs(floor.tilt_x_deg), abs(floor.tilt_y_deg)) > 0.5
            or abs(floor.height) > 0.005)  # fmt: skip
     if choice == "fit" or off:

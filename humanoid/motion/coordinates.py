@@ -85,6 +85,8 @@ __all__ = [
     "generalized_forces",
     "guess_map",
     "lowest_sole_point",
+    "lowest_sole_points",
+    "motion_floor",
     "read_map",
 ]
 
@@ -419,7 +421,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
     Args:
         h: The body. table: The coordinates (:func:`~humanoid.motion.storage.read_storage`).
         cmap: The map (default :func:`guess_map`). floor: Move the motion up or down so that
-            its lowest sole point over the whole motion is on the floor (z = 0): the body is
+            its floor (:func:`motion_floor`: where its stances are) is at z = 0: the body is
             not the model the motion was solved on, and its legs are not that model's length.
         degrees: Whether the angles are in degrees (default: the file's ``inDegrees``, else
             yes, as OpenSim writes coordinates).
@@ -462,7 +464,7 @@ def configurations(h, table: Table, cmap: CoordinateMap | None = None, *, floor:
             )
     _set_root(q, cols, cmap.root, scale)
     if floor:
-        q[:, 2] -= lowest_sole_point(h, q)
+        q[:, 2] -= motion_floor(h, q)
     unmapped = [x for x in cols if x not in used and x not in cmap.ignored]
     skipped = [x for x in cols if x not in used and x in cmap.ignored]
     if unmapped or skipped:
@@ -515,15 +517,28 @@ def _set_root(q: np.ndarray, cols: dict, root: RootMap, scale: float) -> None:
 def lowest_sole_point(h, q: np.ndarray) -> float:
     """The lowest height any sole point reaches over the configurations (each point on its
     own frame: a foot with free toes carries its toe points on them)."""
+    return float(lowest_sole_points(h, q).min(initial=math.inf))
+
+
+def lowest_sole_points(h, q: np.ndarray) -> np.ndarray:
+    """Per configuration, the height of its lowest sole point (n,)."""
     model = h.model
     data = model.createData()
     frames = [h.frame_id(n) for s in ("left", "right") for n in h.require_contact_points(s)]
-    low = math.inf
-    for qi in q:
+    low = np.full(len(q), math.inf)
+    for i, qi in enumerate(q):
         pin.forwardKinematics(model, data, qi)
         for f in frames:
-            low = min(low, float(pin.updateFramePlacement(model, data, f).translation[2]))
+            low[i] = min(low[i], float(pin.updateFramePlacement(model, data, f).translation[2]))
     return low
+
+
+def motion_floor(h, q: np.ndarray) -> float:
+    """The height of a motion's floor: the median over its configurations of the lowest sole
+    point. In a walk a foot always stands, so this is where the stances are; the lowest of
+    all is an outlier (a rigid foot's tip through the floor at push-off, 4-5 cm under
+    walking5's stances; a noisy frame's swinging foot), under which the stances would float."""
+    return float(np.median(lowest_sole_points(h, q)))
 
 
 def coordinates_table(h, time, q, cmap: CoordinateMap | str = "rajagopal",

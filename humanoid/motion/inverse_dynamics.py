@@ -34,7 +34,7 @@ import pinocchio as pin
 
 from ..errors import ConfigurationError, InverseDynamicsError
 from ..model import SIDES
-from .coordinates import lowest_sole_point
+from .coordinates import motion_floor
 from .loads import Load
 from .storage import MAX_RATE, MotionFileError, check_rate
 
@@ -48,6 +48,7 @@ __all__ = [
     "estimate_loads",
     "inverse_dynamics",
     "joint_labels",
+    "load_frame",
     "lowpass",
     "quaternion_slots",
     "recorded_feet",
@@ -397,12 +398,19 @@ def contact_schedule(h, time, q, v, loads=(), height: float = 0.02, speed: float
 
 def _debounced(x: np.ndarray, time: np.ndarray, shortest: float) -> np.ndarray:
     """``x`` without its gaps and then its runs shorter than ``shortest`` [s] (a noisy motion's
-    foot flickering off the floor mid-stance, or touching it for a frame in swing)."""
+    foot flickering off the floor mid-stance, or touching it for a frame in swing), but for a
+    run the record's start or end cuts (a foot landing in its last frames: its stance is as
+    long as the record leaves it, and without it the body would have no foot down there)."""
     from ..walking.gait import contact_runs
 
     out = np.zeros(len(x), dtype=bool)
     for a, b in contact_runs(x, time, shortest):
         out[a:b] = True
+    n = len(x)
+    if n and x[0]:
+        out[: int(np.argmin(x)) if not x.all() else n] = True
+    if n and x[-1]:
+        out[n - int(np.argmin(x[::-1])) if not x.all() else 0 :] = True
     return out
 
 
@@ -435,7 +443,7 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
     pts = {s: h.sole_points(s) for s in sides}
     weight = h.mass * float(np.linalg.norm(model.gravity.linear))
     wrench = {s: np.zeros((len(time), 6)) for s in sides}
-    base = lowest_sole_point(h, q) if floor is None else 0.0
+    base = motion_floor(h, q) if floor is None else 0.0
     turn = np.eye(3) if floor is None else floor.rotation  # floor axes to world axes
     for i in range(len(time)):
         down = [s for s in sides if contacts[s][1][min(i, len(contacts[s][1]) - 1)]]
@@ -452,8 +460,8 @@ def estimate_loads(h, time, q, v, a, contacts: dict | None = None, mu: float = 0
                 cols.append(np.vstack([R.T, R.T @ pin.skew(p - o)]) @ turn)
                 where.append((s, p))
                 # a point higher above the motion's floor is dearer (a heel rising, a foot
-                # about to lift or just landing takes less of the load)
-                up = p[2] - base if floor is None else float(floor.above(p))
+                # about to lift or just landing takes less of the load); one under it is on it
+                up = max(p[2] - base if floor is None else float(floor.above(p)), 0.0)
                 cost += [1.0 + (up / lift) ** 2] * 3
         A = np.hstack(cols) * weight  # forces in body weights
         n = A.shape[1]
@@ -565,11 +573,17 @@ def carry_loads(h, time, q, loads, recorded: dict) -> tuple[list[Load], list[tup
 
 def _load_joint(h, body: str) -> int:
     """The joint a load's body moves with: a foot's (its sole frame's parent) or a frame's."""
+    return h.model.frames[load_frame(h, body)].parentJoint
+
+
+def load_frame(h, body: str) -> int:
+    """The frame a load's body names: a foot's sole frame ('left', 'right') or the frame of
+    that name."""
     model = h.model
     if body in ("left", "right"):
-        return model.frames[h.sole_id(body)].parentJoint
+        return h.sole_id(body)
     if model.existFrame(body):
-        return model.frames[model.getFrameId(body)].parentJoint
+        return model.getFrameId(body)
     raise InverseDynamicsError(
         f"a load is applied to {body!r}, which {h.source} does not have (a foot: 'left', "
         "'right', or a frame name)"

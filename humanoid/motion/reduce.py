@@ -25,7 +25,12 @@ properties a little; so does :func:`reduce_residuals`, in two steps:
    moment over ``sigma_moment`` times body weight times metres), ``ddq_k`` the change's
    second difference (smoothness), and ``sigma_q`` per coordinate the change that costs as
    much as that residual: the root's position ``sigma_root`` [m], its orientation and the
-   trunk's joints ``sigma_trunk`` [rad], every other joint ``sigma_joint`` [rad]. A
+   trunk's joints ``sigma_trunk`` [rad], every other joint ``sigma_joint`` [rad]; plus, for
+   every load body that carries over 10 % of the weight in frame k (a standing foot), its
+   height's and its tilt's drift from the motion before, over ``sigma_contact`` [m] (the
+   tilt times 0.1 m): the feet stay on the floor they stood on, and the change goes into the
+   joints above them (a pelvis lowered 3 cm under the root's sigma alone would put the
+   feet through the floor, which no tracking on that floor can follow). A
    Gauss-Newton iteration: the residual is linearised about the current motion per frame
    (Pinocchio's analytical RNEA derivatives; the acceleration's and velocity's dependence on
    neighbouring frames by the finite differences inverse dynamics uses), the sparse normal
@@ -41,12 +46,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import InverseDynamicsError
-from .inverse_dynamics import derivatives, inverse_dynamics, joint_labels
+from .inverse_dynamics import derivatives, inverse_dynamics, joint_labels, load_frame
 from .loads import Load
 
 __all__ = ["Reduction", "reduce_residuals", "trunk_joint"]
@@ -54,6 +60,11 @@ __all__ = ["Reduction", "reduce_residuals", "trunk_joint"]
 # the mass step changes the body's mass by this fraction at most
 MASS_LIMIT = 0.2
 # the names an upper trunk's joint goes by (the body whose mass centre RRA moves: its torso)
+# a load body carrying more than this fraction of the body's weight is standing: it is kept
+# where the motion before had it (the reduction's feet term)
+LOADED = 0.1
+# [m per rad] the length that turns a foot's rotation into the contact term's metres
+FOOT_LENGTH = 0.1
 TRUNK_NAMES = ("thoracic", "thorax", "chest", "torso", "back", "spine", "lumbar", "abdomen")
 
 
@@ -213,12 +224,70 @@ def _mass_step(model, q, v, a, W, trunk, sigma_f, sigma_m, com_limit):
     return scale, shift
 
 
-def _cost(model, q, v, a, W, changed, dt, sq, sr, sa) -> float:
+@dataclass(frozen=True)
+class _Feet:
+    """The loaded bodies (standing feet) and how the motion before had them: ``frames``
+    (the loads' frames), ``loaded`` (n, frames) bool, ``before`` (n, frames) SE3 placements,
+    ``sigma`` (6,) the drift [m, rad] that costs as much as one sigma of change."""
+
+    frames: list
+    loaded: np.ndarray
+    before: list
+    sigma: np.ndarray
+
+    # the rows held where the motion before had them: height, and the tilts about the world's
+    # horizontal axes. Not the horizontal place: a marker cluster's wobble, taken out, moves
+    # the whole body; and not held still from frame to frame (measured on a hemiparetic walk
+    # at 30 Hz, scripts/pathological.py: 4 of 5 seeds lost the motion so, 2 of 5 without:
+    # a foot rolling off its toes carries load while its frame moves)
+    HELD = [2, 3, 4]
+
+    def terms(self, model, q, jacobians: bool = False) -> list[tuple[int, Any, np.ndarray]]:
+        """The feet term's rows at the motion ``q`` (n, nq), scaled by sigma: per standing
+        body and frame k, (k, its rows' Jacobian (world axes) if ``jacobians`` else None, its
+        drift in height and tilt from before)."""
+        data = model.createData()
+        out = []
+        for k in np.flatnonzero(self.loaded.any(axis=1)):
+            pin.forwardKinematics(model, data, q[k])
+            for b in np.flatnonzero(self.loaded[k]):
+                f = self.frames[b]
+                now, was = pin.updateFramePlacement(model, data, f), self.before[k][b]
+                d = np.concatenate([now.translation - was.translation,
+                                    pin.log3(now.rotation @ was.rotation.T)])  # fmt: skip
+                d /= self.sigma
+                J = None
+                if jacobians:
+                    J = pin.computeFrameJacobian(model, data, q[k], f, pin.LOCAL_WORLD_ALIGNED)
+                    J = (J / self.sigma[:, None])[self.HELD]
+                out.append((int(k), J, d[self.HELD]))
+        return out
+
+
+def _standing_feet(h, model, q0, loads_by_body: dict, weight: float, sigma: float) -> _Feet:
+    """The feet term's bodies: each load's frame, loaded where it carries more than
+    :data:`LOADED` of the weight, and its placements in the motion before (``q0``)."""
+    bodies = list(loads_by_body)
+    frames = [load_frame(h, b) for b in bodies]
+    n = len(q0)
+    loaded = np.zeros((n, len(bodies)), dtype=bool)
+    for i, b in enumerate(bodies):
+        loaded[:, i] = loads_by_body[b][:, 2] > LOADED * weight
+    data = model.createData()
+    before = []
+    for k in range(n):
+        pin.framesForwardKinematics(model, data, q0[k])
+        before.append([data.oMf[f].copy() for f in frames])
+    return _Feet(frames, loaded, before, np.r_[[sigma] * 3, [sigma / FOOT_LENGTH] * 3])
+
+
+def _cost(model, q, v, a, W, changed, dt, sq, sr, sa, feet: _Feet) -> float:
     """The reduction's objective (module docstring) at the motion ``q`` (its ``v``, ``a``),
     ``changed`` from the motion before."""
     r = _residuals(model, q, v, a, W)  # (world axes: the sigmas are the same on each axis)
     smooth = (changed[:-2] - 2 * changed[1:-1] + changed[2:]) / dt**2 / sa
-    return float(np.sum((r / sr) ** 2) + np.sum((changed / sq) ** 2) + np.sum(smooth**2))
+    stand = sum(float(d @ d) for _, _, d in feet.terms(model, q))
+    return float(np.sum((r / sr) ** 2) + np.sum((changed / sq) ** 2) + np.sum(smooth**2)) + stand
 
 
 def _sigmas(model, sigma_root, sigma_trunk, sigma_joint) -> np.ndarray:
@@ -233,7 +302,7 @@ def _sigmas(model, sigma_root, sigma_trunk, sigma_joint) -> np.ndarray:
     return s
 
 
-def _kinematic_step(model, q, v, a, W, dt, sq, sr, sa, changed):
+def _kinematic_step(model, q, v, a, W, dt, sq, sr, sa, changed, feet: _Feet):
     """One Gauss-Newton step on all frames: the tangent change dq (n, nv) to add to the
     motion ``q``, which is ``changed`` (n, nv) from the motion before the reduction (the cost's
     change and smoothness terms are on the whole change, ``changed + dq``)."""
@@ -286,6 +355,11 @@ def _kinematic_step(model, q, v, a, W, dt, sq, sr, sa, changed):
                 put(row, n - 2, -2 * Bv)
         rhs.append(-r / sr)
         row += 6
+    # the standing feet kept on the floor they stood on
+    for k, Jk, d in feet.terms(model, q, jacobians=True):
+        put(row, k, Jk)
+        rhs.append(-d)
+        row += len(d)
     # the change itself
     idx = np.arange(n * nv)
     rows.extend(row + idx)
@@ -308,22 +382,22 @@ def _kinematic_step(model, q, v, a, W, dt, sq, sr, sa, changed):
 
 
 def _gauss_newton(model, t, dt: float, q0, v0, a0, W, sq, sr, sigma_acceleration: float,
-                  iterations: int):  # fmt: skip
+                  iterations: int, feet: _Feet):  # fmt: skip
     """The kinematic step's Gauss-Newton iterations from the motion ``q0`` (n, nq) at ``t``:
     (q, v, a, the change from q0 (n, nv), the iterations that lowered the cost)."""
     qk, vk, ak = q0, v0, a0
     done = 0
     changed = np.zeros((len(t), model.nv))
-    cost = _cost(model, qk, vk, ak, W, changed, dt, sq, sr, sigma_acceleration)
+    cost = _cost(model, qk, vk, ak, W, changed, dt, sq, sr, sigma_acceleration, feet)
     for _ in range(iterations):
-        dq = _kinematic_step(model, qk, vk, ak, W, dt, sq, sr, sigma_acceleration, changed)
+        dq = _kinematic_step(model, qk, vk, ak, W, dt, sq, sr, sigma_acceleration, changed, feet)
         for step in (1.0, 0.5, 0.25, 0.125):  # backtracking: the linearisation can overshoot
             total = np.array(
                 [pin.integrate(model, x, step * d) for x, d in zip(qk, dq, strict=True)]
             )
             _, q1, v1, a1 = derivatives(model, t, total, cutoff=None)
             moved = np.array([pin.difference(model, a_, b_) for a_, b_ in zip(q0, q1, strict=True)])
-            new = _cost(model, q1, v1, a1, W, moved, dt, sq, sr, sigma_acceleration)
+            new = _cost(model, q1, v1, a1, W, moved, dt, sq, sr, sigma_acceleration, feet)
             if new < cost:
                 break
         else:
@@ -339,8 +413,8 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
                      adjust_mass: bool | None = None, sigma_force: float = 0.01,
                      sigma_moment: float = 0.002, sigma_root: float = 0.01,
                      sigma_trunk: float = math.radians(2.0), sigma_joint: float = math.radians(1.0),
-                     sigma_acceleration: float = 50.0, com_limit: float = 0.05,
-                     iterations: int = 4) -> Reduction:  # fmt: skip
+                     sigma_acceleration: float = 50.0, sigma_contact: float = 0.002,
+                     com_limit: float = 0.05, iterations: int = 4) -> Reduction:  # fmt: skip
     """The motion ``q`` (n, nq) at ``time`` (n,), under ``loads``, changed a little (and the
     body's mass properties) so that its root residuals are small (see the module docstring).
 
@@ -355,6 +429,9 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
         sigma_root: [m] the root's position; sigma_trunk: [rad] the root's orientation and the
             trunk's joints; sigma_joint: [rad] every other joint; sigma_acceleration: the
             change's second derivative [rad/s^2, m/s^2] (smoothness).
+        sigma_contact: [m] a standing foot's drift in height from the motion (its tilt
+            times 0.1 m) that costs as much: a load body carrying over 10 % of the weight
+            stays on the floor it stood on.
         com_limit: [m] the trunk's mass centre moves at most this far. iterations: Gauss-Newton
             iterations.
 
@@ -385,8 +462,9 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
                                   com_limit)  # fmt: skip
         model = _with_mass(model0, trunk, scale, shift)
     sq = _sigmas(model, sigma_root, sigma_trunk, sigma_joint)
+    feet = _standing_feet(h, model, q0, before.loads, weight, sigma_contact)
     qk, vk, ak, changed, done = _gauss_newton(model, t, dt, q0, before.v, before.a, W, sq, sr,
-                                              sigma_acceleration, iterations)  # fmt: skip
+                                              sigma_acceleration, iterations, feet)  # fmt: skip
     res = _residuals(model, qk, vk, ak, W)
     diff = changed
     labels = joint_labels(model, root=("x", "y", "z", "rx", "ry", "rz"))

@@ -44,7 +44,7 @@ from ..effects import Effect
 from ..errors import RunFailed
 from ..model import SIDES
 from ..walking.tracking import RANGE_MARGIN, RANGE_TIME, SOLE_DEPTH
-from .coordinates import lowest_sole_point
+from .coordinates import lowest_sole_point, lowest_sole_points
 from .inverse_dynamics import contact_schedule, derivatives, residual_cutoff
 from .loads import Load
 
@@ -61,6 +61,7 @@ __all__ = [
     "Tracked",
     "foot_joints",
     "inside_ranges",
+    "reference_floor",
     "toes_on_floor",
     "track",
 ]
@@ -492,7 +493,8 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
     (:func:`~humanoid.motion.floor.fit_floor`), or ``"fit"`` to fit it: the motion is followed
     in the floor's frame (:meth:`~humanoid.motion.floor.Floor.onto`: level, moving with a
     treadmill's belt, under gravity turned as the floor is), and the run is recorded in that
-    frame; default None: on the horizontal plane of the motion's lowest sole point.
+    frame; default None: on a horizontal plane under the motion's stances
+    (:func:`reference_floor`).
     """
     import time as clock
 
@@ -517,7 +519,7 @@ def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | N
                         ground=GroundSpec(bodies="feet", mu=mu)),
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
-    base = lowest_sole_point(h, qf) if floor is None else 0.0
+    base = reference_floor(h, qf) if floor is None else 0.0
     shifted = MotionReference(model, t - t[0], qf, vf, af, floor=base)
     contacts = {s: (times - t[0], on) for s, (times, on) in contacts.items()}
     ctl = MotionTracker(h, sim.model, shifted, contacts, sim.ground, dt, gains)
@@ -574,6 +576,21 @@ def _errors(model, traj, reference: MotionReference, ctl: MotionTracker):
         if cause:
             traj.metadata["message"] = f"{traj.metadata.get('message', 'failed')}; {cause}"
     return ref_q, err
+
+
+# [m] how far under its stances a reference's floor goes to keep its filtered feet out of it
+FLOOR_DIP = 0.005
+
+
+def reference_floor(h, q) -> float:
+    """The height of the floor under a filtered motion ``q`` followed without a fitted floor:
+    its lowest sole point (a filtered stance dips a few millimetres at an impact: the floor is
+    under the dips, so that the reference never drives a foot into it), but at most
+    :data:`FLOOR_DIP` under its stances (the median of the lowest sole point,
+    :func:`~humanoid.motion.coordinates.motion_floor`): deeper is an outlier (a noisy frame, a
+    rigid foot's tip at push-off, a filter's end) over which the stances would float."""
+    low = lowest_sole_points(h, q)
+    return max(float(low.min()), float(np.median(low)) - FLOOR_DIP)
 
 
 # a run whose pelvis is this far from the motion's [m, deg] has lost it (the cause of a fall)

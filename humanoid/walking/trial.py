@@ -526,7 +526,7 @@ def read_trial(h, motion, moments=None, loads=None, events=None, *, cmap=None,
             ExternalLoads file) or a C3D (its force plates, given to the feet by its markers).
         events: a C3D whose ``EVENT`` group has the foot strikes and offs.
         cmap: The coordinates' map (default told from the file). floor: put the motion's
-            lowest sole point on the floor (as ``humanoid id``). threshold: [N] a foot's
+            stances on the floor (as ``humanoid id``). threshold: [N] a foot's
             contact in the loads (it ends below half of it). mass, speed: see
             :func:`analyse_trial`.
 
