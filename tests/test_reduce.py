@@ -137,3 +137,8 @@ def test_reduction_errors(walk):
     h, t, q, loads = walk
     with pytest.raises(HumanoidError, match="ground forces"):
         reduce_residuals(h, t, q, [])
+    for bad in (0.0, -1.0, float("nan"), "2 mm", True):
+        with pytest.raises(HumanoidError, match=r"sigma_contact must be a positive number"):
+            reduce_residuals(h, t, q, loads, sigma_contact=bad)
+    with pytest.raises(HumanoidError, match=r"sigma_root must be a positive number"):
+        reduce_residuals(h, t, q, loads, sigma_root=0)

@@ -59,12 +59,12 @@ __all__ = ["Reduction", "reduce_residuals", "trunk_joint"]
 
 # the mass step changes the body's mass by this fraction at most
 MASS_LIMIT = 0.2
-# the names an upper trunk's joint goes by (the body whose mass centre RRA moves: its torso)
 # a load body carrying more than this fraction of the body's weight is standing: it is kept
 # where the motion before had it (the reduction's feet term)
 LOADED = 0.1
 # [m per rad] the length that turns a foot's rotation into the contact term's metres
 FOOT_LENGTH = 0.1
+# the names an upper trunk's joint goes by (the body whose mass centre RRA moves: its torso)
 TRUNK_NAMES = ("thoracic", "thorax", "chest", "torso", "back", "spine", "lumbar", "abdomen")
 
 
@@ -436,8 +436,19 @@ def reduce_residuals(h, time, q, loads: list[Load] | tuple, *, cutoff: float | N
             iterations.
 
     Raises:
-        InverseDynamicsError: a body without a free-flyer root, or no loads.
+        InverseDynamicsError: a body without a free-flyer root, no loads, or a sigma that is
+            not a positive number.
     """
+    sigmas = {"sigma_force": sigma_force, "sigma_moment": sigma_moment,
+              "sigma_root": sigma_root, "sigma_trunk": sigma_trunk, "sigma_joint": sigma_joint,
+              "sigma_acceleration": sigma_acceleration, "sigma_contact": sigma_contact}  # fmt: skip
+    for name, value in sigmas.items():
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not (math.isfinite(value) and value > 0)
+        ):
+            raise InverseDynamicsError(f"{name} must be a positive number, got {value!r}")
     model0 = h.model
     if "FreeFlyer" not in model0.joints[1].shortname():
         raise InverseDynamicsError("residual reduction needs a body with a free-flyer root")
