@@ -30,6 +30,7 @@ from humanoid.motion.markers import read_c3d, read_trc
 from humanoid.motion.storage import read_storage
 
 REFERENCE = Path(__file__).resolve().parent / "data"
+ROOT = Path(__file__).resolve().parent.parent
 C3D = TRIALS / "walking5.c3d"
 STATIC, WALK = TRIALS / "subject01_static.trc", TRIALS / "subject01_walk1.trc"
 GRF = TRIALS / "subject01_walk1_grf.mot"
@@ -338,6 +339,10 @@ def test_subject01_command_line(tmp_path, capsys):
     assert main(["id", str(ik), "--model", str(urdf), "--loads", str(GRF), "-o", str(id_)]) == 0
     out = capsys.readouterr().out
     assert "loads        right (ground_), left (1_ground_)" in out
+    # the README's comment is what it prints: the right ankle's moment, its minimum and maximum
+    said = (ROOT / "README.md").read_text().split("ankle_angle_moment N m/kg min/max: ")[1]
+    ankle = next(x for x in out.splitlines() if x.startswith("ankle_angle_moment"))
+    assert said.split(";")[0] in ankle, (said.split(";")[0], ankle)
     line = next(x for x in out.splitlines() if x.startswith("root residual force"))
     assert float(line.split("(")[1].split("%")[0]) < 6.0
     rra = tmp_path / "walk1_rra.mot"
