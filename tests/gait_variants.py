@@ -15,28 +15,22 @@ def hemiparetic(h, t, q, forces, stiff=0.5, abduct=8.0, drop=8.0, slow=1.0, lift
     and flexes ``lift`` deg more, and the pelvis hikes ``hike`` deg on the right, turning
     about the left hip's centre (:func:`_hike`): the foot clears the floor the stiff knee
     would drag it through. The right swings are where ``forces`` (the right foot's ground
-    force, (n, 3)) is under 20 N, each weighted w by a raised cosine (0 at lift-off and
+    force, (n, 3)) is under 20 N for 0.1 s or more, each weighted w by a raised cosine (0 at lift-off and
     touch-down, 1 at mid-swing): the hike by sqrt(w), the knee and the abduction by w, the
     ankle by w^2. The knee bends most just after toe-off, where w is small: the swing's peak
-    knee flexion falls from 63 to 54 deg on the male body's walk (a mild stiff knee; a
+    knee flexion falls from 63 to 55 deg on the male body's walk (a mild stiff knee; a
     stiffer one would change the stance before toe-off too). Time is
     stretched ``slow`` times (not dynamically consistent: a slower walk is not the same walk
     slower). Returns (t, q, w)."""
+    from humanoid.walking.gait import contact_runs
+
     em = h.fusion.euler_model
     qe = np.array([h.fusion.to_euler(x)[0] for x in q])
-    loaded = forces[:, 2] > 20.0
+    # the swings: the foot unloaded for 0.1 s or more (a heel that bounces off the floor for a
+    # few milliseconds after it strikes is standing, not swinging)
     w = np.zeros(len(t))
-    k = 0
-    while k < len(t):
-        if loaded[k]:
-            k += 1
-            continue
-        end = k
-        while end < len(t) and not loaded[end]:
-            end += 1
-        n = end - k
-        w[k:end] = 0.5 - 0.5 * np.cos(2 * np.pi * (np.arange(n) + 0.5) / n)
-        k = end
+    for a, b in contact_runs(forces[:, 2] <= 20.0, t, 0.1):
+        w[a:b] = 0.5 - 0.5 * np.cos(2 * np.pi * (np.arange(b - a) + 0.5) / (b - a))
 
     def col(name):
         return em.joints[em.getJointId(name)].idx_q
