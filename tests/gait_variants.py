@@ -15,7 +15,7 @@ def hemiparetic(h, t, q, forces, stiff=0.5, abduct=8.0, drop=8.0, slow=1.0, lift
     and flexes ``lift`` deg more, and the pelvis hikes ``hike`` deg on the right, turning
     about the left hip's centre (:func:`_hike`): the foot clears the floor the stiff knee
     would drag it through. The right swings are where ``forces`` (the right foot's ground
-    force, (n, 3)) is under 20 N for 0.1 s or more, each weighted w by a raised cosine (0 at
+    force, (n, 3)) is under 20 N, runs and gaps under 0.1 s ignored, each weighted w by a raised cosine (0 at
     lift-off and touch-down, 1 at mid-swing): the hike by sqrt(w), the knee and the abduction
     by w, the ankle by w^2. The knee bends most just after toe-off, where w is small: the
     swing's peak knee flexion falls from 63 to 55 deg on the male body's walk (a mild stiff
@@ -26,8 +26,8 @@ def hemiparetic(h, t, q, forces, stiff=0.5, abduct=8.0, drop=8.0, slow=1.0, lift
 
     em = h.fusion.euler_model
     qe = np.array([h.fusion.to_euler(x)[0] for x in q])
-    # the swings: the foot unloaded for 0.1 s or more (a heel that bounces off the floor for a
-    # few milliseconds after it strikes is standing, not swinging)
+    # the swings: the foot unloaded for 0.1 s or more (a heel that touches the floor for a few
+    # milliseconds and bounces off is still swinging; one that bounces in a stance, standing)
     w = np.zeros(len(t))
     for a, b in contact_runs(forces[:, 2] <= 20.0, t, 0.1):
         w[a:b] = 0.5 - 0.5 * np.cos(2 * np.pi * (np.arange(b - a) + 0.5) / (b - a))
