@@ -15,9 +15,9 @@ def hemiparetic(h, t, q, forces, stiff=0.5, abduct=8.0, drop=8.0, slow=1.0, lift
     and flexes ``lift`` deg more, and the pelvis hikes ``hike`` deg on the right, turning
     about the left hip's centre (:func:`_hike`): the foot clears the floor the stiff knee
     would drag it through. The right swings are where ``forces`` (the right foot's ground
-    force, (n, 3)) is under 20 N, runs and gaps under 0.1 s ignored, each weighted w by a raised cosine (0 at
-    lift-off and touch-down, 1 at mid-swing): the hike by sqrt(w), the knee and the abduction
-    by w, the ankle by w^2. The knee bends most just after toe-off, where w is small: the
+    force, (n, 3)) is under 20 N, runs and gaps under 0.1 s ignored, each weighted w by a
+    raised cosine (0 at lift-off and touch-down, 1 at mid-swing): the hike by sqrt(w), the
+    knee and the abduction by w, the ankle by w^2. The knee bends most just after toe-off, where w is small: the
     swing's peak knee flexion falls from 63 to 55 deg on the male body's walk (a mild stiff
     knee; a stiffer one would change the stance before toe-off too). Time is
     stretched ``slow`` times (not dynamically consistent: a slower walk is not the same walk
