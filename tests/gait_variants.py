@@ -9,19 +9,18 @@ import pinocchio as pin
 
 def hemiparetic(h, t, q, forces, stiff=0.5, abduct=8.0, drop=8.0, slow=1.0, lift=0.0,
                 hike=8.0):  # fmt: skip
-    """A walk (t, q) of the toolkit's body ``h`` (its ball joints' quaternions) with its right
-    swing made a stroke survivor's: the knee bends ``stiff`` (a fraction) less (a stiff knee),
-    the ankle drops ``drop`` deg (a foot drop), the hip abducts ``abduct`` deg (circumduction)
-    and flexes ``lift`` deg more, and the pelvis hikes ``hike`` deg on the right, turning
-    about the left hip's centre (:func:`_hike`): the foot clears the floor the stiff knee
-    would drag it through. The right swings are where ``forces`` (the right foot's ground
-    force, (n, 3)) is under 20 N, runs and gaps under 0.1 s ignored, each weighted w by a
-    raised cosine (0 at lift-off and touch-down, 1 at mid-swing): the hike by sqrt(w), the
-    knee and the abduction by w, the ankle by w^2. The knee bends most just after toe-off, where w is small: the
-    swing's peak knee flexion falls from 63 to 55 deg on the male body's walk (a mild stiff
-    knee; a stiffer one would change the stance before toe-off too). Time is
-    stretched ``slow`` times (not dynamically consistent: a slower walk is not the same walk
-    slower). Returns (t, q, w)."""
+    """A walk (t, q) of the toolkit's body ``h`` (its ball joints' quaternions) with its right swing
+    made a stroke survivor's: the knee bends ``stiff`` (a fraction) less (a stiff knee), the ankle
+    drops ``drop`` deg (a foot drop), the hip abducts ``abduct`` deg (circumduction) and flexes
+    ``lift`` deg more, and the pelvis hikes ``hike`` deg on the right, turning about the left hip's
+    centre (:func:`_hike`): the foot clears the floor the stiff knee would drag it through. The
+    right swings are where ``forces`` (the right foot's ground force, (n, 3)) is under 20 N, runs
+    and gaps under 0.1 s ignored, each weighted w by a raised cosine (0 at lift-off and touch-down,
+    1 at mid-swing): the hike by sqrt(w), the knee and the abduction by w, the ankle by w^2. The
+    knee bends most just after toe-off, where w is small: the swing's peak knee flexion falls from
+    63 to 55 deg on the male body's walk (a mild stiff knee; a stiffer one would change the stance
+    before toe-off too). Time is stretched ``slow`` times (not dynamically consistent: a slower
+    walk is not the same walk slower). Returns (t, q, w)."""
     from humanoid.walking.gait import contact_runs
 
     em = h.fusion.euler_model
