@@ -283,10 +283,10 @@ def test_subject01_tracked_to_the_end(subject01):
     reduction (loads estimated on the fitted floor) and tracking to its end: a treadmill walk,
     followed in the belt's frame. The fitted spine is past its ranges (its trunk's markers
     want 80 deg of thoracic flexion): clamped into them first. Measured (the converged IK, the
-    feet landing on the capture point's error, the 2 ms step): completed, the joints 1.6 deg RMS
-    from the reference, the legs 2.6 deg from the IK (the whole body 8.1, the clamped spine's 35
-    deg in it), every joint 1.6 deg from the IK clamped into the ranges; the bounds here 5 deg
-    (at 1 ms: 1.9, 2.9, 8.2 and 1.9)."""
+    feet landing on the capture point's error, the 2 ms step, the reduction's feet held on their
+    floor): completed, the joints 1.6 deg RMS from the reference, the legs 2.7 deg from the IK
+    (the whole body 8.1, the clamped spine's 35 deg in it), every joint 1.7 deg from the IK
+    clamped into the ranges; the bounds here 5 deg."""
     from humanoid.model import lock_foot_hinges, restrict_configurations
     from humanoid.motion.floor import fit_floor
     from humanoid.motion.inverse_dynamics import derivatives, estimate_loads, joint_labels
