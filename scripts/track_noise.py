@@ -3,8 +3,9 @@
 The male body walks 3 steps at 0.8 m/s (every step recorded, then every tenth: 100 Hz); its
 default markers (or a keypoint layout's points) get Gaussian noise of ``--noise`` metres per
 coordinate, seeded; inverse kinematics fits the body to them, and tracking follows that fit.
-Per seed it prints whether the tracked run completed and the joints' RMS error against the
-clean walk, of the fitted noisy motion and of the tracked one::
+Per seed it prints whether the tracked run completed (and when it lost the motion, if it did)
+and the joints' RMS error against the clean walk, of the fitted noisy motion and of the
+tracked one::
 
     python scripts/track_noise.py --seeds 0 1 2 3 4 [--layout body25]
 """
@@ -60,6 +61,8 @@ def main(argv=None) -> int:
         run = res.trajectory
         ref = q[np.clip(np.round(run.t * 100).astype(int), 0, len(q) - 1)]
         status = run.status + (f" ({run.metadata.get('message')})" if not res.completed else "")
+        if res.lost is not None:
+            status += f", lost the motion at {res.lost:.2f} s (its pelvis 10 cm or 15 deg off)"
         print(f"seed {seed}: fitted {rms(fit.q, q):.2f} deg RMS, tracked {rms(run.q, ref):.2f} "
               f"deg RMS, {status}")  # fmt: skip
     return 0

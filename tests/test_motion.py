@@ -1140,7 +1140,9 @@ def test_tracking_cleans_noisy_keypoints(walk_1khz):
 def test_joint_centres_alone_stand_on_level_feet_and_track(walk_1khz, monkeypatch):
     """Human3.6M's 17 joint centres (the ankles' centres, nothing of the feet): the fit pulls a
     stance foot's sole level through the ankle (its coordinates no point sees), and the walk
-    with 1 cm of noise tracks to the end (measured: fitted 3.3 deg RMS off, tracked 2.9);
+    with 1 cm of noise tracks to the end (measured: fitted 3.3 deg RMS off, tracked 2.9; its
+    pelvis strays over 10 cm from the motion's at 1.36 s, a run that completes, not one that
+    follows);
     without the pull the ankles are held as they fall and the tracked body loses the motion
     within a second (measured: at 0.6 s; it then stands 1.3 m behind it, or falls). The clean
     points' knees come back to 0.5 deg (the pull moves no coordinate the points see). COCO's
@@ -1189,7 +1191,7 @@ def test_joint_centres_alone_stand_on_level_feet_and_track(walk_1khz, monkeypatc
     assert rms(res.trajectory.q, ref) < min(5.0, rms(fit.q, q))
     # (the run may end standing where it lost the motion, or on the floor: lost either way)
     lost = lost_at(fell.joint_error)
-    assert lost is not None and fell.trajectory.t[lost] < 1.0
+    assert fell.lost is not None and fell.lost == fell.trajectory.t[lost] < 1.0
 
 
 def test_inverse_dynamics_ignores_quaternion_signs(walk_1khz):

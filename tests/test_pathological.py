@@ -70,7 +70,7 @@ def test_a_hemiparetic_walk_is_reduced_and_tracked_to_the_end(hemiparetic_walk, 
     assert red.force_rms() < 0.05 * h.mass * 9.81
     res = track(h, red.time, red.q)
     assert res.completed, res.trajectory.metadata.get("message")
-    assert lost_at(res.joint_error) is None
+    assert res.lost is None and lost_at(res.joint_error) is None
     run = res.trajectory
     walk = q[np.clip(np.searchsorted(t, run.t + red.time[0] - 1e-9), 0, len(q) - 1)]
     print(f"tracked {_rms(h.model, run.q, walk):.2f} deg RMS from the walk")

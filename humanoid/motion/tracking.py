@@ -458,7 +458,17 @@ class Tracked:
 
     @property
     def completed(self) -> bool:
+        """Whether the run reached the motion's end (it may have lost the motion on the way:
+        :attr:`lost`)."""
         return self.trajectory.status == "completed"
+
+    @property
+    def lost(self) -> float | None:
+        """The time [s, the run's] at which its pelvis first went over :data:`LOST_POSITION`
+        or :data:`LOST_ANGLE` from the motion's, or None if it never did: a run can complete
+        standing a metre from the motion it was to follow."""
+        i = lost_at(self.joint_error)
+        return None if i is None else float(self.trajectory.t[i])
 
 
 def track(h, time, q, loads: list[Load] | tuple = (), *, cutoff: float | str | None = "auto",
