@@ -406,11 +406,9 @@ def _debounced(x: np.ndarray, time: np.ndarray, shortest: float) -> np.ndarray:
     out = np.zeros(len(x), dtype=bool)
     for a, b in contact_runs(x, time, shortest):
         out[a:b] = True
-    n = len(x)
-    if n and x[0]:
-        out[: int(np.argmin(x)) if not x.all() else n] = True
-    if n and x[-1]:
-        out[n - int(np.argmin(x[::-1])) if not x.all() else 0 :] = True
+    for a, b in contact_runs(x, time, 0.0):  # (every run as it is)
+        if a == 0 or b == len(x):
+            out[a:b] = True
     return out
 
 
