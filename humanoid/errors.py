@@ -175,6 +175,29 @@ def finite_vector(x, n: int, what: str, size: str) -> np.ndarray:
     return x
 
 
+def finite_rows(x, n: int, what: str, size: str, rows: int | None = None) -> np.ndarray:
+    """One state or a sequence of them as (N, n) floats (a copy), each row checked as
+    :func:`finite_vector` checks one; ``rows``: the N it must have (a state's velocities for
+    its configurations)."""
+    if np.ndim(x) < 2:
+        out = finite_vector(x, n, what, size)[None]
+    else:
+        try:
+            out = np.array(x, dtype=float)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ConfigurationError(
+                f"{what} must be rows of {n} numbers ({size}): {exc}"
+            ) from None
+        if out.ndim != 2 or out.shape[1] != n:
+            raise ConfigurationError(f"{what} must be rows of {size} = {n} entries, got shape "
+                                     f"{out.shape}")  # fmt: skip
+        for row in out[~np.isfinite(out).all(axis=1) | (np.abs(out).max(axis=1) > MAX_STATE)]:
+            finite_vector(row, n, what, size)  # raises, naming the first bad row's entries
+    if rows is not None and len(out) != rows:
+        raise ConfigurationError(f"{what} has {len(out)} rows for {rows} states")
+    return out
+
+
 class RunFailed(HumanoidError):
     """A run's task failed: the body fell, or its controller found no solution. The run stops
     and keeps what it computed (status ``failed``)."""

@@ -28,13 +28,26 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from .errors import ConfigurationError, ModelError, finite_vector
+from .errors import ConfigurationError, ModelError, finite_rows, finite_vector
 
 __all__ = ["BallJoint", "Fusion", "fuse_ball_joints"]
 
 REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned"}
 TOL = 1e-9
 _EYE = np.eye(3)
+
+
+def quaternions(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions (x, y, z, w) of rotation matrices (..., 3, 3), as Eigen makes them:
+    its own formula where the trace is positive (w > 0), Pinocchio's conversion elsewhere."""
+    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
+    t = np.sqrt(np.maximum(trace, 0.0) + 1.0)
+    k = 0.5 / t
+    quat = np.stack([(R[..., 2, 1] - R[..., 1, 2]) * k, (R[..., 0, 2] - R[..., 2, 0]) * k,
+                     (R[..., 1, 0] - R[..., 0, 1]) * k, 0.5 * t], axis=-1)  # fmt: skip
+    for i in zip(*np.nonzero(trace <= 0.0), strict=True):  # Eigen's other branches
+        quat[i] = pin.Quaternion(R[i]).coeffs()
+    return quat
 
 
 def joint_axis(jmodel) -> np.ndarray:
@@ -148,45 +161,42 @@ class Fusion:
                 G.transpose(0, 2, 1).copy())  # fmt: skip
 
     def to_quaternion(self, q_euler, v_euler=None):
-        """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given).
+        """Map an Euler-model state to the fused model: ``(q, v)`` (``v`` None if not given);
+        one state, or a sequence of them ((N, nq) and (N, nv): mapped at once).
 
         The balls' rotations and velocities are :meth:`BallJoint.rotation` and
-        :meth:`BallJoint.velocity_map`'s, computed for all balls at once (each hinge's
-        rotation by Rodrigues' formula, cos I + sin [a]x + (1 - cos) a a^T; equal to the
-        per-ball products to 1e-15), the quaternions by Eigen's own formula where the trace is
-        positive (w > 0, the same sign) and by Pinocchio elsewhere."""
+        :meth:`BallJoint.velocity_map`'s, computed for all balls (and all states) at once (each
+        hinge's rotation by Rodrigues' formula, cos I + sin [a]x + (1 - cos) a a^T; equal to
+        the per-ball products to 1e-15), the quaternions by :func:`quaternions`."""
         em, fm = self.euler_model, self.model
-        q_euler = finite_vector(q_euler, em.nq, "q", "nq")
-        q = np.zeros(fm.nq)
-        v = None if v_euler is None else np.zeros(fm.nv)
+        one = np.ndim(q_euler) < 2
+        q_euler = finite_rows(q_euler, em.nq, "q", "nq")
+        n = len(q_euler)
+        q = np.zeros((n, fm.nq))
+        v = None if v_euler is None else np.zeros((n, fm.nv))
         if v is not None:
-            v_euler = finite_vector(v_euler, em.nv, "v", "nv")
+            v_euler = finite_rows(v_euler, em.nv, "v", "nv", n)
         (src_q, dst_q, src_v, dst_v, iq, iv, qcols, vcols,
          axes, cross, outer, G, Gt) = self._plan  # fmt: skip
-        q[dst_q] = q_euler[src_q]
+        q[:, dst_q] = q_euler[:, src_q]
         if v is not None:
-            v[dst_v] = v_euler[src_v]
-        if not len(iq):
-            return q, v
-        th = q_euler[iq]
-        c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
-        R = c * _EYE + s * cross + (1.0 - c) * outer  # (nb, 3 hinges, 3, 3)
-        R1 = R[:, 0]
-        R12 = R1 @ R[:, 1]
-        Rs = Gt @ (R12 @ R[:, 2]) @ G
-        trace = Rs[:, 0, 0] + Rs[:, 1, 1] + Rs[:, 2, 2]
-        t = np.sqrt(np.maximum(trace, 0.0) + 1.0)
-        k = 0.5 / t
-        quat = np.stack([(Rs[:, 2, 1] - Rs[:, 1, 2]) * k, (Rs[:, 0, 2] - Rs[:, 2, 0]) * k,
-                         (Rs[:, 1, 0] - Rs[:, 0, 1]) * k, 0.5 * t], axis=1)  # fmt: skip
-        for i in np.flatnonzero(trace <= 0.0):  # Eigen's other branches
-            quat[i] = pin.Quaternion(Rs[i]).coeffs()
-        q[qcols] = quat
-        if v is not None:
-            cols = np.stack([axes[:, 0], (R1 @ axes[:, 1, :, None])[..., 0],
-                             (R12 @ axes[:, 2, :, None])[..., 0]], axis=2)  # fmt: skip
-            E = (G @ Rs).transpose(0, 2, 1) @ cols
-            v[vcols] = (E @ v_euler[iv][..., None])[..., 0]
+            v[:, dst_v] = v_euler[:, src_v]
+        if len(iq):
+            th = q_euler[:, iq]  # (N, nb, 3 hinges)
+            c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
+            R = c * _EYE + s * cross + (1.0 - c) * outer  # (N, nb, 3 hinges, 3, 3)
+            R1 = R[:, :, 0]
+            R12 = R1 @ R[:, :, 1]
+            Rs = Gt @ (R12 @ R[:, :, 2]) @ G
+            q[:, qcols] = quaternions(Rs)
+            if v is not None:
+                cols = np.stack([np.broadcast_to(axes[:, 0], R1.shape[:-1]),
+                                 (R1 @ axes[:, 1, :, None])[..., 0],
+                                 (R12 @ axes[:, 2, :, None])[..., 0]], axis=-1)  # fmt: skip
+                E = np.swapaxes(G @ Rs, -1, -2) @ cols
+                v[:, vcols] = (E @ v_euler[:, iv][..., None])[..., 0]
+        if one:
+            return q[0], None if v is None else v[0]
         return q, v
 
     def to_euler(self, q, v=None, hint=None):

@@ -952,7 +952,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "F02",
         "fusion.py",
-        "E = (G @ Rs).transpose(0, 2, 1) @ cols",
+        "E = np.swapaxes(G @ Rs, -1, -2) @ cols",
         "E = (G @ Rs) @ cols",
         ("tests/test_fusion.py",),
         "hinge rates mapped to a ball's angular velocity without the rotation's transpose",

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Put the tables that the benchmarks and the studies wrote into the docs' guides, between
 their ``<!-- NAME: begin -->`` / ``<!-- NAME: end -->`` markers: the speed tables of
-``humanoid bench step|walk|track -o docs/bench`` (docs/bench/speed.md, walk.md, track.md) into
+``humanoid bench step|walk|track -o docs/bench`` (docs/bench/speed.md, walk.md, person.md,
+track.md) into
 docs/benchmarks.md, the results of ``humanoid sweep push_standing|walk_speed`` (copied to
 docs/studies/*.md) into docs/studies.md, and the person's walks' tables of
 ``scripts/walk_tables.py`` (docs/walks/*.md) into docs/walking.md.
@@ -22,6 +23,7 @@ WALKS = ("cycles", "straight", "speeds", "predictive", "standing", "circle", "si
 BLOCKS = {
     "speed": ("benchmarks.md", "bench/speed.md"),
     "walk-speed": ("benchmarks.md", "bench/walk.md"),
+    "person-speed": ("benchmarks.md", "bench/person.md"),
     "track-speed": ("benchmarks.md", "bench/track.md"),
     "study-push": ("studies.md", "studies/push_standing.md"),
     "study-walk": ("studies.md", "studies/walk_speed.md"),

@@ -448,9 +448,10 @@ def test_the_walk_follows_a_2_m_circle(gaits, sex):
     assert w.completed, w.trajectory.metadata.get("message")
     tr = w.trajectory
     assert np.abs(tr.tau[:, :6]).max() == 0.0
-    # the pelvis on the circle: 1.88-2.01 m from its centre (it sways, and leans in)
+    # the pelvis on the circle: 1.86-1.99 m from its centre (it sways, and leans in; 1.88-2.01
+    # with the QP at every step, 1.86-1.99 with it every 4 ms)
     r = np.linalg.norm(tr.q[:, :2] - (0.0, RADIUS), axis=1)
-    assert abs(r.mean() - RADIUS) < 0.07 and np.abs(r - RADIUS).max() < 0.14, (r.min(), r.max())
+    assert abs(r.mean() - RADIUS) < 0.08 and np.abs(r - RADIUS).max() < 0.16, (r.min(), r.max())
     turned = np.unwrap(np.arctan2(tr.q[:, 1] - RADIUS, tr.q[:, 0]))
     assert turned[-1] - turned[0] > 0.45 * 2 * math.pi  # about its centre, turning left
     _assert_persons_walk(analyse(h, w).summary, w.cycle.gait.speed, slip=6e-3)

@@ -179,8 +179,9 @@ def test_bench_step_quick(tmp_path, capsys):
 
 
 def test_bench_walk_quick_splits_the_wall_time(tmp_path, capsys):
-    """Both control periods are timed, every check passes in both, the parts add up to the
-    wall time (other >= 0) and the bare plant is timed."""
+    """Both control periods of the welded walk and of the person's walk are timed, every
+    check passes (every walk completes), the parts add up to the wall time (other >= 0) and
+    the bare plant is timed."""
     from humanoid.bench.walk import WALK_COLUMNS
 
     assert main(["bench", "walk", "--quick", "-o", str(tmp_path)]) == 0
@@ -195,6 +196,19 @@ def test_bench_walk_quick_splits_the_wall_time(tmp_path, capsys):
         assert float(r["other"]) >= 0 and float(r["plant"]) > 0 and float(r["qp_solve"]) > 0
     assert float(rows[0]["held"]) > 0 and float(rows[1]["held"]) == 0  # held ticks at 8 ms only
     assert "| 8 ms |" in (tmp_path / "walk.md").read_text()
+    # the person's walk: at its QP period (fewer solves than steps, torques held between) and at
+    # every step; its parts add up to the wall time
+    from humanoid.bench.walk import PERSON_COLUMNS
+
+    rows = list(csv.DictReader(open(tmp_path / "person.csv")))
+    assert list(rows[0]) == PERSON_COLUMNS and [r["control"] for r in rows] == ["4 ms", "1 ms"]
+    for r in rows:
+        assert r["completed"] == "True"
+        assert all(float(r[k]) > 0 for k in ("wall", "qp", "plant", "admm", "record", "other"))
+        assert float(r["admm"]) < float(r["plant"])
+    assert float(rows[0]["solves"]) < 500 and float(rows[1]["solves"]) == pytest.approx(1000)
+    assert float(rows[0]["held"]) > 0 and float(rows[1]["held"]) == 0
+    assert "| 4 ms |" in (tmp_path / "person.md").read_text()
 
 
 def test_bench_track_times_the_default_step_and_1_ms(tmp_path, capsys):
@@ -462,6 +476,8 @@ def test_feet_option_names_the_soles_and_bad_names_are_one_line(capsys):
     (["--radius", "0.5"], "a circle's radius must be finite and at least 1.0 m"),
     (["--radius", "2", "--push", "left:0.1"], "--push: a push is along the room's axes"),
     (["--from-standing", "--largest-push", "left"], "--largest-push: a straight walk's"),
+    (["--gait", "human", "--control-dt", "0.004"], "--control-dt: only with --gait welded or"),
+    (["--control-dt", "0.0025"], "control_dt must be a whole number of steps of 0.001 s"),
 ])  # fmt: skip
 def test_walk_options_are_checked_in_their_own_words(tmp_path, capsys, argv, message):
     with pytest.raises(SystemExit) if "choice" in message else contextlib.nullcontext():

@@ -216,3 +216,42 @@ def test_the_balls_quaternions_and_velocities_are_their_rotations_and_maps_at_an
                 np.testing.assert_allclose(v[jm.idx_v : jm.idx_v + 3],
                                            ball.velocity_map(th) @ rates, atol=1e-13)  # fmt: skip
         assert negative > 50  # the other branches were taken
+
+
+def test_states_map_at_once_as_one_by_one():
+    """:meth:`Fusion.to_quaternion` and :meth:`OcpModel.to_body` of a sequence (N, n) at once
+    equal the maps of its states one by one (to 1e-15); the free flyer's twist (closed form)
+    is the OCP root's forward kinematics at any heading (the pelvis turned round, yaw in
+    [-3, 3] rad); a bad row is named."""
+    from humanoid.errors import ConfigurationError
+    from humanoid.optimal.coordinates import build_ocp_model
+
+    rng = np.random.default_rng(11)
+    h = get_model("male", "quaternion")
+    em = h.fusion.euler_model
+    qe = np.tile(pin.neutral(em), (20, 1))
+    qe[:, 7:] = rng.uniform(-np.pi, np.pi, (20, em.nq - 7))
+    ve = rng.normal(size=(20, em.nv))
+    q, v = h.fusion.to_quaternion(qe, ve)
+    for i in range(20):
+        qi, vi = h.fusion.to_quaternion(qe[i], ve[i])
+        np.testing.assert_allclose(q[i], qi, atol=1e-15)
+        np.testing.assert_allclose(v[i], vi, atol=1e-15)
+    om = build_ocp_model(h)
+    x = om.from_body(h.standing_configuration()) + 0.3 * rng.standard_normal((20, om.n))
+    x[:, 3] = rng.uniform(-3.0, 3.0, 20)
+    xv = rng.standard_normal((20, om.n))
+    qb, vb = om.to_body(x, xv)
+    data = om.model.createData()
+    for i in range(20):
+        qi, vi = om.to_body(x[i], xv[i])
+        np.testing.assert_allclose(qb[i], qi, atol=1e-15)
+        np.testing.assert_allclose(vb[i], vi, atol=1e-15)
+        pin.forwardKinematics(om.model, data, x[i], xv[i])
+        np.testing.assert_allclose(vi[:6], data.v[6].vector, atol=1e-12)
+    bad = qe.copy()
+    bad[3, 9] = np.nan
+    with pytest.raises(ConfigurationError, match=r"q has non-finite entries \(at \[9\]\)"):
+        h.fusion.to_quaternion(bad)
+    with pytest.raises(ConfigurationError, match="v has 19 rows for 20 states"):
+        h.fusion.to_quaternion(qe, ve[1:])

@@ -141,6 +141,7 @@ def test_the_speed_tables_are_the_benchmark_output():
     from humanoid.bench.walk import WALK_COLUMNS
 
     for name, file, command in (("speed", "speed.md", "step"), ("walk-speed", "walk.md", "walk"),
+                                ("person-speed", "person.md", "walk"),
                                 ("track-speed", "track.md", "track")):  # fmt: skip
         guide = _guide("benchmarks.md")
         block = guide.split(f"<!-- {name}: begin -->\n", 1)[1].split(f"<!-- {name}: end -->")[0]
@@ -178,6 +179,19 @@ def test_the_speed_tables_are_the_benchmark_output():
         assert shown[2] == f"{float(row['ratio']):.1f}"
         assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
         assert shown[-1] == ("yes" if row["checks_passed"] == "True" else "no")
+    # the person's walk's table: a row per control period with person.csv's numbers
+    from humanoid.bench.walk import PERSON_COLUMNS
+
+    person = (ROOT / "docs" / "bench" / "person.md").read_text()
+    with open(ROOT / "docs" / "bench" / "person.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == PERSON_COLUMNS
+    for row in rows:
+        line = next(x for x in person.splitlines() if x.startswith(f"| {row['control']} |"))
+        shown = [c.strip() for c in line.strip("|").split("|")]
+        assert shown[1] == f"{float(row['real_time_factor']):.2f}x"
+        assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
+        assert shown[-1] == ("yes" if row["completed"] == "True" else "no")
 
 
 def test_the_study_results_are_the_sweeps_output():

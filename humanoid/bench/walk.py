@@ -10,6 +10,11 @@ after the run) and the records; "other" is the rest of the loop (the contact sch
 divergence guard). The bare plant is the same ticks through ``pin.constraintDynamics`` and
 ``pin.integrate`` alone on the walk's states (both feet welded, then one), measured in the same
 run: the walk's cost is read as a multiple of it.
+
+The person's walk (``humanoid walk``: the male body's optimised cycle on the rigid ground) is
+timed at its default QP period and at every step, split into the QP ticks, the held torques
+between them, the plant's step (the frictional ground contact; ADMM's share of it apart) and
+the gait record.
 """
 
 from __future__ import annotations
@@ -24,9 +29,10 @@ import pinocchio as pin
 from .common import Clock, load_male, pinocchio_contacts, write_table
 
 if TYPE_CHECKING:
+    from ..walking.gait import GroundWalk
     from ..walking.run import WalkResult
 
-__all__ = ["WALK_COLUMNS", "run_walk_benchmark"]
+__all__ = ["PERSON_COLUMNS", "WALK_COLUMNS", "run_walk_benchmark"]
 
 # walk.csv's columns, in the order of the README's table: per simulated second [s]
 WALK_COLUMNS = ["control", "real_time_factor", "wall", "bare_plant", "ratio", "qp_assembly",
@@ -114,6 +120,106 @@ def _bare_plant(model, samples, dt: float, rounds: int) -> float:
     return best
 
 
+# person.csv's columns, in the order of the README's table: per simulated second [s] but for
+# control (the QP's period), real_time_factor, solves (QP solves per simulated second) and
+# completed
+PERSON_COLUMNS = ["control", "real_time_factor", "wall", "solves", "qp", "held", "plant", "admm",
+                  "record", "other", "completed"]  # fmt: skip
+
+
+class _TimedSolver:
+    """Pinocchio's ADMM solver with its solves timed (its methods are C++: not patchable)."""
+
+    def __init__(self, inner, clock: Clock) -> None:
+        self._solve = clock.timed(inner.solve, "admm")
+
+    def solve(self, *args):
+        return self._solve(*args)
+
+
+def _timed_person(h, steps: int, control_dt: float) -> tuple[dict, GroundWalk]:
+    """The person's walk (``humanoid walk``'s default gait) of ``steps`` heel strikes with its
+    pieces timed: the QP ticks, the held torques between them, the plant's step (the ground
+    contact: detection, the joint ranges' rows, the Delassus matrix, ADMM) and ADMM in it, the
+    gait record (:class:`~humanoid.walking.gait.GaitRecorder`); returns (seconds by piece,
+    the walk)."""
+    from ..constraints.ground import ContactSolver
+    from ..simulation.plant import Plant
+    from ..walking.gait import GaitRecorder
+    from ..walking.person import CycleTracker, Sampled
+    from ..walking.walkers import ground_walker
+
+    clock = Clock()
+    _, walk = ground_walker(h, "person", dt=1e-3, mu=0.8, quiet=True, control_dt=control_dt)
+    patched = [(CycleTracker, "update", "qp"), (Sampled, "torques", "held"),
+               (Plant, "step", "plant"), (GaitRecorder, "observe", "record")]  # fmt: skip
+    originals = [(owner, name, getattr(owner, name)) for owner, name, _ in patched]
+    init = ContactSolver.__init__
+
+    def timed_init(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self.solver = _TimedSolver(self.solver, clock)
+
+    for owner, name, label in patched:
+        setattr(owner, name, clock.timed(getattr(owner, name), label))
+    ContactSolver.__init__ = timed_init  # type: ignore[method-assign]
+    try:
+        start = time.perf_counter()
+        result = walk(steps, ())
+        wall = time.perf_counter() - start
+    finally:
+        for owner, name, original in originals:
+            setattr(owner, name, original)
+        ContactSolver.__init__ = init  # type: ignore[method-assign]
+    seconds = dict(clock.total)
+    seconds["wall"] = wall
+    return seconds, result
+
+
+def _person_rows(h, steps: int) -> list[dict]:
+    """The person's walk at its default QP period and at every step."""
+    from ..walking.person import CONTROL_PERIOD
+
+    rows = []
+    for control in (CONTROL_PERIOD, 1e-3):
+        seconds, result = _timed_person(h, steps, control)
+        simulated = float(result.record.t[-1] + result.record.dt)
+        per = {k: v / simulated for k, v in seconds.items()}
+        row = {
+            "control": f"{control * 1e3:g} ms",
+            "real_time_factor": simulated / seconds["wall"],
+            "solves": result.trajectory.metadata["qp_solves"] / simulated,
+            "completed": result.completed,
+        }
+        for k in ("wall", "qp", "held", "plant", "admm", "record"):
+            row[k] = per.get(k, 0.0)
+        row["other"] = row["wall"] - sum(row[k] for k in ("qp", "held", "plant", "record"))
+        rows.append(row)
+        print(f"the person's walk, QP every {row['control']}: {simulated:.2f} s walked in "
+              f"{seconds['wall']:.2f} s ({row['real_time_factor']:.2f}x real time); completed: "
+              f"{result.completed}")  # fmt: skip
+    return rows
+
+
+def _person_markdown(rows, where: str, steps: int) -> str:
+    ms = [("wall", "wall"), ("qp", "QP ticks"), ("held", "held torques"), ("plant", "plant"),
+          ("admm", "of which ADMM"), ("record", "gait record"), ("other", "other")]  # fmt: skip
+    lines = [
+        f"Measured by `humanoid bench walk` on {where}: the male body's person's walk "
+        f"(`humanoid walk`), {steps} steps; milliseconds of wall time per simulated second.",
+        "",
+        "| control | real time | QP solves per s | " + " | ".join(label for _, label in ms)
+        + " | completed |",
+        "|---" * (len(ms) + 4) + "|",
+    ]  # fmt: skip
+    for r in rows:
+        cells = [r["control"], f"{r['real_time_factor']:.2f}x", f"{r['solves']:.0f}"]
+        cells += [f"{r[k] * 1e3:.1f}" for k, _ in ms]
+        cells.append("yes" if r["completed"] else "no")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """Time the welded walk, its pieces and the bare plant; print a table, write ``walk.csv``
     and ``walk.md``."""
@@ -155,6 +261,9 @@ def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -
               f"{seconds['wall']:.2f} s ({row['real_time_factor']:.1f}x real time), "
               f"{row['ratio']:.1f}x the bare plant; every check passed: {result.ok}")  # fmt: skip
     write_table(out, "walk", rows, WALK_COLUMNS, _markdown(rows, machine(), gait.steps))
+    steps = 2 if quick else 10
+    person = _person_rows(h, steps)
+    write_table(out, "person", person, PERSON_COLUMNS, _person_markdown(person, machine(), steps))
     return 0
 
 

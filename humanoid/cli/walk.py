@@ -77,8 +77,9 @@ def _add_welded_options(w) -> None:
                    "semi_implicit_euler)")  # fmt: skip
     w.add_argument("--dt", type=float, default=1e-3, help="simulation and control step [s]")
     w.add_argument("--control-dt", type=float,
-                   help="(--gait welded) the QP's period [s], a multiple of --dt (default 8 ms; "
-                   "between QP ticks the contact forces are held)")  # fmt: skip
+                   help="(--gait welded, person) the QP's period [s], a multiple of --dt "
+                   "(default: welded 8 ms, the contact forces held between its ticks; person "
+                   "4 ms, and at once when a foot lands, lifts or slides)")  # fmt: skip
     w.add_argument(
         "--drop", type=float, help="(--gait welded) pelvis lowered before walking [m] (0.04)"
     )
@@ -181,11 +182,12 @@ def _ground_pushes(args) -> list[tuple[str, float]]:
     from ..walking.walkers import FROM_STANDING_STEPS, MAX_PUSH, PUSHED_STEPS
 
     given = [o for o, v in (("--step-length", args.step_length), ("--figure", args.figure),
-                            ("--drop", args.drop), ("--integrator", args.integrator),
-                            ("--control-dt", args.control_dt))
+                            ("--drop", args.drop), ("--integrator", args.integrator))
              if v is not None]  # fmt: skip
     if given:
         raise UsageError(f"{', '.join(given)}: only with --gait welded")
+    if args.control_dt is not None and args.gait != "person":
+        raise UsageError("--control-dt: only with --gait welded or person")
     pushes = []
     for spec in args.push:
         direction, _, fraction = spec.partition(":")
@@ -229,7 +231,7 @@ def _walk_on_ground(args) -> int:
     pushes = _ground_pushes(args)
     h = load_any(args, ball_joints="quaternion")
     cycle, walker = ground_walker(h, args.gait, args.speed, dt=args.dt, mu=args.mu,
-                                  quiet=args.quiet)  # fmt: skip
+                                  quiet=args.quiet, control_dt=args.control_dt)  # fmt: skip
     if args.largest_push:
         return _largest_push(args, h, cycle, walker)
     kw = {"from_standing": args.from_standing, "radius": args.radius}

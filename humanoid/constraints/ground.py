@@ -405,6 +405,7 @@ class StepContacts:
             divided by dt, the passive moment the ranges added to each joint in the step.
         iterations: ADMM iterations; converged: whether it met its tolerance.
         joints: The joint of the body each contact is on, (n,).
+        local: The contacts' points in their joint's frame, (n, 3) [m].
     """
 
     points: np.ndarray
@@ -415,6 +416,7 @@ class StepContacts:
     converged: bool
     joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     limit_generalized: np.ndarray | None = None
+    local: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def force(self) -> np.ndarray:
@@ -531,5 +533,6 @@ class ContactSolver:
         limits = lam[3 * n_ground :]
         generalized = J[3 * n_ground :].T @ limits if n_limits else np.zeros(model.nv)
         out = StepContacts(contacts.points, contacts.phi, impulses, limits, int(res.iterations),
-                           bool(res.converged), contacts.joints, generalized)  # fmt: skip
+                           bool(res.converged), contacts.joints, generalized,
+                           contacts.local)  # fmt: skip
         return v_new, out

@@ -207,12 +207,7 @@ class Humanoid:
         model."""
         if self.fusion is None:
             return q_euler, v_euler
-        if np.ndim(q_euler) != 2:
-            return self.fusion.to_quaternion(q_euler, v_euler)
-        out = [self.fusion.to_quaternion(qe, None if v_euler is None else v_euler[i])
-               for i, qe in enumerate(q_euler)]  # fmt: skip
-        q = np.array([o[0] for o in out]).reshape(-1, self.model.nq)
-        return q, None if v_euler is None else np.array([o[1] for o in out])
+        return self.fusion.to_quaternion(q_euler, v_euler)
 
 
 def upright(model: pin.Model) -> np.ndarray:

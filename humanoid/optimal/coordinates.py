@@ -18,7 +18,6 @@ half stride's symmetry needs.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -26,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError
+from ..fusion import quaternions
 
 if TYPE_CHECKING:
     from ..model import Humanoid
@@ -59,11 +59,6 @@ class OcpModel:
     euler_index: np.ndarray
     locked: np.ndarray
     mirror: tuple[np.ndarray, np.ndarray]
-
-    @functools.cached_property
-    def _data(self) -> pin.Data:
-        """Scratch data for the state maps (a walk maps three states per control step)."""
-        return self.model.createData()
 
     @property
     def n(self) -> int:
@@ -104,28 +99,37 @@ class OcpModel:
 
     def to_body(self, x, v=None):
         """The body's state (q, v) for coordinates (and rates): one state or sequences
-        (N, n). ``v`` None gives None."""
-        if np.ndim(x) == 2:
-            out = [self.to_body(xi, None if v is None else v[i]) for i, xi in enumerate(x)]
-            q = np.array([o[0] for o in out])
-            return q, None if v is None else np.array([o[1] for o in out])
+        (N, n), mapped at once. ``v`` None gives None.
+
+        The root's rotation is Rz(yaw) Ry(pitch) Rx(roll) and the free flyer's velocity the
+        pelvis's twist in its own frame: R^T p' and, with the angles' rates,
+        omega = yaw' R^T z + pitch' Rx(roll)^T y + roll' x (what the root's six joints'
+        forward kinematics give: tests/test_optimal_coordinates.py)."""
         x = np.asarray(x, dtype=float)
-        h, em = self.body, self.body.euler_model
-        qe = self.locked.copy()
-        qe[:3] = x[:3]
-        R = root_rotation(x[3:6])
-        qe[3:7] = pin.Quaternion(R).coeffs()
-        qe[self.euler_index] = x[6:]
+        one = x.ndim == 1
+        x = np.atleast_2d(x)
+        n = len(x)
+        qe = np.tile(self.locked, (n, 1))
+        qe[:, :3] = x[:, :3]
+        R = root_rotations(x[:, 3:6])
+        qe[:, 3:7] = quaternions(R)
+        qe[:, self.euler_index] = x[:, 6:]
         ve = None
         if v is not None:
-            v = np.asarray(v, dtype=float)
-            ve = np.zeros(em.nv)
-            # the free flyer's velocity: the pelvis's twist in its own frame
-            data = self._data
-            pin.forwardKinematics(self.model, data, x, v)
-            ve[:6] = data.v[6].vector
-            ve[self.euler_index - 1] = v[6:]
-        return h.from_euler(qe, ve)
+            v = np.atleast_2d(np.asarray(v, dtype=float))
+            ve = np.zeros((n, self.body.euler_model.nv))
+            ve[:, :3] = (np.swapaxes(R, 1, 2) @ v[:, :3, None])[..., 0]
+            sp, cp = np.sin(x[:, 4]), np.cos(x[:, 4])
+            sr, cr = np.sin(x[:, 5]), np.cos(x[:, 5])
+            dy, dp, dr = v[:, 3], v[:, 4], v[:, 5]
+            ve[:, 3] = dr - dy * sp
+            ve[:, 4] = dp * cr + dy * cp * sr
+            ve[:, 5] = -dp * sr + dy * cp * cr
+            ve[:, self.euler_index - 1] = v[:, 6:]
+        q, vb = self.body.from_euler(qe, ve)
+        if one:
+            return q[0], None if vb is None else vb[0]
+        return q, vb
 
 
 def yaw_pitch_roll(R: np.ndarray) -> np.ndarray:
@@ -136,6 +140,18 @@ def yaw_pitch_roll(R: np.ndarray) -> np.ndarray:
 def root_rotation(ypr) -> np.ndarray:
     """Rz(yaw) Ry(pitch) Rx(roll)."""
     return pin.rpy.rpyToMatrix(float(ypr[2]), float(ypr[1]), float(ypr[0]))
+
+
+def root_rotations(ypr: np.ndarray) -> np.ndarray:
+    """:func:`root_rotation` of rows (N, 3) of (yaw, pitch, roll): (N, 3, 3)."""
+    cy, sy = np.cos(ypr[:, 0]), np.sin(ypr[:, 0])
+    cp, sp = np.cos(ypr[:, 1]), np.sin(ypr[:, 1])
+    cr, sr = np.cos(ypr[:, 2]), np.sin(ypr[:, 2])
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=1),
+        np.stack([-sp, cp * sr, cp * cr], axis=1),
+    ], axis=1)  # fmt: skip
 
 
 def _partner(name: str) -> str:

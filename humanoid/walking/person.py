@@ -7,7 +7,9 @@ forward; the plant is the ground of :mod:`humanoid.constraints.ground` (every fo
 unilateral Coulomb contact) with the joint ranges in the same solve. Each step a task-space
 inverse-dynamics QP (:func:`~humanoid.control.qp.contact_qp`) finds the accelerations and the
 forces of the loaded points, and only the joint torques leave it; the free flyer is never
-actuated and nothing is placed kinematically.
+actuated and nothing is placed kinematically. The QP runs every :data:`CONTROL_PERIOD` (a
+sampled controller: its torques are held between its ticks) and at once whenever a foot
+starts or stops carrying load in the plant.
 
 - **Contacts.** A foot corner within ``touch`` of the floor is loaded when the cycle has the
   contact point there (the nearest of the cycle's points on that foot) in its phase's contact
@@ -72,10 +74,23 @@ from ..optimal.cycle import (
 )  # fmt: skip
 from .gait import FALL_HEIGHT, PHASE0, GaitRecorder, GroundWalk
 
-__all__ = ["CycleGains", "CycleReference", "CycleTracker", "walk_cycle", "walk_from_standing"]
+__all__ = [
+    "CONTROL_PERIOD",
+    "SLIDING",
+    "CycleGains",
+    "CycleReference",
+    "CycleTracker",
+    "walk_cycle",
+    "walk_from_standing",
+]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on the same body
+# [s] the QP's period (its torques held in between; at once when a foot lands or lifts): a
+# 10-step walk of the male body at 1, 2, 4 and 8 ms had the same gait to 1-2 % (slip 0.26,
+# 0.31, 0.42 and 1.20 mm) at 0.5, 0.6, 0.9 and 1.2 times real time
+CONTROL_PERIOD = 4e-3
+SLIDING = 0.01  # [m/s] a loaded point this fast slides: the QP is solved at once
 
 
 @dataclass(frozen=True)
@@ -234,11 +249,9 @@ class CycleReference:
 
     def state(self, t: float, h: float = 1e-3):
         """(q, v, a) of the body at t (a by central differences of v)."""
-        x, v, _ = self.coordinates(t)
-        q, vb = self.om.to_body(x, v)
-        _, v0 = self.om.to_body(*self.coordinates(t - h)[:2])
-        _, v1 = self.om.to_body(*self.coordinates(t + h)[:2])
-        return q, vb, (v1 - v0) / (2 * h)
+        xs, vs = zip(*(self.coordinates(s)[:2] for s in (t, t - h, t + h)), strict=True)
+        q, vb = self.om.to_body(np.array(xs), np.array(vs))  # the three at once
+        return q[0], vb[0], (vb[2] - vb[1]) / (2 * h)
 
     def heading(self, t: float) -> float:
         """[rad] the direction of travel at t: 0 straight on; along a circle, turning at the
@@ -277,6 +290,76 @@ class CycleReference:
         return math.inf
 
 
+class Sampled:
+    """The person's controller between its QP's ticks (see :meth:`CycleTracker.before_step`):
+    the torques of the last solve's accelerations and contact forces at the state now, and
+    what tells that the QP must run again (a foot landing or lifting, a loaded point sliding).
+
+    Args:
+        model: The plant's model.
+        side_of_joint: The side of each joint of the feet.
+    """
+
+    def __init__(self, model, side_of_joint: dict) -> None:
+        self.model, self.side_of_joint = model, side_of_joint
+        self.every = 1  # the QP every this many steps (and when a foot lands, lifts or slides)
+        self.solves = 0  # QP solves so far
+        self.solved_with: frozenset | None = None  # the loaded feet at the last solve
+        self.data = model.createData()  # the held torques' (their RNEA's state: sliding)
+        self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
+        for _ in range(model.njoints):
+            self._fext.append(pin.Force.Zero())
+        self._held: tuple | None = None  # (dv, wrenches) of the last solve
+
+    def hold(self, dv, joints, local, f, data) -> None:
+        """Hold a solve's accelerations ``dv`` and its forces ``f`` (world axes) at points
+        ``local`` of ``joints`` (in their frames; ``data``: the kinematics at the tick), as
+        wrenches on the joints, in their frames about their origins."""
+        fext = self._fext
+        for j in range(len(fext)):
+            fext[j] = pin.Force.Zero()
+        for j in set(joints):
+            on = [k for k, jk in enumerate(joints) if jk == j]
+            f_j = f[on] @ data.oMi[j].rotation  # R^T f
+            fext[j] = pin.Force(f_j.sum(axis=0), cross(local[on], f_j).sum(axis=0))
+        self._held = (dv, fext)
+
+    def torques(self, q, v) -> np.ndarray:
+        """The torques of the held accelerations dv and forces f at the state now,
+        tau = (M dv + h - J^T f) on the joints (one RNEA, f as wrenches on the loaded points'
+        joints, at the points' places on their bodies): the QP's own torques at its tick, and
+        following the configuration and the velocities after it (held as constants, a light
+        segment's torque went stale: the female body's toes diverged on a 2 m circle at a 4 ms
+        period)."""
+        assert self._held is not None, "held torques before the first solve"
+        dv, fext = self._held
+        tau = pin.rnea(self.model, self.data, q, v, dv, fext)
+        tau[:6] = 0.0
+        return tau
+
+    def sliding(self, found) -> bool:
+        """Whether a point the last ground step pushed up moves faster than ``SLIDING`` now
+        (its speed on its body at the state of :meth:`torques`' RNEA)."""
+        if found is None or not len(found.impulses):
+            return False
+        pushed = found.impulses[:, 2] > 0.0
+        joints, local, vj = found.joints[pushed], found.local[pushed], self.data.v
+        for j in set(joints.tolist()):
+            r = local[joints == j]
+            w = vj[j].angular
+            speed = np.linalg.norm(vj[j].linear + cross(w, r), axis=1)
+            if speed.max(initial=0.0) > SLIDING:
+                return True
+        return False
+
+    def loaded_feet(self, found) -> frozenset:
+        """The sides whose feet the last ground step pushed up (none before the first)."""
+        if found is None or not len(found.impulses):
+            return frozenset()
+        pushed = found.joints[found.impulses[:, 2] > 0.0].tolist()
+        return frozenset(self.side_of_joint.get(j) for j in pushed) - {None}
+
+
 class CycleTracker(Effect):
     """The controller (an effect of the scene: its torques): see the module."""
 
@@ -307,6 +390,7 @@ class CycleTracker(Effect):
         self.side_of_joint = {
             j: s for s in SIDES for j in model.subtrees[model.frames[self.sole[s]].parentJoint]
         }
+        self.sampled = Sampled(model, self.side_of_joint)  # between the QP's ticks
         self.tau = np.zeros(model.nv)
         self.qp = WarmQP(eps_abs=1e-9, max_iter=1000, primal=1e-7, dual=1e-4)
         self.relaxed = 0
@@ -327,7 +411,19 @@ class CycleTracker(Effect):
         return self.tau
 
     def before_step(self, sim, k: int, t: float, q, v) -> None:
+        """The run loop's hook: the QP at every ``every``-th step, and at once when the set of
+        feet the plant's ground carries changes (a heel strike, a toe off) or a loaded point
+        slides; :meth:`Sampled.torques` in between."""
+        found, held = sim.ground_step, self.sampled
+        loaded = held.loaded_feet(found)
+        if k % held.every and loaded == held.solved_with:
+            tau = held.torques(q, v)
+            if not held.sliding(found):
+                self.tau = tau
+                return
         self.update(t, q, v)
+        held.solved_with = loaded
+        held.solves += 1
 
     def update(self, t: float, q, v) -> np.ndarray:
         model, data, g, dt, ref = self.model, self.data, self.gains, self.dt, self.ref
@@ -396,6 +492,8 @@ class CycleTracker(Effect):
         self.tau, dv, f = p.torques(checked(x, "cycle tracker's", t, self.qp), M, hvec,
                                     self.weight)  # fmt: skip
         self.last = (dv, f, match)
+        if self.sampled.every > 1:
+            self.sampled.hold(dv, [joint_of[i] for i in loaded], found.local[loaded], f, data)
         return self.tau
 
     def _cycle_forces(self, tc: float, match) -> tuple[np.ndarray, np.ndarray]:
@@ -511,10 +609,11 @@ def smooth(u: float) -> float:
 
 def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, gains=None,
                phase0: float = PHASE0, quiet: bool = True, pushes=(), record_rate=100.0,
-               radius: float | None = None):  # fmt: skip
+               radius: float | None = None, control_dt: float | None = None):  # fmt: skip
     """Simulate ``h`` walking ``steps`` heel strikes along the optimised ``gait`` (along a
     circle of ``radius`` [m], positive turning left, or straight on); returns a
-    :class:`~humanoid.walking.gait.GroundWalk`."""
+    :class:`~humanoid.walking.gait.GroundWalk`. ``control_dt``: the QP's period [s], a whole
+    number of steps (default :data:`CONTROL_PERIOD`, or every step if ``dt`` is longer)."""
     if steps < 1:
         raise WalkError(f"steps must be at least 1, got {steps}")
     if radius is not None:
@@ -523,12 +622,12 @@ def walk_cycle(h, gait, steps: int = 20, *, dt: float = 1e-3, mu: float = 0.8, g
     t0 = phase0 * ref.period
     first = (1.0 - phase0) % 0.5 or 0.5
     duration = (first + (steps - 1) / 2) * ref.period + 0.3
-    return _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate)
+    return _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate, control_dt)
 
 
 def walk_from_standing(h, gait, strides: int = 2, *, start=None, stop=None, dt: float = 1e-3,
                        mu: float = 0.8, gains=None, quiet: bool = True, rest: float = 1.0,
-                       record_rate=100.0):  # fmt: skip
+                       record_rate=100.0, control_dt: float | None = None):  # fmt: skip
     """Simulate ``h`` starting from standing, walking ``strides`` whole strides of ``gait`` and
     stopping to stand, then ``rest`` seconds standing; a
     :class:`~humanoid.walking.gait.GroundWalk` of ``2 strides + 5`` heel strikes.
@@ -536,6 +635,7 @@ def walk_from_standing(h, gait, strides: int = 2, *, start=None, stop=None, dt: 
     The start and the stop (:class:`~humanoid.optimal.cycle.Transition`) are ``start`` and
     ``stop`` if given, else the ones shipped or cached for this very cycle, else optimised now
     (:func:`humanoid.optimal.transitions.transition`, which needs casadi) and cached.
+    ``control_dt``: as :func:`walk_cycle`'s.
     """
     ends = [start, stop]
     for i, kind in enumerate(KINDS):
@@ -543,7 +643,7 @@ def walk_from_standing(h, gait, strides: int = 2, *, start=None, stop=None, dt: 
             ends[i] = stored_transition(gait, kind) or _optimised_transition(gait, kind, quiet)
     ref = CycleReference.through(gait, ends[0], ends[1], strides)
     return _walk(h, ref, 0.0, ref.period + rest, 2 * strides + 5, dt, mu, gains, quiet, (),
-                 record_rate)  # fmt: skip
+                 record_rate, control_dt)  # fmt: skip
 
 
 def _optimised_transition(gait, kind: str, quiet: bool):
@@ -580,9 +680,24 @@ def _optimised(what: str, quiet: bool, solve):
         ) from exc
 
 
-def _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate):
+def control_steps(control_dt: float | None, dt: float) -> int:
+    """Steps of ``dt`` per QP tick for a period ``control_dt`` [s] (None: the default,
+    :data:`CONTROL_PERIOD`, at least one step); WalkError unless a positive whole number of
+    steps."""
+    if control_dt is None:
+        return max(1, int(round(CONTROL_PERIOD / dt)))
+    every = control_dt / dt
+    if not (math.isfinite(every) and every >= 1.0 - 1e-9 and abs(every - round(every)) < 1e-6):
+        raise WalkError(f"control_dt must be a whole number of steps of {dt:g} s, got "
+                        f"{control_dt:g}")  # fmt: skip
+    return int(round(every))
+
+
+def _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate, control_dt):
     from ..scene import Effects, GroundSpec, JointLimitSpec, Scene
     from ..simulation import Simulation
+
+    every = control_steps(control_dt, dt)
 
     scene = Scene(
         name="walk", body=h.source, ball_joints=h.ball_joints, duration=duration, dt=dt,
@@ -592,10 +707,12 @@ def _walk(h, ref, t0, duration, steps, dt, mu, gains, quiet, pushes, record_rate
     )  # fmt: skip
     sim = Simulation(scene, humanoid=h)
     ctl = CycleTracker(h, sim.model, ref, sim.ground, dt, t0, gains)
+    ctl.sampled.every = every
     q0, v0, _ = ref.state(t0)
     z = pin.centerOfMass(sim.model, sim.model.createData(), q0)[2]
     recorder = GaitRecorder(h, sim.model, fall_height=FALL_HEIGHT * z)
     start = time.perf_counter()
     traj = sim.run(quiet=quiet, controller=ctl, monitors=[recorder], initial=(q0, v0))
     wall = time.perf_counter() - start
+    traj.metadata.update({"control_period": every * dt, "qp_solves": ctl.sampled.solves})
     return GroundWalk(traj, recorder.record(h.mass, dt), ref, ctl.relaxed, wall, steps, h)

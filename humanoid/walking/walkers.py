@@ -58,10 +58,12 @@ def person_gait(h, speed=None, quiet: bool = False):
     return gait_cycle(h, speed)
 
 
-def ground_walker(h, gait: str, speed=None, *, dt: float, mu: float, quiet: bool = False):
+def ground_walker(h, gait: str, speed=None, *, dt: float, mu: float, quiet: bool = False,
+                  control_dt: float | None = None):  # fmt: skip
     """The cycle a ``gait`` (``"person"`` or ``"human"``) walk of ``h`` follows at ``speed``
     [m/s] (default its own) and ``walk(steps, pushes, **kw)`` that walks it (``kw``: quiet,
-    record_rate, from_standing, radius)."""
+    record_rate, from_standing, radius). ``control_dt``: the person's QP period [s]
+    (:func:`~humanoid.walking.person.walk_cycle`; the default if None)."""
     if gait == "human":
         from .gait import walk_on_ground
         from .reference import fit_cycle
@@ -78,6 +80,7 @@ def ground_walker(h, gait: str, speed=None, *, dt: float, mu: float, quiet: bool
     cycle = person_gait(h, speed, quiet=quiet)
 
     def walk(steps, pushes, from_standing=False, radius=None, **kw):
+        kw.setdefault("control_dt", control_dt)
         if from_standing:  # two steps to start, two to stop, whole strides between
             strides = from_standing_strides(steps)
             return walk_from_standing(h, cycle, strides, dt=dt, mu=mu, **kw)

@@ -1,0 +1,97 @@
+"""The person's walk's sampled controller: its QP every ``CONTROL_PERIOD`` (4 ms) and at once
+whenever a foot starts or stops carrying load or a loaded point slides; between ticks, the
+torques of the solve's accelerations and contact forces at the state now."""
+
+import numpy as np
+import pytest
+from conftest import get_model
+
+from humanoid.errors import WalkError
+from humanoid.optimal.cycle import stored_gait
+from humanoid.walking.person import (
+    CONTROL_PERIOD,
+    SLIDING,
+    CycleTracker,
+    control_steps,
+    walk_cycle,
+)
+
+
+def test_the_qp_runs_every_period_and_when_a_foot_lands_lifts_or_slides(monkeypatch):
+    """Two heel strikes of the male body: a solve at every 4th step, at every step where the
+    set of feet the plant's ground pushes up changed since the last solve (the landing foot's
+    heel strike, the other's toe off), and at no other step but where a loaded point slides
+    (faster than ``SLIDING``, its speed read here from a forward kinematics of its own). At a
+    tick the held torques are the QP's own; the walk records its period and its solves."""
+    import pinocchio as pin
+
+    h = get_model("male", "quaternion")
+    gait = stored_gait(h)
+    data = h.model.createData()
+    every = int(round(CONTROL_PERIOD / 1e-3))
+    why: dict[int, str] = {}  # the solves by step: tick, change, slide
+    gap: list[float] = []  # |held torques - the QP's| at its ticks, over |the QP's|
+    before = CycleTracker.before_step
+
+    def spy(self, sim, k, t, q, v):
+        held, found = self.sampled, sim.ground_step
+        n, last = held.solves, held.solved_with
+        before(self, sim, k, t, q, v)
+        if held.solves == n:
+            return
+        if k % every == 0:
+            why[k] = "tick"
+        elif held.loaded_feet(found) != last:
+            why[k] = "change"
+        else:
+            pin.forwardKinematics(h.model, data, q, v)
+            pushed = found.impulses[:, 2] > 0.0
+            speed = [
+                np.linalg.norm(data.v[int(j)].linear + np.cross(data.v[int(j)].angular, r))
+                for j, r in zip(found.joints[pushed], found.local[pushed], strict=True)
+            ]
+            why[k] = "slide" if max(speed) > SLIDING else "none"
+        gap.append(np.abs(held.torques(q, v) - self.tau).max() / np.abs(self.tau).max())
+
+    monkeypatch.setattr(CycleTracker, "before_step", spy)
+    w = walk_cycle(h, gait, 2)
+    assert w.completed
+    steps = len(w.record.t)
+    meta = w.trajectory.metadata
+    assert meta["control_period"] == pytest.approx(CONTROL_PERIOD)
+    assert meta["qp_solves"] == len(why)
+    assert "none" not in why.values(), why
+    # the changes replayed from the record: before step k the plant's last ground step is
+    # step k - 1's (row k - 1: a side with a point pushed up)
+    loaded = [frozenset(s for s in ("left", "right") if w.record.force[s][k, 2] > 0.0)
+              for k in range(steps)]  # fmt: skip
+    last = None
+    for k in range(steps):
+        now = loaded[k - 1] if k else frozenset()
+        if k % every == 0 or now != last:
+            assert k in why, k
+        if k in why:
+            last = now
+    changes = [k for k, r in why.items() if r == "change"]
+    assert 2 <= len(changes) <= 12, changes
+    assert len(why) < 0.6 * steps  # held between most steps
+    assert max(gap) < 1e-9, max(gap)
+    assert np.abs(w.trajectory.tau[:, :6]).max() == 0.0
+
+
+def test_the_period_is_a_whole_number_of_steps():
+    assert control_steps(None, 1e-3) == 4
+    assert control_steps(None, 5e-3) == 1  # a step longer than the period: every step
+    assert control_steps(2e-3, 1e-3) == 2
+    assert control_steps(1e-3, 1e-3) == 1
+    for bad in (2.5e-3, 0.0, -1e-3, 5e-4, float("nan")):
+        with pytest.raises(WalkError, match="control_dt must be a whole number of steps"):
+            control_steps(bad, 1e-3)
+
+
+def test_every_step_solves_at_every_step():
+    """``control_dt`` = dt: a solve per step, as before the sampled controller."""
+    h = get_model("male", "quaternion")
+    w = walk_cycle(h, stored_gait(h), 1, control_dt=1e-3)
+    assert w.completed
+    assert w.trajectory.metadata["qp_solves"] == len(w.record.t)
