@@ -63,6 +63,32 @@ def test_a_sliding_box_stops_at_the_analytic_distance():
     assert solver.failures == 0
 
 
+def test_pgs_solves_the_same_problems():
+    """Pinocchio's projected Gauss-Seidel (``GroundSettings(solver="pgs")``) on the box that
+    slides, stops and sticks: the same path as ADMM's to 1e-4 m (3e-5 measured: the four
+    corners share the load differently), stopped on the floor; but where ADMM sticks and
+    converges at every step, PGS creeps on at 1e-5 m/s and stops at its iteration cap short
+    of the tolerance. A scene names a solver it does not have."""
+    model, admm = _box(0.5)
+    settings = GroundSettings(mu=0.5, solver="pgs")
+    pgs = ContactSolver(model, admm.ground, None, settings)
+    assert isinstance(pgs.solver, pin.PGSConstraintSolver)
+    q = pin.neutral(model)
+    q[2] = BOX[2] / 2
+    v = np.zeros(6)
+    v[0] = 2.0
+    a = _run(model, admm, q, v, 0.5, 1e-3)
+    b = _run(model, pgs, q, v, 0.5, 1e-3)
+    assert max(np.abs(x[0] - y[0]).max() for x, y in zip(a, b, strict=True)) < 1e-4
+    # stopped: ADMM sticks to 1e-8 m/s, PGS creeps on (1.1e-5 m/s measured)
+    assert abs(a[-1][1][0]) < 1e-8 and 1e-8 < abs(b[-1][1][0]) < 1e-4
+    assert abs(b[-1][0][2] - BOX[2] / 2) < 1e-6
+    assert admm.failures == 0 < pgs.failures  # PGS stops at its 1000 iterations (93 of 500)
+    with pytest.raises(SceneError, match="effects.ground.solver: must be one of admm, pgs"):
+        Scene(body=str(BODIES / "adult_male.urdf"), integrator="semi_implicit_euler",
+              effects=Effects(ground=GroundSpec(solver="lemke")))  # fmt: skip
+
+
 @pytest.mark.parametrize(("slope", "mu"), [(20.0, 0.5), (25.0, 0.5), (28.0, 0.5), (35.0, 0.5)])
 def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu):
     """atan(0.5) = 26.57 deg: below it the box stays (< 1e-8 m in 1 s), above it slides with

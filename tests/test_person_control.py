@@ -10,6 +10,7 @@ from humanoid.errors import WalkError
 from humanoid.optimal.cycle import stored_gait
 from humanoid.walking.person import (
     CONTROL_PERIOD,
+    OFF_COURSE,
     SLIDING,
     CycleTracker,
     control_steps,
@@ -17,12 +18,13 @@ from humanoid.walking.person import (
 )
 
 
-def test_the_qp_runs_every_period_and_when_a_foot_lands_lifts_or_slides(monkeypatch):
+def test_the_qp_runs_every_period_and_when_a_foot_lands_lifts_slides_or_strays(monkeypatch):
     """Two heel strikes of the male body: a solve at every 4th step, at every step where the
     set of feet the plant's ground pushes up changed since the last solve (the landing foot's
-    heel strike, the other's toe off), and at no other step but where a loaded point slides
-    (faster than ``SLIDING``, its speed read here from a forward kinematics of its own). At a
-    tick the held torques are the QP's own; the walk records its period and its solves."""
+    heel strike, the other's toe off), and at no other step but where a velocity left the
+    held accelerations' course by ``OFF_COURSE`` or a loaded point slides (faster than
+    ``SLIDING``, its speed read here from a forward kinematics of its own). At a tick the held
+    torques are the QP's own; the walk records its period and its solves."""
     import pinocchio as pin
 
     h = get_model("male", "quaternion")
@@ -36,6 +38,10 @@ def test_the_qp_runs_every_period_and_when_a_foot_lands_lifts_or_slides(monkeypa
     def spy(self, sim, k, t, q, v):
         held, found = self.sampled, sim.ground_step
         n, last = held.solves, held.solved_with
+        off = k % every != 0 and held.off_course(v, 1e-3)
+        if off:  # by hand: the velocities against the held accelerations' from the tick
+            v0, dv = held._course
+            assert np.abs(v - v0 - (held.held_for + 1) * 1e-3 * dv).max() > OFF_COURSE
         before(self, sim, k, t, q, v)
         if held.solves == n:
             return
@@ -43,6 +49,8 @@ def test_the_qp_runs_every_period_and_when_a_foot_lands_lifts_or_slides(monkeypa
             why[k] = "tick"
         elif held.loaded_feet(found) != last:
             why[k] = "change"
+        elif off:
+            why[k] = "off course"
         else:
             pin.forwardKinematics(h.model, data, q, v)
             pushed = found.impulses[:, 2] > 0.0
@@ -95,3 +103,24 @@ def test_every_step_solves_at_every_step():
     w = walk_cycle(h, stored_gait(h), 1, control_dt=1e-3)
     assert w.completed
     assert w.trajectory.metadata["qp_solves"] == len(w.record.t)
+
+
+def test_a_velocity_off_the_held_course_asks_for_the_qp():
+    """:meth:`Sampled.off_course`: the step after a tick expects v + dt dv, and k steps on
+    v + (k + 1) dt dv; a velocity ``OFF_COURSE`` or more from it is off course."""
+    from humanoid.walking.person import Sampled
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    rng = np.random.default_rng(5)
+    v0, dv, dt = rng.normal(size=model.nv), rng.normal(size=model.nv), 1e-3
+    held = Sampled(model, {})
+    held.hold(v0, dv, [], np.zeros((0, 3)), np.zeros((0, 3)), model.createData())
+    assert not held.off_course(v0 + dt * dv, dt)
+    nudge = np.zeros(model.nv)
+    nudge[17] = 1.01 * OFF_COURSE
+    assert held.off_course(v0 + dt * dv + nudge, dt)
+    assert not held.off_course(v0 + dt * dv + 0.99 * nudge / 1.01, dt)
+    held.held_for = 3
+    assert not held.off_course(v0 + 4 * dt * dv, dt)
+    assert held.off_course(v0 + dt * dv, dt) == (np.abs(3 * dt * dv).max() > OFF_COURSE)

@@ -303,6 +303,8 @@ def _fall_rows(h, quick: bool):
     its default parameters and with its stiffest (solref 2 dt, solimp 0.9999: a millimetre deep
     or less, as ours). The reference: our scheme at a quarter of the smallest step and
     tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
+    Pinocchio's projected Gauss-Seidel (``GroundSpec.solver = "pgs"``) is swept over every other
+    tolerance beside ADMM.
     The error is the configuration error (:func:`_configuration_error`). Returns the rows and
     the references' convergence."""
     from dataclasses import replace
@@ -325,8 +327,8 @@ def _fall_rows(h, quick: bool):
         base = Scene.load(name).replace(body=MALE)
         base = base.replace(duration=T, record_rate=RECORD_RATE)
 
-        def variant(dt, tol, base=base):
-            ground = replace(base.effects.ground, tolerance=tol)
+        def variant(dt, tol, base=base, solver="admm"):
+            ground = replace(base.effects.ground, tolerance=tol, solver=solver)
             return base.replace(dt=dt, effects=replace(base.effects, ground=ground))
 
         ref_dt = min(dts) / 4
@@ -348,6 +350,9 @@ def _fall_rows(h, quick: bool):
                 *run_scene(variant(dt, FALL_TOLERANCE), h))  # fmt: skip
         for tol in tols:
             add("ours, dt 1 ms", f"tol={tol:g}", *run_scene(variant(1e-3, tol), h))
+        for tol in tols[::2]:  # the other conic solver on the same problems
+            add("ours, PGS, dt 1 ms", f"tol={tol:g}",
+                *run_scene(variant(1e-3, tol, solver="pgs"), h))  # fmt: skip
         if he is None:
             continue
         for stiff, method in ((False, "MuJoCo soft contacts (Euler)"),

@@ -227,7 +227,8 @@ def ground_solver(setup: Setup) -> ContactSolver:
         chosen = GROUND_BODIES[spec.bodies](setup, geometry)
     else:
         chosen = _link_geometries(setup, geometry, spec.bodies)
-    settings = GroundSettings(mu=spec.mu, margin=spec.margin, tolerance=spec.tolerance)
+    settings = GroundSettings(mu=spec.mu, margin=spec.margin, tolerance=spec.tolerance,
+                              solver=spec.solver)  # fmt: skip
     ground = Ground(setup.model, geometry, chosen, settings) if chosen else None
     return ContactSolver(setup.model, ground, setup.ranges, settings)
 

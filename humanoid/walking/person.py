@@ -91,6 +91,7 @@ MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on
 # 0.31, 0.42 and 1.20 mm) at 0.5, 0.6, 0.9 and 1.2 times real time
 CONTROL_PERIOD = 4e-3
 SLIDING = 0.01  # [m/s] a loaded point this fast slides: the QP is solved at once
+OFF_COURSE = 0.5  # [m/s, rad/s] a velocity this far from the held accelerations': solved at once
 
 
 @dataclass(frozen=True)
@@ -310,11 +311,14 @@ class Sampled:
         for _ in range(model.njoints):
             self._fext.append(pin.Force.Zero())
         self._held: tuple | None = None  # (dv, wrenches) of the last solve
+        self._course: tuple | None = None  # (v, dv) of the last solve
+        self.held_for = 0  # steps held since the last solve
 
-    def hold(self, dv, joints, local, f, data) -> None:
-        """Hold a solve's accelerations ``dv`` and its forces ``f`` (world axes) at points
-        ``local`` of ``joints`` (in their frames; ``data``: the kinematics at the tick), as
-        wrenches on the joints, in their frames about their origins."""
+    def hold(self, v, dv, joints, local, f, data) -> None:
+        """Hold a solve's accelerations ``dv`` (from the velocities ``v`` of its tick) and its
+        forces ``f`` (world axes) at points ``local`` of ``joints`` (in their frames; ``data``:
+        the kinematics at the tick), as wrenches on the joints, in their frames about their
+        origins."""
         fext = self._fext
         for j in range(len(fext)):
             fext[j] = pin.Force.Zero()
@@ -323,6 +327,17 @@ class Sampled:
             f_j = f[on] @ data.oMi[j].rotation  # R^T f
             fext[j] = pin.Force(f_j.sum(axis=0), cross(local[on], f_j).sum(axis=0))
         self._held = (dv, fext)
+        self._course = (np.array(v), dv)
+        self.held_for = 0  # steps since the tick
+
+    def off_course(self, v, dt: float) -> bool:
+        """Whether a velocity is more than ``OFF_COURSE`` from where the held accelerations
+        take the tick's: the plant did what the QP did not plan (a joint stopped by its range,
+        a foot's corner struck), and it must plan again."""
+        assert self._course is not None, "off_course before the first solve"
+        v0, dv = self._course
+        ahead = (self.held_for + 1) * dt
+        return bool(np.abs(v - v0 - ahead * dv).max() > OFF_COURSE)
 
     def torques(self, q, v) -> np.ndarray:
         """The torques of the held accelerations dv and forces f at the state now,
@@ -416,10 +431,11 @@ class CycleTracker(Effect):
         slides; :meth:`Sampled.torques` in between."""
         found, held = sim.ground_step, self.sampled
         loaded = held.loaded_feet(found)
-        if k % held.every and loaded == held.solved_with:
+        if k % held.every and loaded == held.solved_with and not held.off_course(v, self.dt):
             tau = held.torques(q, v)
             if not held.sliding(found):
                 self.tau = tau
+                held.held_for += 1
                 return
         self.update(t, q, v)
         held.solved_with = loaded
@@ -493,7 +509,7 @@ class CycleTracker(Effect):
                                     self.weight)  # fmt: skip
         self.last = (dv, f, match)
         if self.sampled.every > 1:
-            self.sampled.hold(dv, [joint_of[i] for i in loaded], found.local[loaded], f, data)
+            self.sampled.hold(v, dv, [joint_of[i] for i in loaded], found.local[loaded], f, data)
         return self.tau
 
     def _cycle_forces(self, tc: float, match) -> tuple[np.ndarray, np.ndarray]:
