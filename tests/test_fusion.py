@@ -224,7 +224,7 @@ def test_states_map_at_once_as_one_by_one():
     is the OCP root's forward kinematics at any heading (the pelvis turned round, yaw in
     [-3, 3] rad); a bad row is named."""
     from humanoid.errors import ConfigurationError
-    from humanoid.optimal.coordinates import build_ocp_model
+    from humanoid.optimal.coordinates import build_ocp_model, root_rotations
 
     rng = np.random.default_rng(11)
     h = get_model("male", "quaternion")
@@ -243,6 +243,8 @@ def test_states_map_at_once_as_one_by_one():
     xv = rng.standard_normal((20, om.n))
     qb, vb = om.to_body(x, xv)
     data = om.model.createData()
+    for row, R in zip(x[:, 3:6], root_rotations(x[:, 3:6]), strict=True):
+        np.testing.assert_allclose(R, pin.rpy.rpyToMatrix(row[2], row[1], row[0]), atol=1e-15)
     for i in range(20):
         qi, vi = om.to_body(x[i], xv[i])
         np.testing.assert_allclose(qb[i], qi, atol=1e-15)

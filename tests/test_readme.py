@@ -167,31 +167,24 @@ def test_the_speed_tables_are_the_benchmark_output():
         for key in STEP_COLUMNS[3:]:
             expect += [f"{float(row[key]) * 1e6:.1f}", f"{float(row[key]) / p:.2f}"]
         assert shown == expect
-    # the walk table: a row per control period with walk.csv's numbers
-    walk = (ROOT / "docs" / "bench" / "walk.md").read_text()
-    with open(ROOT / "docs" / "bench" / "walk.csv") as fh:
-        rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == WALK_COLUMNS
-    for row in rows:
-        line = next(x for x in walk.splitlines() if x.startswith(f"| {row['control']} |"))
-        shown = [c.strip() for c in line.strip("|").split("|")]
-        assert shown[1] == f"{float(row['real_time_factor']):.1f}x"
-        assert shown[2] == f"{float(row['ratio']):.1f}"
-        assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
-        assert shown[-1] == ("yes" if row["checks_passed"] == "True" else "no")
-    # the person's walk's table: a row per control period with person.csv's numbers
+    # the walks' tables: a row per control period with their CSV's numbers
     from humanoid.bench.walk import PERSON_COLUMNS
 
-    person = (ROOT / "docs" / "bench" / "person.md").read_text()
-    with open(ROOT / "docs" / "bench" / "person.csv") as fh:
-        rows = list(csv.DictReader(fh))
-    assert list(rows[0]) == PERSON_COLUMNS
-    for row in rows:
-        line = next(x for x in person.splitlines() if x.startswith(f"| {row['control']} |"))
-        shown = [c.strip() for c in line.strip("|").split("|")]
-        assert shown[1] == f"{float(row['real_time_factor']):.2f}x"
-        assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
-        assert shown[-1] == ("yes" if row["completed"] == "True" else "no")
+    for name, columns, rate, second, done in (
+        ("walk", WALK_COLUMNS, "{:.1f}x", "ratio", "checks_passed"),
+        ("person", PERSON_COLUMNS, "{:.2f}x", "solves", "completed"),
+    ):
+        table = (ROOT / "docs" / "bench" / f"{name}.md").read_text()
+        with open(ROOT / "docs" / "bench" / f"{name}.csv") as fh:
+            rows = list(csv.DictReader(fh))
+        assert list(rows[0]) == columns
+        for row in rows:
+            line = next(x for x in table.splitlines() if x.startswith(f"| {row['control']} |"))
+            shown = [c.strip() for c in line.strip("|").split("|")]
+            assert shown[1] == rate.format(float(row["real_time_factor"]))
+            assert shown[2] == f"{float(row[second]):.{1 if name == 'walk' else 0}f}"
+            assert shown[3] == f"{float(row['wall']) * 1e3:.1f}"
+            assert shown[-1] == ("yes" if row[done] == "True" else "no")
 
 
 def test_the_study_results_are_the_sweeps_output():

@@ -204,25 +204,37 @@ def _person_rows(h, steps: int) -> list[dict]:
 def _person_markdown(rows, where: str, steps: int) -> str:
     ms = [("wall", "wall"), ("qp", "QP ticks"), ("held", "held torques"), ("plant", "plant"),
           ("admm", "of which ADMM"), ("record", "gait record"), ("other", "other")]  # fmt: skip
+    title = (f"Measured by `humanoid bench walk` on {where}: the male body's person's walk "
+             f"(`humanoid walk`), {steps} steps; milliseconds of wall time per simulated "
+             "second.")  # fmt: skip
+
+    def lead(r):
+        return [r["control"], f"{r['real_time_factor']:.2f}x", f"{r['solves']:.0f}"]
+
+    return _table(title, ["control", "real time", "QP solves per s"], ms, "completed", rows, lead,
+                  "completed")  # fmt: skip
+
+
+def _table(title: str, head: list, ms, last: str, rows, lead, done: str) -> str:
+    """A Markdown table of a benchmark's runs: ``title``, then a row per run of its ``lead``
+    cells (``head``), its parts ``ms`` ((key, label): seconds per simulated second, shown in
+    milliseconds), and whether ``done`` (the column ``last``)."""
     lines = [
-        f"Measured by `humanoid bench walk` on {where}: the male body's person's walk "
-        f"(`humanoid walk`), {steps} steps; milliseconds of wall time per simulated second.",
+        title,
         "",
-        "| control | real time | QP solves per s | " + " | ".join(label for _, label in ms)
-        + " | completed |",
-        "|---" * (len(ms) + 4) + "|",
-    ]  # fmt: skip
+        "| " + " | ".join([*head, *(label for _, label in ms), last]) + " |",
+        "|---" * (len(ms) + len(head) + 1) + "|",
+    ]
     for r in rows:
-        cells = [r["control"], f"{r['real_time_factor']:.2f}x", f"{r['solves']:.0f}"]
-        cells += [f"{r[k] * 1e3:.1f}" for k, _ in ms]
-        cells.append("yes" if r["completed"] else "no")
+        cells = [*lead(r), *(f"{r[k] * 1e3:.1f}" for k, _ in ms), "yes" if r[done] else "no"]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 def run_walk_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
-    """Time the welded walk, its pieces and the bare plant; print a table, write ``walk.csv``
-    and ``walk.md``."""
+    """Time the welded walk, its pieces and the bare plant, and the person's walk and its
+    pieces; print the tables, write ``walk.csv`` and ``walk.md``, ``person.csv`` and
+    ``person.md``."""
 
     from ..provenance import machine
     from ..walking.plan import GaitParameters
@@ -280,17 +292,11 @@ def _markdown(rows, where: str, steps: int) -> str:
         ("records", "records"),
         ("other", "other"),
     ]
-    lines = [
-        f"Measured by `humanoid bench walk` on {where}: the male body's welded walk, {steps} "
-        "steps; milliseconds of wall time per simulated second.",
-        "",
-        "| control | real time | x bare plant | " + " | ".join(label for _, label in ms)
-        + " | checks pass |",
-        "|---" * (len(ms) + 4) + "|",
-    ]  # fmt: skip
-    for r in rows:
-        cells = [r["control"], f"{r['real_time_factor']:.1f}x", f"{r['ratio']:.1f}"]
-        cells += [f"{r[k] * 1e3:.1f}" for k, _ in ms]
-        cells.append("yes" if r["checks_passed"] else "no")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    title = (f"Measured by `humanoid bench walk` on {where}: the male body's welded walk, {steps} "
+             "steps; milliseconds of wall time per simulated second.")  # fmt: skip
+
+    def lead(r):
+        return [r["control"], f"{r['real_time_factor']:.1f}x", f"{r['ratio']:.1f}"]
+
+    return _table(title, ["control", "real time", "x bare plant"], ms, "checks pass", rows, lead,
+                  "checks_passed")  # fmt: skip

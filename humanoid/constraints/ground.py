@@ -37,7 +37,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ModelError
+from ..errors import ModelError, SceneError
 
 __all__ = ["ContactSolver", "Ground", "GroundSettings"]
 
@@ -447,6 +447,9 @@ class ContactSolver:
     def __init__(self, model: pin.Model, ground: Ground | None, ranges=None,
                  settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
         self.model, self.ground, self.ranges, self.settings = model, ground, ranges, settings
+        if settings.solver not in ("admm", "pgs"):
+            raise SceneError(f"the ground's contact solver must be admm or pgs, got "
+                             f"{settings.solver!r}")  # fmt: skip
         if settings.solver == "pgs":
             self.solver = pin.PGSConstraintSolver()
             st = pin.PGSSolverSettings()

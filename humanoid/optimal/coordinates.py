@@ -104,7 +104,7 @@ class OcpModel:
         The root's rotation is Rz(yaw) Ry(pitch) Rx(roll) and the free flyer's velocity the
         pelvis's twist in its own frame: R^T p' and, with the angles' rates,
         omega = yaw' R^T z + pitch' Rx(roll)^T y + roll' x (what the root's six joints'
-        forward kinematics give: tests/test_optimal_coordinates.py)."""
+        forward kinematics give: tests/test_fusion.py)."""
         x = np.asarray(x, dtype=float)
         one = x.ndim == 1
         x = np.atleast_2d(x)
@@ -137,13 +137,9 @@ def yaw_pitch_roll(R: np.ndarray) -> np.ndarray:
     return np.array(pin.rpy.matrixToRpy(R))[::-1].copy()
 
 
-def root_rotation(ypr) -> np.ndarray:
-    """Rz(yaw) Ry(pitch) Rx(roll)."""
-    return pin.rpy.rpyToMatrix(float(ypr[2]), float(ypr[1]), float(ypr[0]))
-
-
 def root_rotations(ypr: np.ndarray) -> np.ndarray:
-    """:func:`root_rotation` of rows (N, 3) of (yaw, pitch, roll): (N, 3, 3)."""
+    """Rz(yaw) Ry(pitch) Rx(roll) of rows (N, 3) of (yaw, pitch, roll): (N, 3, 3) (as
+    ``pin.rpy.rpyToMatrix(roll, pitch, yaw)``)."""
     cy, sy = np.cos(ypr[:, 0]), np.sin(ypr[:, 0])
     cp, sp = np.cos(ypr[:, 1]), np.sin(ypr[:, 1])
     cr, sr = np.cos(ypr[:, 2]), np.sin(ypr[:, 2])

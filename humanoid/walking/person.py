@@ -4,12 +4,13 @@ The reference is a :class:`~humanoid.optimal.gait.GaitSolution`: one half stride
 through the body's own rigid contact dynamics (:mod:`humanoid.optimal.gait`), mirrored into a
 whole stride. Its joint trajectories, its contact schedule and its contact forces are the feed
 forward; the plant is the ground of :mod:`humanoid.constraints.ground` (every foot corner a
-unilateral Coulomb contact) with the joint ranges in the same solve. Each step a task-space
+unilateral Coulomb contact) with the joint ranges in the same solve. A task-space
 inverse-dynamics QP (:func:`~humanoid.control.qp.contact_qp`) finds the accelerations and the
 forces of the loaded points, and only the joint torques leave it; the free flyer is never
-actuated and nothing is placed kinematically. The QP runs every :data:`CONTROL_PERIOD` (a
-sampled controller: its torques are held between its ticks) and at once whenever a foot
-starts or stops carrying load in the plant.
+actuated and nothing is placed kinematically. The QP runs every :data:`CONTROL_PERIOD`, and at
+once whenever a foot starts or stops carrying load in the plant, a loaded point slides or a
+velocity strays from the QP's plan; in between, the joints get the torques of its accelerations
+and forces at the state now (:class:`Sampled`).
 
 - **Contacts.** A foot corner within ``touch`` of the floor is loaded when the cycle has the
   contact point there (the nearest of the cycle's points on that foot) in its phase's contact
@@ -76,19 +77,21 @@ from .gait import FALL_HEIGHT, PHASE0, GaitRecorder, GroundWalk
 
 __all__ = [
     "CONTROL_PERIOD",
+    "OFF_COURSE",
     "SLIDING",
     "CycleGains",
     "CycleReference",
     "CycleTracker",
+    "Sampled",
     "walk_cycle",
     "walk_from_standing",
 ]
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on the same body
-# [s] the QP's period (its torques held in between; at once when a foot lands or lifts): a
-# 10-step walk of the male body at 1, 2, 4 and 8 ms had the same gait to 1-2 % (slip 0.26,
-# 0.31, 0.42 and 1.20 mm) at 0.5, 0.6, 0.9 and 1.2 times real time
+# [s] the QP's period: the male body's 10 steps had the same gait to 1-2 % with the QP at every
+# step and every 4 ms, at 0.44 and 0.74 times real time (humanoid bench walk); every 8 ms its
+# stances slid 1.3 mm (0.25 at 4 ms)
 CONTROL_PERIOD = 4e-3
 SLIDING = 0.01  # [m/s] a loaded point this fast slides: the QP is solved at once
 OFF_COURSE = 0.5  # [m/s, rad/s] a velocity this far from the held accelerations': solved at once
@@ -294,7 +297,8 @@ class CycleReference:
 class Sampled:
     """The person's controller between its QP's ticks (see :meth:`CycleTracker.before_step`):
     the torques of the last solve's accelerations and contact forces at the state now, and
-    what tells that the QP must run again (a foot landing or lifting, a loaded point sliding).
+    what tells that the QP must run again (a foot landing or lifting, a loaded point sliding,
+    a velocity off the held accelerations' course).
 
     Args:
         model: The plant's model.
@@ -303,7 +307,7 @@ class Sampled:
 
     def __init__(self, model, side_of_joint: dict) -> None:
         self.model, self.side_of_joint = model, side_of_joint
-        self.every = 1  # the QP every this many steps (and when a foot lands, lifts or slides)
+        self.every = 1  # the QP every this many steps (and when before_step says so)
         self.solves = 0  # QP solves so far
         self.solved_with: frozenset | None = None  # the loaded feet at the last solve
         self.data = model.createData()  # the held torques' (their RNEA's state: sliding)
@@ -427,8 +431,9 @@ class CycleTracker(Effect):
 
     def before_step(self, sim, k: int, t: float, q, v) -> None:
         """The run loop's hook: the QP at every ``every``-th step, and at once when the set of
-        feet the plant's ground carries changes (a heel strike, a toe off) or a loaded point
-        slides; :meth:`Sampled.torques` in between."""
+        feet the plant's ground carries changes (a heel strike, a toe off), a velocity is off
+        the held accelerations' course or a loaded point slides; :meth:`Sampled.torques` in
+        between."""
         found, held = sim.ground_step, self.sampled
         loaded = held.loaded_feet(found)
         if k % held.every and loaded == held.solved_with and not held.off_course(v, self.dt):
