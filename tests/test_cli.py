@@ -375,8 +375,8 @@ def test_the_falls_alone_replace_their_rows_and_keep_the_others(tmp_path):
     rows = list(csv.reader(open(tmp_path / "accuracy.csv")))
     assert rows[0] == fields and rows[1] == old[0]
     assert all(r[1] != "stale" for r in rows)
-    assert {r[0] for r in rows[2:]} == {"collapse", "drop"}
-    assert (tmp_path / "accuracy_drop.png").is_file()
+    assert {r[0] for r in rows[2:]} == {"collapse", "drop", "slide"}
+    assert all((tmp_path / f"accuracy_{name}.png").is_file() for name in ("drop", "slide"))
 
 
 def _assert_the_peers(accuracy_run):

@@ -17,9 +17,9 @@ Scenes:
 - ``walk``: a two-step walking segment, the controller at a fixed 2 ms rate, the plant's
   integrator and step (or tolerance) swept; its reference is the adaptive integrator too, with
   2 ms ticks (the controller's rate, where the contacts switch);
-- ``collapse`` and ``drop``: the shipped falls onto the floor (rigid ground contact for every
-  body, joint ranges as constraints), their first second: the step and the contact solver's
-  tolerance swept, MuJoCo's soft contacts beside them, default and stiffest (see
+- ``collapse``, ``drop`` and ``slide``: the shipped falls onto the floor (rigid ground contact
+  for every body, joint ranges as constraints), their first second: the step and the contact
+  solver's tolerance swept, MuJoCo's soft contacts beside them, default and stiffest (see
   :func:`_fall_rows`).
 
 The error of a run is the largest state difference from the reference over all records (25 Hz),
@@ -239,7 +239,7 @@ def run_accuracy_benchmark(quick: bool = False, out: str | Path = "results/bench
 def run_fall_benchmark(quick: bool = False, out: str | Path = "results/bench") -> int:
     """The falls alone (:func:`_fall_rows`), on one thread: their rows replace the falls' rows
     of ``out``/accuracy.csv (the other scenes' rows are kept as the last whole run wrote them)
-    and their two figures are drawn again."""
+    and their figures are drawn again."""
     from ..linalg import one_thread
 
     with one_thread():
@@ -293,10 +293,12 @@ def _walking_rows(h, dts, tols):
 
 
 FALL_TOLERANCE = 1e-7  # the shipped fall scenes' contact-solver tolerance
+FALLS = ("collapse", "drop", "slide")  # the shipped scenes of falls onto the floor
 
 
 def _fall_rows(h, quick: bool):
-    """The shipped falls (``collapse``: standing passive; ``drop``: from 0.5 m) for their
+    """The shipped falls (``collapse``: standing passive; ``drop``: from 0.5 m; ``slide``: tossed
+    at 2 m/s onto ice, mu 0.1) for their
     first T seconds (the impacts and the fall itself): the step swept at the shipped solver
     tolerance, the contact solver's tolerance swept at the shipped 1 ms step, and MuJoCo's
     soft contacts (Euler-mode body, see :mod:`humanoid.bench.peers`) over the same steps, with
@@ -323,7 +325,7 @@ def _fall_rows(h, quick: bool):
         he = load_male("euler")
     except ImportError:
         he = None
-    for name in ("collapse", "drop"):
+    for name in FALLS:
         base = Scene.load(name).replace(body=MALE)
         base = base.replace(duration=T, record_rate=RECORD_RATE)
 
@@ -399,10 +401,9 @@ def _plot(name: str, rows: list[Row], path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
     methods = sorted({r.method for r in rows}, key=lambda m: [r.method for r in rows].index(m))
-    second = "constraint_drift" if name in ("stance", "walk", "collapse", "drop") else (
-        "energy_drift")  # fmt: skip
+    second = "constraint_drift" if name in ("stance", "walk", *FALLS) else "energy_drift"
     labels = {"error": "state error vs reference", second: second.replace("_", " ")}
-    if name in ("collapse", "drop"):
+    if name in FALLS:
         labels[second] = "deepest penetration [m]"
     for ax, key in zip(axes, ("error", second), strict=True):
         for m in methods:
