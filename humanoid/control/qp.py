@@ -319,8 +319,12 @@ def contact_qp(model, data, solver, found, loaded, free, tasks, M, hvec, q, v, d
     motion, U = [], None
     if loaded:
         target = -Jc @ v
-        for j, i in enumerate(loaded):
-            target[3 * j + 2] -= gap[i] if phi[i] <= 0.0 or not g.settle else phi[i] / g.settle
+        # the normal rows: in the floor, the gap's correction; above it, settling over settle
+        at = np.asarray(loaded, dtype=int)
+        if g.settle:
+            target[2::3] -= np.where(phi[at] <= 0.0, gap[at], phi[at] / g.settle)
+        else:
+            target[2::3] -= gap[at]
         U, S, _ = np.linalg.svd(Jc, full_matrices=False)
         U = U[:, S > 1e-9 * S[0]]
         rate = target / max(dt, g.contact_time)
