@@ -56,6 +56,7 @@ from .variants import (
     BACKENDS,
     BALL_JOINTS,
     CONTACT_KINDS,
+    CONTACT_SOLVERS,
     CONTROLLERS,
     FORMULATIONS,
     INTEGRATORS,
@@ -110,9 +111,6 @@ class JointLimitSpec:
     damping: float = 20.0  # [N m s/rad]
 
 
-CONTACT_SOLVERS = ("admm", "pgs")  # GroundSpec.solver's choices
-
-
 @dataclass(frozen=True)
 class GroundSpec:
     """Rigid ground contact with Coulomb friction on the floor z = 0 for the bodies listed:
@@ -122,7 +120,7 @@ class GroundSpec:
     mu: float = 0.8
     margin: float = 0.01  # [m] contact candidates closer than this to the floor
     tolerance: float = 1e-9  # the contact solver's tolerance
-    solver: str = "admm"  # Pinocchio's conic solver: admm or pgs (projected Gauss-Seidel)
+    solver: str = "admm"  # the conic solver (humanoid.variants.CONTACT_SOLVERS)
 
 
 @dataclass(frozen=True)
@@ -462,9 +460,8 @@ def _validate_effects(s: Scene) -> None:
             _bad("effects.ground.margin", f"must be in (0, 0.1] m, got {g.margin!r}")
         if not (math.isfinite(g.tolerance) and 0 < g.tolerance < 1):
             _bad("effects.ground.tolerance", f"must be in (0, 1), got {g.tolerance!r}")
-        if g.solver not in CONTACT_SOLVERS:
-            _bad("effects.ground.solver", f"must be one of {', '.join(CONTACT_SOLVERS)}, got "
-                 f"{g.solver!r}")  # fmt: skip
+        if (why := CONTACT_SOLVERS.refusal(g.solver)) is not None:
+            _bad(CONTACT_SOLVERS.key, why)
         if not isinstance(g.bodies, str | tuple):
             _bad("effects.ground.bodies", f"must be all, feet or a list of links, got {g.bodies!r}")
         if isinstance(g.bodies, str) and g.bodies not in ("all", "feet"):

@@ -13,6 +13,7 @@ __all__ = [
     "BACKENDS",
     "BALL_JOINTS",
     "CONTACT_KINDS",
+    "CONTACT_SOLVERS",
     "CONTROLLERS",
     "FORMULATIONS",
     "INTEGRATORS",
@@ -78,6 +79,10 @@ CONTACT_KINDS = Registry("contact kind", "effects.contacts[].kind", {
     "weld": "the sole frame welded in 6D where it lands",
     "points": "the four sole corners pinned in 3D where they land",
 })  # fmt: skip
+CONTACT_SOLVERS = Registry("contact solver", "effects.ground.solver", {
+    "admm": "Pinocchio's ADMM on the ground's and the ranges' conic problem (the default)",
+    "pgs": "Pinocchio's projected Gauss-Seidel on the same problem (slower, measured)",
+})  # fmt: skip
 JOINT_LIMITS = Registry("joint-limit kind", "effects.joint_limits.kind", {
     "spring": "a stiff spring-damper beyond each limit (any integrator)",
     "constraint": "unilateral constraints in the ground contact's solve: ranges that hold",
@@ -95,5 +100,5 @@ MASSLESS = Registry("massless-joint policy", "body.massless", {
     "merge": "lock joints that move no mass into their parents",
 })  # fmt: skip
 
-REGISTRIES = (INTEGRATORS, FORMULATIONS, BACKENDS, CONTACT_KINDS, JOINT_LIMITS, CONTROLLERS,
-              BALL_JOINTS, MASSLESS)  # fmt: skip
+REGISTRIES = (INTEGRATORS, FORMULATIONS, BACKENDS, CONTACT_KINDS, CONTACT_SOLVERS, JOINT_LIMITS,
+              CONTROLLERS, BALL_JOINTS, MASSLESS)  # fmt: skip

@@ -113,6 +113,7 @@ def test_no_module_is_shadowed_by_a_function():
 
 def _implementations() -> list[tuple]:
     """(registry of names, its implementations) for each variant the simulation dispatches."""
+    from humanoid.constraints.ground import CONIC_SOLVERS
     from humanoid.contacts import CONTACT_CONSTRAINTS
     from humanoid.simulation.backends import CONSTRAINT_BACKENDS
     from humanoid.simulation.formulation import FORMULATION
@@ -121,6 +122,7 @@ def _implementations() -> list[tuple]:
     from humanoid.variants import (
         BACKENDS,
         CONTACT_KINDS,
+        CONTACT_SOLVERS,
         CONTROLLERS,
         FORMULATIONS,
         INTEGRATORS,
@@ -134,6 +136,7 @@ def _implementations() -> list[tuple]:
         (CONTROLLERS, CONTROLLER_FACTORIES),
         (JOINT_LIMITS, JOINT_LIMIT_KINDS),
         (CONTACT_KINDS, CONTACT_CONSTRAINTS),
+        (CONTACT_SOLVERS, CONIC_SOLVERS),
     ]
 
 

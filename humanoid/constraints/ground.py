@@ -38,6 +38,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError, SceneError
+from ..variants import CONTACT_SOLVERS
 
 __all__ = ["ContactSolver", "Ground", "GroundSettings"]
 
@@ -81,6 +82,11 @@ class GroundSettings:
     solver: str = "admm"
 
 
+# each of humanoid.variants.CONTACT_SOLVERS: Pinocchio's solver, its settings and its result
+CONIC_SOLVERS = {
+    "admm": (pin.ADMMConstraintSolver, pin.ADMMSolverSettings, pin.ADMMSolverResult),
+    "pgs": (pin.PGSConstraintSolver, pin.PGSSolverSettings, pin.PGSSolverResult),
+}
 RIM_SAMPLES = 8  # points sampled around each rim of a cylinder
 MAX_POINTS = 8  # contacts kept per geometry (the extremes of its support polygon)
 DEPTH_WEIGHT = 10.0  # in choosing them, 1 mm lower counts as 1 cm further out
@@ -447,20 +453,14 @@ class ContactSolver:
     def __init__(self, model: pin.Model, ground: Ground | None, ranges=None,
                  settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
         self.model, self.ground, self.ranges, self.settings = model, ground, ranges, settings
-        if settings.solver not in ("admm", "pgs"):
-            raise SceneError(f"the ground's contact solver must be admm or pgs, got "
-                             f"{settings.solver!r}")  # fmt: skip
-        if settings.solver == "pgs":
-            self.solver = pin.PGSConstraintSolver()
-            st = pin.PGSSolverSettings()
-            self.result = pin.PGSSolverResult()
-        else:
-            self.solver = pin.ADMMConstraintSolver()
-            st = pin.ADMMSolverSettings()
+        if (why := CONTACT_SOLVERS.refusal(settings.solver)) is not None:
+            raise SceneError(why)
+        solver, solver_settings, result = CONIC_SOLVERS[settings.solver]
+        self.solver, st, self.result = solver(), solver_settings(), result()
+        if settings.solver == "admm":
             st.admm_update_rule = pin.ADMMUpdateRule.SPECTRAL  # no iteration-cap hits on impacts
             st.lanczos_size = settings.lanczos
             st.anderson_capacity = settings.anderson
-            self.result = pin.ADMMSolverResult()
         st.absolute_feasibility_tol = st.relative_feasibility_tol = settings.tolerance
         st.absolute_complementarity_tol = st.relative_complementarity_tol = settings.tolerance
         st.max_iterations = settings.max_iterations
