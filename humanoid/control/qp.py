@@ -21,10 +21,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import RunFailed
+from ..linalg import cross
 from .tasks import ForceTask
 
 __all__ = [
     "ContactQP",
+    "JointWrenches",
     "WarmQP",
     "checked",
     "contact_qp",
@@ -341,3 +343,35 @@ def contact_qp(model, data, solver, found, loaded, free, tasks, M, hvec, q, v, d
                          forces=[ForceTask(0.0, g.w_force)] if forces is None else forces,
                          upper=upper,
                          U=U)  # fmt: skip
+
+
+class JointWrenches:
+    """Forces at points of a body's joints as Pinocchio's external forces (RNEA's ``fext``):
+    each joint's resultant in its own frame, about its origin. A controller holding a QP's
+    contact forces between its ticks takes its torques from them.
+
+    Args:
+        model: The Pinocchio model.
+    """
+
+    def __init__(self, model: pin.Model) -> None:
+        self.fext = pin.StdVec_Force()
+        for _ in range(model.njoints):
+            self.fext.append(pin.Force.Zero())
+        self._loaded: list[int] = []  # the joints the last call wrote
+
+    def set(self, data: pin.Data, joints, local: np.ndarray, f: np.ndarray) -> pin.StdVec_Force:
+        """The forces ``f`` (k, 3, world axes) at the points ``local`` (k, 3, each in its
+        joint's frame) of ``joints`` (k,), with ``data``'s joint placements: ``fext`` (the same
+        object at every call; the joints the last call loaded and this one does not are
+        zeroed)."""
+        fext = self.fext
+        for j in self._loaded:
+            fext[j] = pin.Force.Zero()
+        joints = np.asarray(joints, dtype=int)
+        self._loaded = list(dict.fromkeys(joints.tolist()))
+        for j in self._loaded:
+            on = joints == j
+            f_j = f[on] @ data.oMi[j].rotation  # R^T f: the joint's axes
+            fext[j] = pin.Force(f_j.sum(axis=0), cross(local[on], f_j).sum(axis=0))
+        return fext

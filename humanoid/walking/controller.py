@@ -28,6 +28,7 @@ from ..constraints import Weld
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..control.qp import (
+    JointWrenches,
     WarmQP,
     checked,
     dynamics_terms,
@@ -44,7 +45,7 @@ from ..control.tasks import (
     TaskStack,
 )
 from ..effects import Effect
-from ..linalg import cross, spd_solve
+from ..linalg import spd_solve
 from ..model import SIDES
 from .clinical import torso_frame
 
@@ -126,23 +127,12 @@ class WalkingController(Effect):
         self._stance: tuple | None = None
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
-        self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
-        for _ in range(model.njoints):
-            self._fext.append(pin.Force.Zero())
-        # each side's corners grouped by the joint that carries them: (joint, which corners,
-        # their places in its frame); the held wrenches are taken about the joint's origin
-        self._corner_groups = {}
-        for s in SIDES:
-            joints = [model.frames[f].parentJoint for f in self.corners[s]]
-            self._corner_groups[s] = [
-                (
-                    j,
-                    idx,
-                    np.array([model.frames[self.corners[s][i]].placement.translation for i in idx]),
-                )  # fmt: skip
-                for j in dict.fromkeys(joints)
-                for idx in [[i for i, k in enumerate(joints) if k == j]]
-            ]
+        self._wrenches = JointWrenches(model)  # the held forces' wrenches on the joints
+        # each side's corners: their joints, and their places in their joints' frames
+        self._corner_joints = {s: [model.frames[f].parentJoint for f in self.corners[s]]
+                               for s in SIDES}  # fmt: skip
+        self._corner_local = {s: np.array([model.frames[f].placement.translation
+                                           for f in self.corners[s]]) for s in SIDES}  # fmt: skip
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -266,23 +256,14 @@ class WalkingController(Effect):
         if self.every > 1:
             # the range rows the solve holds at their damper's bound keep their acceleration
             tight = -Jr @ dv >= bound - 1e-6 * np.maximum(1.0, np.abs(bound))
-            self._held = (dv, self._external(stance, f.ravel()), Jr[tight], self._hinge_J @ dv)
+            fext = self._wrenches.set(
+                self.data,
+                [j for s in stance for j in self._corner_joints[s]],
+                np.concatenate([self._corner_local[s] for s in stance]),
+                f,
+            )
+            self._held = (dv, fext, Jr[tight], self._hinge_J @ dv)
         return self.tau
-
-    def _external(self, stance, f) -> pin.StdVec_Force:
-        """The corner forces f (world axes) as wrenches on the feet's joints, in their frames
-        (Pinocchio's external forces)."""
-        data, fext = self.data, self._fext
-        for s in SIDES:
-            for joint, _, _ in self._corner_groups[s]:
-                fext[joint] = pin.Force.Zero()
-        for k, s in enumerate(stance):
-            forces = f[12 * k : 12 * k + 12].reshape(4, 3)
-            for joint, idx, offsets in self._corner_groups[s]:
-                local = forces[idx] @ data.oMi[joint].rotation  # R^T f: the joint's axes
-                wrench = pin.Force(local.sum(axis=0), cross(offsets, local).sum(axis=0))
-                fext[joint] = fext[joint] + wrench
-        return fext
 
     def shares(self, t, stance, data) -> list[float]:
         """Planned fraction of the weight on each stance foot, from the ZMP reference."""

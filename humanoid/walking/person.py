@@ -46,6 +46,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..control.qp import (
+    JointWrenches,
     WarmQP,
     checked,
     contact_qp,
@@ -311,9 +312,7 @@ class Sampled:
         self.solves = 0  # QP solves so far
         self.solved_with: frozenset | None = None  # the loaded feet at the last solve
         self.data = model.createData()  # the held torques' (their RNEA's state: sliding)
-        self._fext = pin.StdVec_Force()  # the held forces' wrenches on the joints
-        for _ in range(model.njoints):
-            self._fext.append(pin.Force.Zero())
+        self._wrenches = JointWrenches(model)  # the held forces' wrenches on the joints
         self._held: tuple | None = None  # (dv, wrenches) of the last solve
         self._course: tuple | None = None  # (v, dv) of the last solve
         self.held_for = 0  # steps held since the last solve
@@ -323,14 +322,7 @@ class Sampled:
         forces ``f`` (world axes) at points ``local`` of ``joints`` (in their frames; ``data``:
         the kinematics at the tick), as wrenches on the joints, in their frames about their
         origins."""
-        fext = self._fext
-        for j in range(len(fext)):
-            fext[j] = pin.Force.Zero()
-        for j in set(joints):
-            on = [k for k, jk in enumerate(joints) if jk == j]
-            f_j = f[on] @ data.oMi[j].rotation  # R^T f
-            fext[j] = pin.Force(f_j.sum(axis=0), cross(local[on], f_j).sum(axis=0))
-        self._held = (dv, fext)
+        self._held = (dv, self._wrenches.set(data, joints, local, f))
         self._course = (np.array(v), dv)
         self.held_for = 0  # steps since the tick
 
