@@ -25,6 +25,8 @@ case "$where" in
     *) echo "humanoid imported from $where, not from the installed wheel" >&2; exit 1 ;;
 esac
 "$BIN/humanoid" --version
+# the compiled kernels came with the wheel (humanoid/kernels.c): the ground detects in C
+"$BIN/python" -c 'from humanoid.constraints.ground import KERNELS; assert KERNELS is not None, "humanoid.kernels is not in the wheel"; print("compiled kernels:", KERNELS.__file__.rsplit("/", 1)[-1])'
 "$BIN/humanoid" info adult_female | head -3
 # the person's walk reads the default body's shipped gait cycle: no casadi needed
 "$BIN/humanoid" walk --steps 2 --quiet -o walk.npz --html walk.html | tail -3

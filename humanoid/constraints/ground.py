@@ -31,7 +31,9 @@ solve: their cone is the non-negative orthant.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
+from types import ModuleType
 
 import coal
 import numpy as np
@@ -39,6 +41,13 @@ import pinocchio as pin
 
 from ..errors import ModelError, SceneError
 from ..variants import CONTACT_SOLVERS
+
+try:  # the compiled detection (humanoid/kernels.c); without a C compiler, the NumPy path
+    from .. import kernels as _compiled
+
+    KERNELS: ModuleType | None = _compiled
+except ImportError:  # pragma: no cover - the package built without its extension
+    KERNELS = None
 
 __all__ = ["ContactSolver", "Ground", "GroundSettings"]
 
@@ -263,6 +272,69 @@ def _shared_corners(model: pin.Model, shapes) -> list[tuple[int, int, np.ndarray
     return out
 
 
+# the joints the compiled kernel places (as kernels.c's J_*): a model with another kind of
+# joint detects on the NumPy path
+JOINT_KINDS = {"JointModelFreeFlyer": 0, "JointModelSpherical": 1, "JointModelRX": 2,
+               "JointModelRY": 2, "JointModelRZ": 2, "JointModelRevoluteUnaligned": 2,
+               "JointModelPX": 3, "JointModelPY": 3, "JointModelPZ": 3,
+               "JointModelPrismaticUnaligned": 3, "JointModelRUBX": 4, "JointModelRUBY": 4,
+               "JointModelRUBZ": 4, "JointModelRevoluteUnboundedUnaligned": 4}  # fmt: skip
+
+
+def _joint_axis(jm) -> np.ndarray:
+    """A revolute or prismatic joint's unit axis in its frame (zero for the others)."""
+    name = jm.shortname()
+    if name[-1] in "XYZ" and ("JointModelR" in name or "JointModelP" in name):
+        return np.eye(3)["XYZ".index(name[-1])]
+    if "Unaligned" in name:
+        return np.asarray(jm.extract().axis, dtype=float)
+    return np.zeros(3)
+
+
+def _kernel_plan(model: pin.Model, cand: _Candidates, shared, key: int):
+    """The compiled kernel's copy of the model's tree and of the candidate points (sorted as
+    :meth:`Ground._detect` returns them), or None if the kernel is not built or a joint is
+    of a kind it does not place."""
+    kinds = [JOINT_KINDS.get(jm.shortname(), -1) for jm in model.joints]
+    if min(kinds[1:], default=0) < 0:
+        return None
+    if KERNELS is None:
+        warnings.warn("humanoid.kernels is not built (the package was installed without a C "
+                      "compiler): the ground contact's detection runs on its NumPy path, "
+                      "about ten times slower", RuntimeWarning, stacklevel=3)  # fmt: skip
+        return None
+    i64 = np.int64
+    place = np.array([np.concatenate([M.rotation.ravel(), M.translation])
+                      for M in model.jointPlacements])  # fmt: skip
+    axis = np.array([_joint_axis(jm) for jm in model.joints])
+    n = len(cand._slot)
+    kind = np.zeros(n, dtype=i64)
+    kind[cand._sphere], kind[cand._round :] = 1, 2
+    radius, caxis = np.zeros(n), np.zeros((n, 3))
+    radius[cand._sphere] = cand.s_radius
+    radius[cand._round :], caxis[cand._round :] = cand.r_radius, cand.r_axis
+    order = np.argsort(cand._shape * key + cand._index, kind="stable")
+    rank = np.empty(n, dtype=i64)
+    rank[order] = np.arange(n)
+    pa, pb = (rank[shared[0]], rank[shared[1]]) if shared is not None else (np.zeros(0),) * 2
+    ang = np.linspace(0.0, 2 * np.pi, MAX_POINTS, endpoint=False)
+    dirs = np.column_stack([np.cos(ang), np.sin(ang)])
+    arrays = [np.array(model.parents), kinds, [jm.idx_q for jm in model.joints],
+              [jm.idx_v for jm in model.joints]]  # fmt: skip
+    arrays = [np.ascontiguousarray(a, dtype=i64) for a in arrays]
+    arrays += [np.ascontiguousarray(a, dtype=float) for a in (axis, place)]
+    arrays += [
+        np.ascontiguousarray(a, dtype=i64)
+        for a in (cand.joints[cand._slot][order], kind[order], cand._shape[order])
+    ]
+    arrays += [np.ascontiguousarray(a, dtype=float)
+               for a in (cand._local[order], radius[order], caxis[order])]  # fmt: skip
+    arrays += [np.ascontiguousarray(a, dtype=i64) for a in (pa, pb)]
+    arrays.append(np.ascontiguousarray(dirs))
+    return KERNELS.ground_plan(model.njoints, model.nq, model.nv, n, len(pa), MAX_POINTS,
+                               MAX_POINTS, DEPTH_WEIGHT, SHARED, *arrays)  # fmt: skip
+
+
 @dataclass(frozen=True)
 class GroundContacts:
     """The ground contacts of one configuration.
@@ -272,12 +344,15 @@ class GroundContacts:
         phi: Their signed distances to the floor [m] (negative below it).
         joints: The joint each point is on, (n,).
         local: The points in their joint's frame, (n, 3) [m].
+        rows: Their Jacobian, (3n, nv), when the compiled kernel found them (None: the NumPy
+            path, which builds it from the joint Jacobians: :meth:`Ground.jacobian`).
     """
 
     points: np.ndarray
     phi: np.ndarray
     joints: np.ndarray
     local: np.ndarray
+    rows: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __len__(self) -> int:
         return len(self.phi)
@@ -295,13 +370,18 @@ class Ground:
         geometry_model: Collision geometry (visual geometry for models that have none).
         geometries: Indices of the geometries that may touch the floor.
         settings: :class:`GroundSettings`.
+        compiled: Detect with the compiled kernel (humanoid/kernels.c) when it is built and
+            places every joint of the model; False: always the NumPy path (the same contacts:
+            tests/test_kernels.py).
 
     Attributes:
         joints: The joints that carry those geometries.
+        compiled: Whether :meth:`detect` runs the compiled kernel (given the configuration).
     """
 
     def __init__(self, model: pin.Model, geometry_model: pin.GeometryModel, geometries,
-                 settings: GroundSettings = GroundSettings()) -> None:  # fmt: skip
+                 settings: GroundSettings = GroundSettings(), compiled: bool = True
+                 ) -> None:  # fmt: skip
         self.settings = settings
         self.names, self.shapes = [], []
         for i in geometries:
@@ -329,6 +409,9 @@ class Ground:
         self._pool: list[tuple[pin.ConstraintModel, pin.ConstraintData]] = []
         self._model = model
         self._last: tuple | None = None  # ((model, configuration), contacts) of the last call
+        # the compiled kernel's plan (None: the NumPy path); compiled=False keeps NumPy's
+        self._plan = _kernel_plan(model, self._candidates, self._shared, self._key) \
+            if compiled else None  # fmt: skip
 
     def cones(self, n: int) -> tuple[list, list]:
         """n friction-cone constraint models and their datas (pooled): what Pinocchio's solver
@@ -368,8 +451,25 @@ class Ground:
         last = self._last
         if key is not None and last is not None and last[0][0] is model and last[0][1] == key[1]:
             return last[1]
-        found = self._detect(data)
+        found = self._detect(data) if key is None or self._plan is None else self._compiled(at)
         self._last = None if key is None else (key, found)
+        return found
+
+    @property
+    def compiled(self) -> bool:
+        return self._plan is not None
+
+    def _compiled(self, q) -> GroundContacts:
+        """:meth:`_detect`'s contacts from the compiled kernel, at q, with their Jacobian."""
+        assert KERNELS is not None
+        q = np.ascontiguousarray(q, dtype=float)
+        n = KERNELS.ground_select(self._plan, q, self.settings.margin)
+        points, local = np.empty((n, 3)), np.empty((n, 3))
+        joints, rows = np.empty(n, dtype=np.int64), np.empty((3 * n, self._model.nv))
+        KERNELS.ground_write(self._plan, points, joints, local, rows)
+        found = GroundContacts(points, points[:, 2].copy(), joints, local, rows)
+        for a in (points, found.phi, joints, local, rows):
+            a.flags.writeable = False
         return found
 
     def _detect(self, data: pin.Data) -> GroundContacts:

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from .ground import KERNELS
+
 __all__ = ["JointRanges"]
 
 MARGIN = 0.1  # [rad] rows closer than this to a limit are returned (speculative)
@@ -49,10 +51,24 @@ def _wrap(x):
     return (x + np.pi) % (2 * np.pi) - np.pi
 
 
+def _kernel_plan(ranges: JointRanges):
+    """The compiled kernel's copy of the ranges (humanoid/kernels.c: range_rows)."""
+    assert KERNELS is not None
+    i64, nb = np.int64, len(ranges.balls)
+    ints = [np.ascontiguousarray(a, dtype=i64) for a in (ranges.iq, ranges.iv)]
+    floats = [np.ascontiguousarray(a, dtype=float) for a in (ranges.lo, ranges.hi)]
+    balls = [np.ascontiguousarray(ranges._bq.ravel(), dtype=i64),
+             np.ascontiguousarray(ranges._bv, dtype=i64)]  # fmt: skip
+    balls += [np.ascontiguousarray(a, dtype=float) for a in (ranges._blo, ranges._bhi,
+              ranges._mid, ranges._W, ranges._s, ranges._GCt)]  # fmt: skip
+    return KERNELS.range_plan(ranges.nv, len(ranges.iq), nb, LOCK, *ints, *floats, *balls)
+
+
 class JointRanges:
     """The joint ranges of a :class:`~humanoid.model.Humanoid` as unilateral rows."""
 
-    def __init__(self, h) -> None:
+    def __init__(self, h, compiled: bool = True) -> None:
+        """``compiled=False``: :meth:`rows` on the NumPy path (with its certificates)."""
         model = h.model
         self.nv = model.nv
         iq, iv, lo, hi = [], [], [], []
@@ -115,6 +131,11 @@ class JointRanges:
         self._no_rows = (np.zeros(0), np.zeros((0, self.nv)))  # (read-only: shared)
         for a in self._no_rows:
             a.flags.writeable = False
+        # the compiled kernel's copy of the ranges (humanoid/kernels.c), or None
+        self._plan = _kernel_plan(self) if compiled and KERNELS is not None else None
+        rows = 2 * nh + 6 * nb
+        self._out = (np.empty(rows), np.empty((rows, self.nv)))
+        self._angles_now = np.zeros((nb, 3))  # the compiled path's angles: its next hint
 
     def angles(self, q, remember: bool = True) -> np.ndarray:
         """Each ball joint's triplet angles [rad], (n_balls, 3).
@@ -195,6 +216,8 @@ class JointRanges:
         decomposes every time). ``skipped`` then tells whether this call skipped it.
         """
         margin = np.inf if margin is None else margin
+        if certified and self._plan is not None:
+            return self._compiled_rows(q, margin)
         clear = self._clear(q, margin) if certified and np.isfinite(margin) else None
         if clear is not None and clear.all():
             self.skipped = True
@@ -235,6 +258,18 @@ class JointRanges:
         sgn = np.where(side == 0, 1.0, -1.0)[:, None]
         Jb[np.arange(len(b))[:, None], self._bv[b][:, None] + np.arange(3)] = sgn * rates[b, i]
         return np.concatenate([r[keep], dist[b, i, side]]), np.vstack([J, Jb])
+
+    def _compiled_rows(self, q, margin: float):
+        """:meth:`rows` from the compiled kernel: every ball decomposed (in C that costs less
+        than a certificate's check), with the last angles as the hint, as the NumPy path."""
+        assert KERNELS is not None
+        (r, J), hint = self._out, self._hint is not None
+        if hint and self._hint is not self._angles_now:
+            self._angles_now[:] = self._hint
+        q = np.ascontiguousarray(q, dtype=float)
+        m = KERNELS.range_rows(self._plan, q, margin, self._angles_now, hint, r, J)
+        self._hint, self.skipped = self._angles_now, False
+        return r[:m].copy(), J[:m].copy()
 
     def hinge_rows(self, q):
         """Every hinge's two rows (lower, then upper bound): (r, J), r >= 0 inside, J constant

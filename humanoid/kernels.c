@@ -1,0 +1,577 @@
+/* The ground contact's per-step kernels in C (humanoid.constraints.ground's compiled path).
+ *
+ * A step of the ground contact is a few hundred small NumPy operations (place the candidate
+ * points, pick those near the floor, their Jacobian rows): each costs the interpreter a
+ * microsecond or more, the arithmetic a few nanoseconds. Here they are one call:
+ *
+ *   plan = ground_plan(...)   the model's kinematic tree and the candidate points, copied once
+ *   n = ground_select(plan, q, margin)
+ *   ground_write(plan, points, joints, local, J)   (arrays of the n contacts, to fill)
+ *
+ * ground_select places every joint from q (the forward kinematics of the joint kinds below,
+ * the same products as Pinocchio's: oMi = oMparent * jointPlacement * jointMotion(q)), places
+ * every candidate point, keeps those within the margin of the floor exactly as the NumPy path
+ * does (ground.py: Ground._detect); ground_write writes each kept point's world position, joint, local
+ * position and its three rows of the contact Jacobian (world axes; v_p = v_O + w x p).
+ *
+ * Only the Python C API and the buffer protocol: no NumPy headers, no Pinocchio, so it builds
+ * in a second with any C compiler. The NumPy path stays, and tests/test_kernels.py holds the
+ * two to each other.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* joint kinds (ground.py: JOINT_KINDS) */
+static const double PI = 3.14159265358979323846;
+
+enum { J_FREE = 0, J_BALL = 1, J_REVOLUTE = 2, J_PRISMATIC = 3, J_UNBOUNDED = 4 };
+/* candidate kinds: a fixed point, a sphere's centre (lowest point: radius below), a rim's
+ * centre (lowest point: radius along the axis' downward normal) */
+enum { C_FIXED = 0, C_SPHERE = 1, C_RIM = 2 };
+
+typedef struct {
+    Py_ssize_t nj, nq, nv, n; /* n: the last selection's contacts */
+    long long *parent, *kind, *iq, *iv;
+    double *axis;  /* nj x 3 */
+    double *place; /* nj x 12: rotation (row-major), translation */
+    double *oR, *ot; /* the placements now: nj x 9, nj x 3 */
+    Py_ssize_t nc, nshared, ndirs;
+    long long *cjoint, *ckind, *cshape; /* candidates, sorted by (shape, index in the shape) */
+    double *clocal, *cradius, *caxis;
+    long long *spa, *spb; /* a parent's and a child's candidate that are one point at zero */
+    double *dirs;         /* ndirs x 2: the directions of a support polygon's extremes */
+    long long max_points;
+    double depth_weight, shared;
+    double *world; /* nc x 3 scratch */
+    unsigned char *keep;
+    Py_ssize_t *rows;
+} Plan;
+
+static void plan_free(PyObject *capsule) {
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return;
+    void *fields[] = {p->parent, p->kind, p->iq, p->iv, p->axis, p->place, p->oR, p->ot,
+                      p->cjoint, p->ckind, p->cshape, p->clocal, p->cradius, p->caxis,
+                      p->spa, p->spb, p->dirs, p->world, p->keep, p->rows};
+    for (size_t k = 0; k < sizeof(fields) / sizeof(fields[0]); ++k) free(fields[k]);
+    free(p);
+}
+
+/* a copy of a buffer of n items of the given size, or NULL with a ValueError */
+static void *copy_buffer(PyObject *obj, Py_ssize_t n, Py_ssize_t itemsize, const char *name) {
+    Py_buffer b;
+    if (PyObject_GetBuffer(obj, &b, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    if (b.len != n * itemsize) {
+        PyErr_Format(PyExc_ValueError, "ground_plan: %s has %zd bytes, expected %zd", name,
+                     b.len, n * itemsize);
+        PyBuffer_Release(&b);
+        return NULL;
+    }
+    void *out = malloc(n * itemsize > 0 ? n * itemsize : 1);
+    if (out) memcpy(out, b.buf, n * itemsize);
+    PyBuffer_Release(&b);
+    if (!out) PyErr_NoMemory();
+    return out;
+}
+
+static PyObject *ground_plan(PyObject *self, PyObject *args) {
+    Py_ssize_t nj, nq, nv, nc, nshared, ndirs;
+    long long max_points;
+    double depth_weight, shared;
+    PyObject *o[15];
+    if (!PyArg_ParseTuple(args, "nnnnnnLddOOOOOOOOOOOOOOO", &nj, &nq, &nv, &nc, &nshared, &ndirs,
+                          &max_points, &depth_weight, &shared, &o[0], &o[1], &o[2], &o[3],
+                          &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
+                          &o[13], &o[14]))
+        return NULL;
+    Plan *p = calloc(1, sizeof(Plan));
+    if (!p) return PyErr_NoMemory();
+    p->nj = nj, p->nq = nq, p->nv = nv, p->nc = nc, p->nshared = nshared, p->ndirs = ndirs;
+    p->max_points = max_points, p->depth_weight = depth_weight, p->shared = shared;
+    PyObject *capsule = PyCapsule_New(p, "humanoid.ground_plan", plan_free);
+    if (!capsule) {
+        free(p);
+        return NULL;
+    }
+    const Py_ssize_t L = sizeof(long long), D = sizeof(double);
+    if (!(p->parent = copy_buffer(o[0], nj, L, "parent")) ||
+        !(p->kind = copy_buffer(o[1], nj, L, "kind")) ||
+        !(p->iq = copy_buffer(o[2], nj, L, "iq")) || !(p->iv = copy_buffer(o[3], nj, L, "iv")) ||
+        !(p->axis = copy_buffer(o[4], 3 * nj, D, "axis")) ||
+        !(p->place = copy_buffer(o[5], 12 * nj, D, "place")) ||
+        !(p->cjoint = copy_buffer(o[6], nc, L, "cjoint")) ||
+        !(p->ckind = copy_buffer(o[7], nc, L, "ckind")) ||
+        !(p->cshape = copy_buffer(o[8], nc, L, "cshape")) ||
+        !(p->clocal = copy_buffer(o[9], 3 * nc, D, "clocal")) ||
+        !(p->cradius = copy_buffer(o[10], nc, D, "cradius")) ||
+        !(p->caxis = copy_buffer(o[11], 3 * nc, D, "caxis")) ||
+        !(p->spa = copy_buffer(o[12], nshared, L, "spa")) ||
+        !(p->spb = copy_buffer(o[13], nshared, L, "spb")) ||
+        !(p->dirs = copy_buffer(o[14], 2 * ndirs, D, "dirs"))) {
+        Py_DECREF(capsule);
+        return NULL;
+    }
+    p->oR = malloc(9 * nj * D), p->ot = malloc(3 * nj * D);
+    p->world = malloc((3 * nc + 1) * D), p->keep = malloc(nc + 1);
+    p->rows = malloc((nc + 1) * sizeof(Py_ssize_t));
+    if (!p->oR || !p->ot || !p->world || !p->keep || !p->rows) {
+        Py_DECREF(capsule);
+        return PyErr_NoMemory();
+    }
+    return capsule;
+}
+
+/* C = A B, 3x3 row-major */
+static void mat3(const double *A, const double *B, double *C) {
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+/* y = A x, 3x3 row-major */
+static void mv3(const double *A, const double *x, double *y) {
+    for (int i = 0; i < 3; ++i) y[i] = A[3 * i] * x[0] + A[3 * i + 1] * x[1] + A[3 * i + 2] * x[2];
+}
+
+/* a unit quaternion (x, y, z, w) as a rotation (Eigen's formula, as Pinocchio's) */
+static void quat_rot(const double *q, double *R) {
+    const double x = q[0], y = q[1], z = q[2], w = q[3];
+    const double tx = 2 * x, ty = 2 * y, tz = 2 * z;
+    const double twx = tx * w, twy = ty * w, twz = tz * w, txx = tx * x, txy = ty * x,
+                 txz = tz * x, tyy = ty * y, tyz = tz * y, tzz = tz * z;
+    R[0] = 1 - (tyy + tzz), R[1] = txy - twz, R[2] = txz + twy;
+    R[3] = txy + twz, R[4] = 1 - (txx + tzz), R[5] = tyz - twx;
+    R[6] = txz - twy, R[7] = tyz + twx, R[8] = 1 - (txx + tyy);
+}
+
+/* the rotation of angle (cos c, sin s) about the unit axis a */
+static void axis_rot(const double *a, double c, double s, double *R) {
+    const double t = 1 - c;
+    R[0] = c + t * a[0] * a[0], R[1] = t * a[0] * a[1] - s * a[2], R[2] = t * a[0] * a[2] + s * a[1];
+    R[3] = t * a[0] * a[1] + s * a[2], R[4] = c + t * a[1] * a[1], R[5] = t * a[1] * a[2] - s * a[0];
+    R[6] = t * a[0] * a[2] - s * a[1], R[7] = t * a[1] * a[2] + s * a[0], R[8] = c + t * a[2] * a[2];
+}
+
+/* every joint's placement from q */
+static void kinematics(Plan *p, const double *q) {
+    memset(p->oR, 0, 9 * sizeof(double));
+    p->oR[0] = p->oR[4] = p->oR[8] = 1.0;
+    memset(p->ot, 0, 3 * sizeof(double));
+    for (Py_ssize_t j = 1; j < p->nj; ++j) {
+        const double *P = p->place + 12 * j, *a = p->axis + 3 * j, *qj = q + p->iq[j];
+        const double *Rp = p->oR + 9 * p->parent[j], *tp = p->ot + 3 * p->parent[j];
+        double Rl[9], tl[3] = {0, 0, 0}, Rpp[9], tpp[3];
+        /* the parent's placement times the joint's placement */
+        mat3(Rp, P, Rpp);
+        mv3(Rp, P + 9, tpp);
+        for (int i = 0; i < 3; ++i) tpp[i] += tp[i];
+        switch (p->kind[j]) {
+        case J_FREE:
+            quat_rot(qj + 3, Rl);
+            tl[0] = qj[0], tl[1] = qj[1], tl[2] = qj[2];
+            break;
+        case J_BALL:
+            quat_rot(qj, Rl);
+            break;
+        case J_REVOLUTE:
+            axis_rot(a, cos(qj[0]), sin(qj[0]), Rl);
+            break;
+        case J_UNBOUNDED:
+            axis_rot(a, qj[0], qj[1], Rl);
+            break;
+        default: /* J_PRISMATIC */
+            memset(Rl, 0, sizeof(Rl));
+            Rl[0] = Rl[4] = Rl[8] = 1.0;
+            tl[0] = a[0] * qj[0], tl[1] = a[1] * qj[0], tl[2] = a[2] * qj[0];
+        }
+        double *R = p->oR + 9 * j, *t = p->ot + 3 * j, u[3];
+        mat3(Rpp, Rl, R);
+        mv3(Rpp, tl, u);
+        for (int i = 0; i < 3; ++i) t[i] = tpp[i] + u[i];
+    }
+}
+
+static void cross(const double *a, const double *b, double *c) {
+    c[0] = a[1] * b[2] - a[2] * b[1];
+    c[1] = a[2] * b[0] - a[0] * b[2];
+    c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* the three rows (x, y, z) of the velocity of the world point x on joint j: columns of every
+ * joint from j to the root; J is (3, nv) row-major, zero on entry */
+static void point_rows(const Plan *p, Py_ssize_t j, const double *x, double *J) {
+    const Py_ssize_t nv = p->nv;
+    for (Py_ssize_t k = j; k > 0; k = p->parent[k]) {
+        const double *R = p->oR + 9 * k, *t = p->ot + 3 * k;
+        const double r[3] = {x[0] - t[0], x[1] - t[1], x[2] - t[2]};
+        const long long v = p->iv[k];
+        double a[3], c[3];
+        switch (p->kind[k]) {
+        case J_FREE: /* the base's linear velocity (its frame), then its angular */
+            for (int i = 0; i < 3; ++i) {
+                a[0] = R[i], a[1] = R[3 + i], a[2] = R[6 + i];
+                J[v + i] = a[0], J[nv + v + i] = a[1], J[2 * nv + v + i] = a[2];
+                cross(a, r, c);
+                J[v + 3 + i] = c[0], J[nv + v + 3 + i] = c[1], J[2 * nv + v + 3 + i] = c[2];
+            }
+            break;
+        case J_BALL: /* the angular velocity in the joint's frame */
+            for (int i = 0; i < 3; ++i) {
+                a[0] = R[i], a[1] = R[3 + i], a[2] = R[6 + i];
+                cross(a, r, c);
+                J[v + i] = c[0], J[nv + v + i] = c[1], J[2 * nv + v + i] = c[2];
+            }
+            break;
+        case J_PRISMATIC:
+            mv3(R, p->axis + 3 * k, a);
+            J[v] = a[0], J[nv + v] = a[1], J[2 * nv + v] = a[2];
+            break;
+        default: /* revolute, bounded or not */
+            mv3(R, p->axis + 3 * k, a);
+            cross(a, r, c);
+            J[v] = c[0], J[nv + v] = c[1], J[2 * nv + v] = c[2];
+        }
+    }
+}
+
+/* the kept rows lo..hi (one shape's) reduced to their support polygon's extremes in place
+ * (ground.py: _extremes); returns how many are left */
+static Py_ssize_t extremes(const Plan *p, Py_ssize_t *rows, Py_ssize_t m) {
+    const double *w = p->world;
+    Py_ssize_t low = 0;
+    for (Py_ssize_t i = 1; i < m; ++i)
+        if (w[3 * rows[i] + 2] < w[3 * rows[low] + 2]) low = i;
+    const double zmin = w[3 * rows[low] + 2];
+    unsigned char pick[m];
+    memset(pick, 0, m);
+    pick[low] = 1;
+    for (Py_ssize_t k = 0; k < p->ndirs; ++k) {
+        const double c = p->dirs[2 * k], s = p->dirs[2 * k + 1];
+        Py_ssize_t best = 0;
+        double top = -INFINITY;
+        for (Py_ssize_t i = 0; i < m; ++i) {
+            const double *x = w + 3 * rows[i];
+            const double score = (x[0] * c + x[1] * s) - p->depth_weight * (x[2] - zmin);
+            if (score > top) top = score, best = i;
+        }
+        pick[best] = 1;
+    }
+    Py_ssize_t n = 0;
+    for (Py_ssize_t i = 0; i < m; ++i)
+        if (pick[i]) rows[n++] = rows[i];
+    return n;
+}
+
+/* which candidates are contacts (in p->rows); returns how many */
+static Py_ssize_t select_points(Plan *p, const double *q, double margin) {
+    kinematics(p, q);
+    double *w = p->world;
+    for (Py_ssize_t r = 0; r < p->nc; ++r) {
+        const long long j = p->cjoint[r];
+        const double *R = p->oR + 9 * j, *t = p->ot + 3 * j;
+        double *x = w + 3 * r;
+        mv3(R, p->clocal + 3 * r, x);
+        for (int i = 0; i < 3; ++i) x[i] += t[i];
+        int ok = 1;
+        if (p->ckind[r] == C_SPHERE) {
+            x[2] -= p->cradius[r];
+        } else if (p->ckind[r] == C_RIM) { /* down - (down . axis) axis, down = (0, 0, -1) */
+            double a[3], d[3];
+            mv3(R, p->caxis + 3 * r, a);
+            d[0] = a[2] * a[0], d[1] = a[2] * a[1], d[2] = a[2] * a[2] - 1.0;
+            const double norm = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            ok = norm > 1e-9; /* a rim lying flat: its samples are fixed points */
+            if (ok)
+                for (int i = 0; i < 3; ++i) x[i] += p->cradius[r] / norm * d[i];
+        }
+        p->keep[r] = ok && x[2] < margin;
+    }
+    for (Py_ssize_t k = 0; k < p->nshared; ++k) {
+        const double *a = w + 3 * p->spa[k], *b = w + 3 * p->spb[k];
+        const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+        if (sqrt(dx * dx + dy * dy + dz * dz) < p->shared) p->keep[p->spa[k]] = 0;
+    }
+    Py_ssize_t n = 0;
+    for (Py_ssize_t r = 0; r < p->nc; ++r)
+        if (p->keep[r]) p->rows[n++] = r;
+    /* a shape with more kept points than max_points keeps its support polygon's extremes
+     * (the candidates are sorted by shape: each shape's rows are contiguous) */
+    Py_ssize_t out = 0;
+    for (Py_ssize_t lo = 0; lo < n;) {
+        Py_ssize_t hi = lo;
+        while (hi < n && p->cshape[p->rows[hi]] == p->cshape[p->rows[lo]]) ++hi;
+        Py_ssize_t m = hi - lo;
+        if (m > p->max_points) m = extremes(p, p->rows + lo, m);
+        memmove(p->rows + out, p->rows + lo, m * sizeof(Py_ssize_t));
+        out += m, lo = hi;
+    }
+    return out;
+}
+
+static int writable(PyObject *obj, Py_buffer *b, Py_ssize_t bytes, const char *name) {
+    if (PyObject_GetBuffer(obj, b, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) < 0) return 0;
+    if (b->len < bytes) {
+        PyErr_Format(PyExc_ValueError, "humanoid.kernels: %s has %zd bytes, needs %zd", name,
+                     b->len, bytes);
+        PyBuffer_Release(b);
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *ground_select(PyObject *self, PyObject *args) {
+    PyObject *capsule, *oq;
+    double margin;
+    if (!PyArg_ParseTuple(args, "OOd", &capsule, &oq, &margin)) return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    Py_buffer q;
+    if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    if (q.len < (Py_ssize_t)sizeof(double) * p->nq) {
+        PyErr_Format(PyExc_ValueError, "ground_select: q has %zd bytes, needs %zd", q.len,
+                     (Py_ssize_t)sizeof(double) * p->nq);
+        PyBuffer_Release(&q);
+        return NULL;
+    }
+    p->n = select_points(p, (const double *)q.buf, margin);
+    PyBuffer_Release(&q);
+    return PyLong_FromSsize_t(p->n);
+}
+
+static PyObject *ground_write(PyObject *self, PyObject *args) {
+    PyObject *capsule, *opoints, *ojoints, *olocal, *oJ;
+    if (!PyArg_ParseTuple(args, "OOOOO", &capsule, &opoints, &ojoints, &olocal, &oJ))
+        return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    const Py_ssize_t n = p->n, D = sizeof(double);
+    Py_buffer points, joints, local, J;
+    if (!writable(opoints, &points, 3 * n * D, "points")) return NULL;
+    if (!writable(ojoints, &joints, n * (Py_ssize_t)sizeof(long long), "joints")) {
+        PyBuffer_Release(&points);
+        return NULL;
+    }
+    if (!writable(olocal, &local, 3 * n * D, "local")) {
+        PyBuffer_Release(&points), PyBuffer_Release(&joints);
+        return NULL;
+    }
+    if (!writable(oJ, &J, 3 * n * p->nv * D, "J")) {
+        PyBuffer_Release(&points), PyBuffer_Release(&joints), PyBuffer_Release(&local);
+        return NULL;
+    }
+    double *P = points.buf, *Lc = local.buf, *Jb = J.buf;
+    long long *Jt = joints.buf;
+    memset(Jb, 0, 3 * n * p->nv * D);
+    for (Py_ssize_t i = 0; i < n; ++i) {
+        const Py_ssize_t r = p->rows[i];
+        const long long j = p->cjoint[r];
+        const double *x = p->world + 3 * r, *R = p->oR + 9 * j, *t = p->ot + 3 * j;
+        P[3 * i] = x[0], P[3 * i + 1] = x[1], P[3 * i + 2] = x[2];
+        Jt[i] = j;
+        const double d[3] = {x[0] - t[0], x[1] - t[1], x[2] - t[2]};
+        for (int k = 0; k < 3; ++k) Lc[3 * i + k] = R[k] * d[0] + R[3 + k] * d[1] + R[6 + k] * d[2];
+        point_rows(p, j, x, Jb + 3 * i * p->nv);
+    }
+    PyBuffer_Release(&points), PyBuffer_Release(&joints), PyBuffer_Release(&local);
+    PyBuffer_Release(&J);
+    Py_RETURN_NONE;
+}
+
+/* ---- joint ranges (limits.py: JointRanges.rows) ----------------------------------------- */
+
+typedef struct {
+    Py_ssize_t nv, nh, nb;
+    double lock; /* |cos(middle angle)| below this: the outer angles are undefined */
+    long long *hq, *hv, *bq, *bv;
+    double *hlo, *hhi;          /* the hinges' limits */
+    double *blo, *bhi, *bmid;   /* each ball's triplet angles' limits and their middle: nb x 3 */
+    double *W;                  /* nb x 5 x 16: the rotation entries the angles read, from q q^T */
+    double *s;                  /* nb: the sign of the triplet's axes' determinant */
+    double *GCt;                /* nb x 3 x 3 */
+} Ranges;
+
+static void ranges_free(PyObject *capsule) {
+    Ranges *p = (Ranges *)PyCapsule_GetPointer(capsule, "humanoid.range_plan");
+    if (!p) return;
+    void *fields[] = {p->hq, p->hv, p->bq, p->bv, p->hlo, p->hhi, p->blo, p->bhi, p->bmid,
+                      p->W, p->s, p->GCt};
+    for (size_t k = 0; k < sizeof(fields) / sizeof(fields[0]); ++k) free(fields[k]);
+    free(p);
+}
+
+static PyObject *range_plan(PyObject *self, PyObject *args) {
+    Py_ssize_t nv, nh, nb;
+    double lock;
+    PyObject *o[12];
+    if (!PyArg_ParseTuple(args, "nnndOOOOOOOOOOOO", &nv, &nh, &nb, &lock, &o[0], &o[1], &o[2],
+                          &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11]))
+        return NULL;
+    Ranges *p = calloc(1, sizeof(Ranges));
+    if (!p) return PyErr_NoMemory();
+    p->nv = nv, p->nh = nh, p->nb = nb, p->lock = lock;
+    PyObject *capsule = PyCapsule_New(p, "humanoid.range_plan", ranges_free);
+    if (!capsule) {
+        free(p);
+        return NULL;
+    }
+    const Py_ssize_t L = sizeof(long long), D = sizeof(double);
+    if (!(p->hq = copy_buffer(o[0], nh, L, "hq")) || !(p->hv = copy_buffer(o[1], nh, L, "hv")) ||
+        !(p->hlo = copy_buffer(o[2], nh, D, "hlo")) ||
+        !(p->hhi = copy_buffer(o[3], nh, D, "hhi")) ||
+        !(p->bq = copy_buffer(o[4], nb, L, "bq")) || !(p->bv = copy_buffer(o[5], nb, L, "bv")) ||
+        !(p->blo = copy_buffer(o[6], 3 * nb, D, "blo")) ||
+        !(p->bhi = copy_buffer(o[7], 3 * nb, D, "bhi")) ||
+        !(p->bmid = copy_buffer(o[8], 3 * nb, D, "bmid")) ||
+        !(p->W = copy_buffer(o[9], 80 * nb, D, "W")) ||
+        !(p->s = copy_buffer(o[10], nb, D, "s")) ||
+        !(p->GCt = copy_buffer(o[11], 9 * nb, D, "GCt"))) {
+        Py_DECREF(capsule);
+        return NULL;
+    }
+    return capsule;
+}
+
+/* x wrapped into [-pi, pi), as NumPy's (x + pi) % (2 pi) - pi */
+static double wrap(double x) {
+    const double m = 2 * PI;
+    double r = fmod(x + PI, m);
+    if (r != 0 && r < 0) r += m;
+    return r - PI;
+}
+
+/* one ball's triplet angles th (3) from q, the solution inside its range (limits.py: _angles);
+ * hint: the last angles or NULL */
+static void ball_angles(const Ranges *p, Py_ssize_t b, const double *q, const double *hint,
+                        double *th) {
+    const double *x = q + p->bq[b], *W = p->W + 80 * b;
+    double qq[16], w[5];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) qq[4 * i + j] = x[i] * x[j];
+    for (int e = 0; e < 5; ++e) {
+        double acc = 0;
+        for (int k = 0; k < 16; ++k) acc += W[16 * e + k] * qq[k];
+        w[e] = acc;
+    }
+    const double w0 = w[0] < -1 ? -1 : (w[0] > 1 ? 1 : w[0]);
+    const double abc[3] = {atan2(-w[1], w[2]), asin(w0), atan2(-w[3], w[4])};
+    double both[2][3], d[2] = {0.0, 1.0};
+    int inside[2] = {1, 1};
+    const double *lo = p->blo + 3 * b, *hi = p->bhi + 3 * b, *mid = p->bmid + 3 * b;
+    for (int sol = 0; sol < 2; ++sol) {
+        if (hint) d[sol] = 0;
+        for (int a = 0; a < 3; ++a) {
+            const double flip = (sol == 1 && a == 1) ? -1.0 : 1.0, shift = sol ? PI : 0.0;
+            double v = p->s[b] * (abc[a] * flip + shift);
+            v = mid[a] + wrap(v - mid[a]);
+            both[sol][a] = v;
+            if (!(v >= lo[a] - 1e-12 && v <= hi[a] + 1e-12)) inside[sol] = 0;
+            if (hint) d[sol] += fabs(wrap(v - hint[3 * b + a]));
+        }
+    }
+    const int pick = (inside[1] && !inside[0]) || ((inside[0] == inside[1]) && (d[1] < d[0]));
+    for (int a = 0; a < 3; ++a) th[a] = both[pick][a];
+}
+
+static PyObject *range_rows(PyObject *self, PyObject *args) {
+    PyObject *capsule, *oq, *ohint, *or, *oJ;
+    double margin;
+    int has_hint;
+    if (!PyArg_ParseTuple(args, "OOdOpOO", &capsule, &oq, &margin, &ohint, &has_hint, &or, &oJ))
+        return NULL;
+    Ranges *p = (Ranges *)PyCapsule_GetPointer(capsule, "humanoid.range_plan");
+    if (!p) return NULL;
+    const Py_ssize_t nv = p->nv, rows = 2 * p->nh + 6 * p->nb, D = sizeof(double);
+    Py_buffer q, hint, r, J;
+    if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    if (!writable(ohint, &hint, 3 * p->nb * D, "hint")) {
+        PyBuffer_Release(&q);
+        return NULL;
+    }
+    if (!writable(or, &r, rows * D, "r")) {
+        PyBuffer_Release(&q), PyBuffer_Release(&hint);
+        return NULL;
+    }
+    if (!writable(oJ, &J, rows * nv * D, "J")) {
+        PyBuffer_Release(&q), PyBuffer_Release(&hint), PyBuffer_Release(&r);
+        return NULL;
+    }
+    const double *x = q.buf;
+    double *h = hint.buf, *R = r.buf, *Jb = J.buf;
+    Py_ssize_t m = 0;
+    for (int side = 0; side < 2; ++side) /* every hinge's lower bound, then every upper */
+        for (Py_ssize_t k = 0; k < p->nh; ++k) {
+            const double v = side ? -(x[p->hq[k]] - p->hhi[k]) : x[p->hq[k]] - p->hlo[k];
+            if (!(v < margin)) continue;
+            R[m] = v;
+            memset(Jb + m * nv, 0, nv * D);
+            Jb[m * nv + p->hv[k]] = side ? -1.0 : 1.0;
+            ++m;
+        }
+    for (Py_ssize_t b = 0; b < p->nb; ++b) {
+        double th[3];
+        ball_angles(p, b, x, has_hint ? h : NULL, th);
+        memcpy(h + 3 * b, th, sizeof(th));
+    }
+    for (Py_ssize_t b = 0; b < p->nb; ++b) {
+        const double *th = h + 3 * b, *lo = p->blo + 3 * b, *hi = p->bhi + 3 * b;
+        const int locked = fabs(cos(th[1])) < p->lock;
+        const double sb = p->s[b] * th[1], sc_ = p->s[b] * th[2];
+        const double cb = locked ? 1.0 : cos(sb), cc = cos(sc_), sc = sin(sc_), tb = sin(sb) / cb;
+        const double E[9] = {cc / cb, -sc / cb, 0, sc, cc, 0, -tb * cc, tb * sc, 1.0};
+        double rates[9];
+        mat3(E, p->GCt + 9 * b, rates);
+        for (int i = 0; i < 3; ++i)
+            for (int side = 0; side < 2; ++side) {
+                const double dist = side ? hi[i] - th[i] : th[i] - lo[i];
+                if (!(dist < margin) || (locked && i != 1)) continue;
+                const double sgn = side ? -1.0 : 1.0;
+                R[m] = dist;
+                memset(Jb + m * nv, 0, nv * D);
+                for (int k = 0; k < 3; ++k) Jb[m * nv + p->bv[b] + k] = sgn * rates[3 * i + k];
+                ++m;
+            }
+    }
+    PyBuffer_Release(&q), PyBuffer_Release(&hint), PyBuffer_Release(&r), PyBuffer_Release(&J);
+    return PyLong_FromSsize_t(m);
+}
+
+/* every joint's placement from q, into R (nj x 9) and t (nj x 3): for the tests */
+static PyObject *placements(PyObject *self, PyObject *args) {
+    PyObject *capsule, *oq, *oR, *ot;
+    if (!PyArg_ParseTuple(args, "OOOO", &capsule, &oq, &oR, &ot)) return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    Py_buffer q, R, t;
+    if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    kinematics(p, (const double *)q.buf);
+    PyBuffer_Release(&q);
+    if (!writable(oR, &R, 9 * p->nj * (Py_ssize_t)sizeof(double), "R")) return NULL;
+    if (!writable(ot, &t, 3 * p->nj * (Py_ssize_t)sizeof(double), "t")) {
+        PyBuffer_Release(&R);
+        return NULL;
+    }
+    memcpy(R.buf, p->oR, 9 * p->nj * sizeof(double));
+    memcpy(t.buf, p->ot, 3 * p->nj * sizeof(double));
+    PyBuffer_Release(&R), PyBuffer_Release(&t);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"ground_plan", ground_plan, METH_VARARGS, "The model's tree and the candidate points."},
+    {"ground_select", ground_select, METH_VARARGS,
+     "Which candidates are contacts at q (the joints placed); returns how many."},
+    {"ground_write", ground_write, METH_VARARGS,
+     "The last selection's points, joints, local points and Jacobian rows."},
+    {"range_plan", range_plan, METH_VARARGS, "The hinges' and the ball joints' ranges."},
+    {"range_rows", range_rows, METH_VARARGS,
+     "The range rows within the margin at q (r, J, the angles kept as the next hint)."},
+    {"placements", placements, METH_VARARGS, "Every joint's placement at q (for the tests)."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "kernels",
+                                    "The ground contact's per-step kernels in C.", -1, methods};
+
+PyMODINIT_FUNC PyInit_kernels(void) { return PyModule_Create(&module); }

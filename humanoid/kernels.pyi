@@ -1,0 +1,23 @@
+# The compiled kernels (humanoid/kernels.c); every array argument is a C-contiguous buffer of
+# float64 (points, rotations) or int64 (indices).
+from typing import Any
+
+def ground_plan(
+    nj: int,
+    nq: int,
+    nv: int,
+    nc: int,
+    nshared: int,
+    ndirs: int,
+    max_points: int,
+    depth_weight: float,
+    shared: float,
+    *arrays: Any,
+) -> object: ...
+def ground_select(plan: object, q: Any, margin: float) -> int: ...
+def ground_write(plan: object, points: Any, joints: Any, local: Any, J: Any) -> None: ...
+def placements(plan: object, q: Any, R: Any, t: Any) -> None: ...
+def range_plan(nv: int, nh: int, nb: int, lock: float, *arrays: Any) -> object: ...
+def range_rows(
+    plan: object, q: Any, margin: float, hint: Any, has_hint: bool, r: Any, J: Any
+) -> int: ...
