@@ -116,7 +116,7 @@ class JointRanges:
         self._lo2, self._hi2 = (self._blo - 1e-12)[:, None, :], (self._bhi + 1e-12)[:, None, :]
         self._prefer = np.tile([0.0, 1.0], (nb, 1))  # without a hint: the first solution
         self._balls_range = np.arange(nb)
-        self._hint = None
+        self._hint: np.ndarray | None = None
         self._bv3 = (self._bv[:, None] + np.arange(3)).ravel()
         nh = len(self.iq)
         self._hq = np.concatenate([self.iq, self.iq])
