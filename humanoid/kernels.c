@@ -342,13 +342,16 @@ static PyObject *ground_select(PyObject *self, PyObject *args) {
 }
 
 static PyObject *ground_write(PyObject *self, PyObject *args) {
-    PyObject *capsule, *opoints, *ojoints, *olocal, *oJ;
-    if (!PyArg_ParseTuple(args, "OOOOO", &capsule, &opoints, &ojoints, &olocal, &oJ))
+    PyObject *capsule, *opoints, *ojoints, *olocal, *oJ, *oids;
+    if (!PyArg_ParseTuple(args, "OOOOOO", &capsule, &opoints, &ojoints, &olocal, &oJ, &oids))
         return NULL;
     Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
     if (!p) return NULL;
     const Py_ssize_t n = p->n, D = sizeof(double);
-    Py_buffer points, joints, local, J;
+    Py_buffer points, joints, local, J, ids;
+    if (!writable(oids, &ids, n * (Py_ssize_t)sizeof(long long), "ids")) return NULL;
+    for (Py_ssize_t i = 0; i < n; ++i) ((long long *)ids.buf)[i] = p->rows[i];
+    PyBuffer_Release(&ids);
     if (!writable(opoints, &points, 3 * n * D, "points")) return NULL;
     if (!writable(ojoints, &joints, n * (Py_ssize_t)sizeof(long long), "joints")) {
         PyBuffer_Release(&points);
@@ -476,15 +479,19 @@ static void ball_angles(const Ranges *p, Py_ssize_t b, const double *q, const do
 }
 
 static PyObject *range_rows(PyObject *self, PyObject *args) {
-    PyObject *capsule, *oq, *ohint, *or, *oJ;
+    PyObject *capsule, *oq, *ohint, *or, *oJ, *oids;
     double margin;
     int has_hint;
-    if (!PyArg_ParseTuple(args, "OOdOpOO", &capsule, &oq, &margin, &ohint, &has_hint, &or, &oJ))
+    if (!PyArg_ParseTuple(args, "OOdOpOOO", &capsule, &oq, &margin, &ohint, &has_hint, &or, &oJ,
+                          &oids))
         return NULL;
     Ranges *p = (Ranges *)PyCapsule_GetPointer(capsule, "humanoid.range_plan");
     if (!p) return NULL;
     const Py_ssize_t nv = p->nv, rows = 2 * p->nh + 6 * p->nb, D = sizeof(double);
-    Py_buffer q, hint, r, J;
+    Py_buffer q, hint, r, J, idb;
+    if (!writable(oids, &idb, rows * (Py_ssize_t)sizeof(long long), "ids")) return NULL;
+    long long *ids = idb.buf;
+    PyBuffer_Release(&idb); /* (the caller keeps the array alive) */
     if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) return NULL;
     if (!writable(ohint, &hint, 3 * p->nb * D, "hint")) {
         PyBuffer_Release(&q);
@@ -505,7 +512,7 @@ static PyObject *range_rows(PyObject *self, PyObject *args) {
         for (Py_ssize_t k = 0; k < p->nh; ++k) {
             const double v = side ? -(x[p->hq[k]] - p->hhi[k]) : x[p->hq[k]] - p->hlo[k];
             if (!(v < margin)) continue;
-            R[m] = v;
+            R[m] = v, ids[m] = side * p->nh + k;
             memset(Jb + m * nv, 0, nv * D);
             Jb[m * nv + p->hv[k]] = side ? -1.0 : 1.0;
             ++m;
@@ -528,7 +535,7 @@ static PyObject *range_rows(PyObject *self, PyObject *args) {
                 const double dist = side ? hi[i] - th[i] : th[i] - lo[i];
                 if (!(dist < margin) || (locked && i != 1)) continue;
                 const double sgn = side ? -1.0 : 1.0;
-                R[m] = dist;
+                R[m] = dist, ids[m] = 2 * p->nh + 6 * b + 2 * i + side;
                 memset(Jb + m * nv, 0, nv * D);
                 for (int k = 0; k < 3; ++k) Jb[m * nv + p->bv[b] + k] = sgn * rates[3 * i + k];
                 ++m;
@@ -536,6 +543,316 @@ static PyObject *range_rows(PyObject *self, PyObject *args) {
     }
     PyBuffer_Release(&q), PyBuffer_Release(&hint), PyBuffer_Release(&r), PyBuffer_Release(&J);
     return PyLong_FromSsize_t(m);
+}
+
+/* ---- the contact solve (ground.py: ContactSolver, solver "compiled") --------------------- */
+
+/* the lower Cholesky factor of the m x m symmetric positive definite A, in place (row-major);
+ * 0 if A is not positive definite */
+static int cholesky(double *A, Py_ssize_t m) {
+    for (Py_ssize_t j = 0; j < m; ++j) {
+        double *Aj = A + j * m, s = Aj[j];
+        for (Py_ssize_t k = 0; k < j; ++k) s -= Aj[k] * Aj[k];
+        if (!(s > 0)) return 0;
+        s = sqrt(s);
+        Aj[j] = s;
+        for (Py_ssize_t i = j + 1; i < m; ++i) {
+            double *Ai = A + i * m, t = Ai[j];
+            for (Py_ssize_t k = 0; k < j; ++k) t -= Ai[k] * Aj[k];
+            Ai[j] = t / s;
+        }
+    }
+    return 1;
+}
+
+/* x = (L L^T)^-1 x, in place */
+static void cholesky_solve(const double *L, Py_ssize_t m, double *x) {
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        const double *Li = L + i * m;
+        double t = x[i];
+        for (Py_ssize_t k = 0; k < i; ++k) t -= Li[k] * x[k];
+        x[i] = t / Li[i];
+    }
+    for (Py_ssize_t i = m - 1; i >= 0; --i) {
+        double t = x[i];
+        for (Py_ssize_t k = i + 1; k < m; ++k) t -= L[k * m + i] * x[k];
+        x[i] = t / L[i * m + i];
+    }
+}
+
+/* y = A x + b, A m x m row-major */
+static void affine(const double *A, const double *x, const double *b, Py_ssize_t m, double *y) {
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        const double *Ai = A + i * m;
+        double t = b[i];
+        for (Py_ssize_t k = 0; k < m; ++k) t += Ai[k] * x[k];
+        y[i] = t;
+    }
+}
+
+/* the first nc triplets (tangent x, y, normal) projected on the friction cone |t| <= mu n, the
+ * rest on the non-negative orthant */
+static void project(double *x, Py_ssize_t m, Py_ssize_t nc, double mu) {
+    for (Py_ssize_t c = 0; c < nc; ++c) {
+        double *t = x + 3 * c;
+        const double tn = sqrt(t[0] * t[0] + t[1] * t[1]), n = t[2];
+        if (tn <= mu * n) continue;
+        if (mu * tn <= -n) {
+            t[0] = t[1] = t[2] = 0.0;
+            continue;
+        }
+        const double beta = (mu * tn + n) / (mu * mu + 1.0);
+        t[0] *= mu * beta / tn, t[1] *= mu * beta / tn, t[2] = beta;
+    }
+    for (Py_ssize_t i = 3 * nc; i < m; ++i)
+        if (x[i] < 0) x[i] = 0.0;
+}
+
+/* sigma = G z + g, and s: the De Saxce correction mu |sigma_t| on each contact's normal row */
+static void velocities(const double *G, const double *g, const double *z, Py_ssize_t m,
+                       Py_ssize_t nc, double mu, double *sigma, double *s) {
+    affine(G, z, g, m, sigma);
+    memset(s, 0, m * sizeof(double));
+    for (Py_ssize_t c = 0; c < nc; ++c) {
+        const double *t = sigma + 3 * c;
+        s[3 * c + 2] = mu * sqrt(t[0] * t[0] + t[1] * t[1]);
+    }
+}
+
+/* how far z (in the cones) is from solving the problem: the natural residual
+ * |z - P_K(z - (sigma + s))|_inf, zero exactly at a solution; on a contact that sticks it is
+ * its velocity, on one that slides its impulse's distance from the cone's edge against the
+ * slip, on an orthant row min(z, sigma) (the rows are scaled: impulses and velocities alike) */
+static double ncp_residual(const double *z, const double *sigma, const double *s, Py_ssize_t m,
+                           Py_ssize_t nc, double mu) {
+    double worst = 0.0;
+    for (Py_ssize_t c = 0; c < nc; ++c) {
+        const double *zc = z + 3 * c, *sc = sigma + 3 * c;
+        double w[3] = {zc[0] - sc[0], zc[1] - sc[1], zc[2] - (sc[2] + s[3 * c + 2])};
+        project(w, 3, 1, mu);
+        for (int i = 0; i < 3; ++i)
+            if (fabs(zc[i] - w[i]) > worst) worst = fabs(zc[i] - w[i]);
+    }
+    for (Py_ssize_t i = 3 * nc; i < m; ++i) {
+        const double r = fabs(z[i] < sigma[i] ? z[i] : sigma[i]);
+        if (r > worst) worst = r;
+    }
+    return worst;
+}
+
+/* L = cholesky(G + rho I) */
+static int factor(const double *G, Py_ssize_t m, double rho, double *L) {
+    memcpy(L, G, m * m * sizeof(double));
+    for (Py_ssize_t i = 0; i < m; ++i) L[i * m + i] += rho;
+    return cholesky(L, m);
+}
+
+/* ADMM on the nonlinear complementarity problem of the contacts (Coulomb's cones with the De
+ * Saxce correction, and orthant rows): lambda in K, sigma = G lambda + g, sigma + s(sigma) in K*
+ * and complementary to lambda. Written as the fixed point of w = x + u (the point projected):
+ * z = P_K(w), u = w - z, s = s(G z + g), (G + rho I) x = rho (z - u) - g - s, over-relaxed
+ * (x <- alpha x + (1 - alpha) z), T(w) = x + u; rho fixed (the rows are scaled to a unit
+ * diagonal; balancing rho against the residuals stalled it on the falls), and Anderson
+ * acceleration of memory mem on T (0: plain ADMM; its step is thrown away, and the memory,
+ * when the fixed-point residual grows tenfold).
+ * Stops when z's own residual (ncp_residual) is within tol: a warm start that already solves
+ * the problem stops at once, and no other does. Or when the residual has not fallen by a tenth
+ * in STALL iterations: then the best z, converged if its residual is within FLOOR tol. (A body
+ * at rest on many points with a joint at its limit: rows that depend on each other with gap
+ * terms that do not quite agree, a floor no iteration goes below; Pinocchio's ADMM stops
+ * there too, by its own residuals.) z: the start (projected first), then the solution.
+ * Returns the iterations, negative if it did not converge. */
+#define ALPHA 1.6
+#define STALL 30
+#define FLOOR 100.0
+#define MEM_MAX 8
+
+/* Anderson's weights: gamma = argmin |f - dF gamma| (dF: n columns of length m, stored as
+ * rows), by the regularised normal equations; 0 if they are singular */
+static int anderson_weights(const double *dF, const double *f, Py_ssize_t n, Py_ssize_t m,
+                            double *gamma) {
+    double A[MEM_MAX * MEM_MAX], trace = 0.0;
+    for (Py_ssize_t i = 0; i < n; ++i) {
+        double b = 0.0;
+        for (Py_ssize_t k = 0; k < m; ++k) b += dF[i * m + k] * f[k];
+        gamma[i] = b;
+        for (Py_ssize_t j = 0; j <= i; ++j) {
+            double a = 0.0;
+            for (Py_ssize_t k = 0; k < m; ++k) a += dF[i * m + k] * dF[j * m + k];
+            A[i * n + j] = A[j * n + i] = a;
+        }
+        trace += A[i * n + i];
+    }
+    for (Py_ssize_t i = 0; i < n; ++i) A[i * n + i] += 1e-10 * trace + 1e-300;
+    if (!cholesky(A, n)) return 0;
+    cholesky_solve(A, n, gamma);
+    return 1;
+}
+
+static long admm(const double *G, const double *g, Py_ssize_t m, Py_ssize_t nc, double mu,
+                 double tol, long max_iter, double rho, int mem, double *z, double *work,
+                 double *residual) {
+    double *L = work, *x = L + m * m, *u = x + m, *s = u + m, *sigma = s + m, *best = sigma + m;
+    double *w = best + m, *gk = w + m, *f = gk + m, *fp = f + m, *gp = fp + m, *dF = gp + m;
+    double *dG = dF + MEM_MAX * m, gamma[MEM_MAX];
+    if (mem > MEM_MAX) mem = MEM_MAX;
+    project(z, m, nc, mu);
+    velocities(G, g, z, m, nc, mu, sigma, s);
+    double r = ncp_residual(z, sigma, s, m, nc, mu), rbest = r, rmark = r, fnorm_prev = 0.0;
+    *residual = r;
+    if (r <= tol) return 0;
+    memcpy(best, z, m * sizeof(double));
+    for (Py_ssize_t i = 0; i < m; ++i) w[i] = z[i] - (sigma[i] + s[i]) / rho;
+    if (!factor(G, m, rho, L)) return -1;
+    long k = 1, mark = 0;
+    Py_ssize_t stored = 0, next = 0; /* Anderson's columns and the one to overwrite next */
+    for (; k <= max_iter; ++k) {
+        /* T(w): z, u, s from w; x; the new point */
+        memcpy(z, w, m * sizeof(double));
+        project(z, m, nc, mu);
+        for (Py_ssize_t i = 0; i < m; ++i) u[i] = w[i] - z[i];
+        velocities(G, g, z, m, nc, mu, sigma, s);
+        if (k > 1) {
+            r = ncp_residual(z, sigma, s, m, nc, mu);
+            *residual = r;
+            if (r <= tol) return k - 1;
+            if (r < rbest) rbest = r, memcpy(best, z, m * sizeof(double));
+            if (rbest < 0.9 * rmark) rmark = rbest, mark = k;
+            if (k - mark >= STALL) break;
+        }
+        for (Py_ssize_t i = 0; i < m; ++i) x[i] = rho * (z[i] - u[i]) - g[i] - s[i];
+        cholesky_solve(L, m, x);
+        double fnorm = 0.0;
+        for (Py_ssize_t i = 0; i < m; ++i) {
+            gk[i] = ALPHA * x[i] + (1.0 - ALPHA) * z[i] + u[i];
+            f[i] = gk[i] - w[i];
+            if (fabs(f[i]) > fnorm) fnorm = fabs(f[i]);
+        }
+        if (mem > 0 && k > 1 && fnorm > 10 * fnorm_prev) stored = 0; /* a bad step: restart */
+        if (mem > 0 && k > 1) {
+            double *cF = dF + next * m, *cG = dG + next * m;
+            for (Py_ssize_t i = 0; i < m; ++i) cF[i] = f[i] - fp[i], cG[i] = gk[i] - gp[i];
+            next = (next + 1) % mem;
+            if (stored < mem) ++stored;
+        }
+        memcpy(fp, f, m * sizeof(double));
+        memcpy(gp, gk, m * sizeof(double));
+        fnorm_prev = fnorm;
+        memcpy(w, gk, m * sizeof(double));
+        if (stored > 0 && anderson_weights(dF, f, stored, m, gamma))
+            for (Py_ssize_t j = 0; j < stored; ++j)
+                for (Py_ssize_t i = 0; i < m; ++i) w[i] -= gamma[j] * dG[j * m + i];
+    }
+    memcpy(z, best, m * sizeof(double));
+    *residual = rbest;
+    if (k <= max_iter && rbest <= FLOOR * tol) return k;
+    return -(k > max_iter ? max_iter : k);
+}
+
+/* the solve of a step: J (m x nv, the contacts' 3 rows each first, then the orthant rows),
+ * Minv, v_free, the rows' constant velocity terms gap; lam (m): the start (the last step's
+ * impulses, or zero), then the impulses; v (nv): v_free + Minv J^T lam */
+static PyObject *contact_solve(PyObject *self, PyObject *args) {
+    PyObject *oJ, *oM, *ov, *ogap, *olam, *oout;
+    Py_ssize_t nc;
+    double mu, tol, rho;
+    long max_iter;
+    int mem;
+    if (!PyArg_ParseTuple(args, "OOOOndddliOO", &oJ, &oM, &ov, &ogap, &nc, &mu, &tol, &rho,
+                          &max_iter, &mem, &olam, &oout))
+        return NULL;
+    Py_buffer J, M, v, gap, lam, out;
+    if (PyObject_GetBuffer(oJ, &J, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    if (PyObject_GetBuffer(oM, &M, PyBUF_C_CONTIGUOUS) < 0) {
+        PyBuffer_Release(&J);
+        return NULL;
+    }
+    const Py_ssize_t D = sizeof(double), nv = (Py_ssize_t)sqrt((double)(M.len / D) + 0.5);
+    const Py_ssize_t m = nv ? J.len / D / nv : 0;
+    int ok = PyObject_GetBuffer(ov, &v, PyBUF_C_CONTIGUOUS) == 0;
+    ok = ok && (PyObject_GetBuffer(ogap, &gap, PyBUF_C_CONTIGUOUS) == 0 || (PyBuffer_Release(&v), 0));
+    ok = ok && (writable(olam, &lam, m * D, "lam") || (PyBuffer_Release(&v), PyBuffer_Release(&gap), 0));
+    ok = ok && (writable(oout, &out, nv * D, "v") ||
+                (PyBuffer_Release(&v), PyBuffer_Release(&gap), PyBuffer_Release(&lam), 0));
+    if (!ok) {
+        PyBuffer_Release(&J), PyBuffer_Release(&M);
+        return NULL;
+    }
+    if (v.len != nv * D || gap.len != m * D || 3 * nc > m) {
+        PyErr_SetString(PyExc_ValueError, "contact_solve: the sizes of J, Minv, v and gap differ");
+        PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
+        PyBuffer_Release(&gap), PyBuffer_Release(&lam), PyBuffer_Release(&out);
+        return NULL;
+    }
+    const double *Jb = J.buf, *Mb = M.buf, *vf = v.buf, *gp = gap.buf;
+    double *z = lam.buf, *vo = out.buf;
+    /* scratch: MJt (nv x m), G (m x m), g, d (m), the solver's 6 m + m^2, and each row's
+     * nonzero columns (a contact's row moves with its joint's path to the root alone) */
+    double *buf = malloc((nv * m + 2 * m * m + (13 + 2 * MEM_MAX) * m + 1) * D);
+    Py_ssize_t *nz = malloc((m * nv + m + 1) * sizeof(Py_ssize_t));
+    if (!buf || !nz) {
+        free(buf), free(nz);
+        PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
+        PyBuffer_Release(&gap), PyBuffer_Release(&lam), PyBuffer_Release(&out);
+        return PyErr_NoMemory();
+    }
+    double *MJt = buf, *G = MJt + nv * m, *g = G + m * m, *d = g + m, *work = d + m;
+    Py_ssize_t *start = nz + m * nv; /* row i's columns: nz[start[i] .. start[i + 1]) */
+    start[0] = 0;
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        Py_ssize_t c = start[i];
+        for (Py_ssize_t k = 0; k < nv; ++k)
+            if (Jb[i * nv + k] != 0.0) nz[c++] = k;
+        start[i + 1] = c;
+    }
+    /* MJt = Minv J^T, G = J MJt, g = J v_free + gap, over the nonzero columns */
+    memset(MJt, 0, nv * m * D);
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        const double *Ji = Jb + i * nv;
+        double t = gp[i];
+        for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) {
+            const Py_ssize_t k = nz[c];
+            t += Ji[k] * vf[k];
+            for (Py_ssize_t r = 0; r < nv; ++r) MJt[r * m + i] += Mb[r * nv + k] * Ji[k];
+        }
+        g[i] = t;
+    }
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        const double *Ji = Jb + i * nv;
+        for (Py_ssize_t j = 0; j <= i; ++j) {
+            double t = 0.0;
+            for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) t += Ji[nz[c]] * MJt[nz[c] * m + j];
+            G[i * m + j] = G[j * m + i] = t;
+        }
+    }
+    /* Jacobi scaling, one factor per contact (its cone unchanged): as ContactSolver.step */
+    double dmax = 0.0;
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        d[i] = G[i * m + i];
+        if (i < 3 * nc && i % 3 == 2) {
+            const double mean = (d[i - 2] + d[i - 1] + d[i]) / 3.0;
+            d[i - 2] = d[i - 1] = d[i] = mean;
+        }
+    }
+    for (Py_ssize_t i = 0; i < m; ++i)
+        if (d[i] > dmax) dmax = d[i];
+    for (Py_ssize_t i = 0; i < m; ++i) d[i] = 1.0 / sqrt(d[i] > 1e-12 * dmax ? d[i] : 1e-12 * dmax);
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        g[i] *= d[i], z[i] /= d[i];
+        for (Py_ssize_t j = 0; j < m; ++j) G[i * m + j] *= d[i] * d[j];
+    }
+    double residual = 0.0;
+    const long k = m ? admm(G, g, m, nc, mu, tol, max_iter, rho, mem, z, work, &residual) : 0;
+    for (Py_ssize_t i = 0; i < m; ++i) z[i] *= d[i];
+    for (Py_ssize_t r = 0; r < nv; ++r) {
+        double t = vf[r];
+        for (Py_ssize_t i = 0; i < m; ++i) t += MJt[r * m + i] * z[i];
+        vo[r] = t;
+    }
+    free(buf), free(nz);
+    PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
+    PyBuffer_Release(&gap), PyBuffer_Release(&lam), PyBuffer_Release(&out);
+    return Py_BuildValue("(lid)", k < 0 ? -k : k, k >= 0, residual);
 }
 
 /* every joint's placement from q, into R (nj x 9) and t (nj x 3): for the tests */
@@ -568,6 +885,8 @@ static PyMethodDef methods[] = {
     {"range_plan", range_plan, METH_VARARGS, "The hinges' and the ball joints' ranges."},
     {"range_rows", range_rows, METH_VARARGS,
      "The range rows within the margin at q (r, J, the angles kept as the next hint)."},
+    {"contact_solve", contact_solve, METH_VARARGS,
+     "A step's contact impulses and velocity (ADMM); returns (iterations, converged)."},
     {"placements", placements, METH_VARARGS, "Every joint's placement at q (for the tests)."},
     {NULL, NULL, 0, NULL}};
 

@@ -120,7 +120,7 @@ class GroundSpec:
     mu: float = 0.8
     margin: float = 0.01  # [m] contact candidates closer than this to the floor
     tolerance: float = 1e-9  # the contact solver's tolerance
-    solver: str = "admm"  # the conic solver (humanoid.variants.CONTACT_SOLVERS)
+    solver: str = "kernel"  # the conic solver (humanoid.variants.CONTACT_SOLVERS)
 
 
 @dataclass(frozen=True)

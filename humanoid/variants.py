@@ -80,7 +80,9 @@ CONTACT_KINDS = Registry("contact kind", "effects.contacts[].kind", {
     "points": "the four sole corners pinned in 3D where they land",
 })  # fmt: skip
 CONTACT_SOLVERS = Registry("contact solver", "effects.ground.solver", {
-    "admm": "Pinocchio's ADMM on the ground's and the ranges' conic problem (the default)",
+    "kernel": "the project's compiled ADMM on the ground's and the ranges' conic problem, "
+              "warm-started from the last step (the default)",
+    "admm": "Pinocchio's ADMM on the same problem, from zero at every step",
     "pgs": "Pinocchio's projected Gauss-Seidel on the same problem (slower, measured)",
 })  # fmt: skip
 JOINT_LIMITS = Registry("joint-limit kind", "effects.joint_limits.kind", {

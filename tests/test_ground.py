@@ -19,7 +19,7 @@ G0 = 9.81
 BOX = (0.2, 0.1, 0.05)  # [m]
 
 
-def _box(mu: float, slope_deg: float = 0.0):
+def _box(mu: float, slope_deg: float = 0.0, solver: str = "admm"):
     """A 1 kg box on the floor; a slope is the gravity turned by its angle."""
     model = pin.Model()
     jid = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "box")
@@ -28,7 +28,7 @@ def _box(mu: float, slope_deg: float = 0.0):
     model.gravity.linear = np.array([-G0 * np.sin(th), 0.0, -G0 * np.cos(th)])
     gm = pin.GeometryModel()
     gm.addGeometryObject(pin.GeometryObject("box", jid, pin.SE3.Identity(), coal.Box(*BOX)))
-    settings = GroundSettings(mu=mu)
+    settings = GroundSettings(mu=mu, solver=solver)
     return model, ContactSolver(model, Ground(model, gm, [0], settings), None, settings)
 
 
@@ -46,10 +46,12 @@ def _run(model, solver, q, v, T, dt):
     return states
 
 
-def test_a_sliding_box_stops_at_the_analytic_distance():
+@pytest.mark.parametrize("kind", ["admm", "kernel"])
+def test_a_sliding_box_stops_at_the_analytic_distance(kind):
     """v0 = 2 m/s, mu = 0.5: it stops after v0^2 / (2 mu g) = 0.4077 m, to 1e-3 relative at
-    dt = 0.25 ms (the scheme's bias is v0 dt / 2), then sticks."""
-    model, solver = _box(0.5)
+    dt = 0.25 ms (the scheme's bias is v0 dt / 2), then sticks; Pinocchio's ADMM and the
+    compiled one (warm-started) alike."""
+    model, solver = _box(0.5, solver=kind)
     q = pin.neutral(model)
     q[2] = BOX[2] / 2
     v = np.zeros(6)
@@ -84,18 +86,21 @@ def test_pgs_solves_the_same_problems():
     assert abs(a[-1][1][0]) < 1e-8 and 1e-8 < abs(b[-1][1][0]) < 1e-4
     assert abs(b[-1][0][2] - BOX[2] / 2) < 1e-6
     assert admm.failures == 0 < pgs.failures  # PGS stops at its 1000 iterations (93 of 500)
-    with pytest.raises(SceneError, match="unknown contact solver 'lemke': must be admm or pgs"):
+    with pytest.raises(
+        SceneError, match="unknown contact solver 'lemke': must be kernel, admm or pgs"
+    ):
         ContactSolver(model, admm.ground, None, GroundSettings(solver="lemke"))
     with pytest.raises(SceneError, match="effects.ground.solver.*unknown contact solver 'lemke'"):
         Scene(body=str(BODIES / "adult_male.urdf"), integrator="semi_implicit_euler",
               effects=Effects(ground=GroundSpec(solver="lemke")))  # fmt: skip
 
 
+@pytest.mark.parametrize("kind", ["admm", "kernel"])
 @pytest.mark.parametrize(("slope", "mu"), [(20.0, 0.5), (25.0, 0.5), (28.0, 0.5), (35.0, 0.5)])
-def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu):
+def test_a_box_on_a_slope_sticks_below_atan_mu_and_slides_above(slope, mu, kind):
     """atan(0.5) = 26.57 deg: below it the box stays (< 1e-8 m in 1 s), above it slides with
-    g (sin - mu cos) to 1e-3 relative."""
-    model, solver = _box(mu, slope)
+    g (sin - mu cos) to 1e-3 relative (either ADMM)."""
+    model, solver = _box(mu, slope, solver=kind)
     q = pin.neutral(model)
     q[2] = BOX[2] / 2
     states = _run(model, solver, q, np.zeros(6), 1.0, 1e-3)
@@ -536,3 +541,25 @@ def test_the_contact_jacobian_is_pinocchios_point_contact_jacobian():
         expected = pin.getConstraintsJacobian(model, data, cms, cds)
         np.testing.assert_allclose(ground.jacobian(data, found), expected, atol=1e-12)
     assert points >= 15, points
+
+
+def test_diagonal_implicit_gains_are_an_armature():
+    """The ground step's (M + dt D + dt^2 K)^-1: with diagonal gains (the drop's joint
+    damping, a diagonal stiffness added) Pinocchio's inverse of the model with them as its
+    armature, equal to the Cholesky inverse of the sum to 1e-10 relative; with a gain off
+    the diagonal, the Cholesky inverse itself."""
+    from humanoid.simulation import Simulation
+
+    sim = Simulation(Scene.load(SCENES / "drop.toml").replace(duration=0.01))
+    step = sim.plant.ground
+    K0, D = step.implicit_terms()
+    model, data = sim.plant.model, sim.plant.data
+    rng = np.random.default_rng(8)
+    q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+    q[3:7] = pin.Quaternion(pin.exp3(rng.normal(size=3))).coeffs()
+    dt = 1e-3
+    for K in (K0 + np.diag(rng.uniform(0, 500, model.nv)), K0 + 50.0):
+        want = np.linalg.inv(pin.crba(model, data, q) + dt * D + dt * dt * K)
+        got = step._implicit_inverse(0.0, q, dt, K, D)
+        assert (step._armed[3] is not None) == (np.count_nonzero(K - np.diag(np.diag(K))) == 0)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max())

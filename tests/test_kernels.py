@@ -10,14 +10,18 @@ floor than a geometry keeps, and the pelvis turned at random.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import get_model, random_state
+from conftest import SCENES, get_model, random_state
+from test_ground import BOX, G0, _box, _run
 
 from humanoid.constraints import ground as G
 from humanoid.constraints.ground import Ground, GroundSettings
+from humanoid.scene import Scene
 
 pytestmark = pytest.mark.skipif(G.KERNELS is None, reason="humanoid.kernels is not built")
 
@@ -44,7 +48,7 @@ def _same_contacts(ground: Ground, model: pin.Model, q: np.ndarray) -> int:
     np.testing.assert_allclose(got.points, want.points, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(got.phi, got.points[:, 2])
     np.testing.assert_allclose(got.local, want.local, rtol=0, atol=1e-12)
-    assert got.rows is not None
+    assert got.rows is not None and ground.jacobian(data, got) is got.rows
     np.testing.assert_allclose(got.rows, ground.jacobian(data, want), rtol=0, atol=1e-12)
     return len(got)
 
@@ -166,3 +170,96 @@ def test_the_compiled_range_rows_are_the_numpy_paths(name, mode):
             np.testing.assert_allclose(J1, J2, rtol=0, atol=1e-13)
             rows += len(r1)
     assert rows > 1000
+
+
+def _natural_residual(G, g, lam, nc: int, mu: float) -> float:
+    """|lam - P_K(lam - (sigma + s))|_inf with sigma = G lam + g and s the De Saxce term, in
+    NumPy (the kernel's own stopping test, written again): zero exactly at a solution."""
+    sigma = G @ lam + g
+    worst = 0.0
+    for c in range(nc):
+        z, t = lam[3 * c : 3 * c + 3], sigma[3 * c : 3 * c + 3]
+        w = z - t - np.array([0.0, 0.0, mu * np.hypot(t[0], t[1])])
+        tn, n = np.hypot(w[0], w[1]), w[2]
+        if tn > mu * n:  # outside the cone: onto its edge, or its apex
+            beta = max(0.0, (mu * tn + n) / (mu * mu + 1.0))
+            w = np.array([mu * beta * w[0] / tn, mu * beta * w[1] / tn, beta])
+        worst = max(worst, np.abs(z - w).max())
+    rows = slice(3 * nc, len(lam))
+    return max(worst, float(np.abs(np.minimum(lam[rows], sigma[rows])).max(initial=0.0)))
+
+
+def test_the_compiled_admm_solves_the_falls_problems():
+    """Every contact solve of the first 0.4 s of the drop (the landing, many new contacts,
+    the ranges) by the compiled ADMM, each from the last step's impulses: where it says it
+    converged, its impulses solve the scaled problem to its tolerance (the residual written
+    again in NumPy, times the stall floor), and the step's velocity is v_free + M^-1 J^T lam
+    to 1e-12; where it did not, the step was handed to Pinocchio's ADMM. A wrong start (the
+    impulses of other points) still converges to the same velocities as a start from zero."""
+    from humanoid.simulation import Simulation
+
+    scene = Scene.load(SCENES / "drop.toml").replace(duration=0.4)
+    sim = Simulation(scene)
+    solver = sim.plant.ground.solver
+    assert solver.settings.solver == "kernel"
+    seen = []
+    solve = G.KERNELS.contact_solve
+
+    def recorded(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, lam, v):
+        start = lam.copy()
+        out = solve(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, lam, v)
+        seen.append((J.copy(), Minv.copy(), v_free.copy(), gap.copy(), nc, mu, tol, start,
+                     lam.copy(), v.copy(), out))  # fmt: skip
+        return out
+
+    original = G.KERNELS
+    G.KERNELS = SimpleNamespace(**{k: getattr(original, k) for k in dir(original)
+                                   if not k.startswith("__")})  # fmt: skip
+    G.KERNELS.contact_solve = recorded
+    try:
+        sim.run(quiet=True)
+    finally:
+        G.KERNELS = original
+    converged = 0
+    for J, Minv, v_free, gap, nc, mu, tol, _, lam, v, (_, ok, residual) in seen:
+        np.testing.assert_allclose(v, v_free + Minv @ J.T @ lam, rtol=0, atol=1e-12)
+        if not ok:
+            continue
+        converged += 1
+        Gm = J @ Minv @ J.T
+        d = np.diag(Gm).copy()
+        d[: 3 * nc] = np.repeat(d[: 3 * nc].reshape(-1, 3).mean(axis=1), 3)
+        d = 1.0 / np.sqrt(np.maximum(d, 1e-12 * d.max()))
+        r = _natural_residual(d[:, None] * Gm * d[None, :], d * (J @ v_free + gap), lam / d,
+                              nc, mu)  # fmt: skip
+        assert r <= 100 * tol * (1 + 1e-9) and r == pytest.approx(residual, rel=1e-6, abs=1e-15)
+    assert len(seen) == 400 and converged >= 390 and solver.fallbacks == len(seen) - converged
+    # a start from other points' impulses: the same velocities as from zero, to the tolerance
+    J, Minv, v_free, gap, nc, mu, tol, *_ = seen[200]
+    v0, v1 = np.empty_like(v_free), np.empty_like(v_free)
+    rng = np.random.default_rng(3)
+    for v, lam in ((v0, np.zeros(len(gap))), (v1, rng.uniform(0, 1, len(gap)))):
+        assert G.KERNELS.contact_solve(J, Minv, v_free, gap, nc, mu, 1e-10, 1.0, 2000, 3,
+                                       lam, v)[1]  # fmt: skip
+    np.testing.assert_allclose(v0, v1, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("mu", [0.8, 0.1])
+def test_a_box_at_rest_carries_its_weight_and_no_sideways_force(mu):
+    """A 1 kg box resting on its four corners for 1 s, the compiled ADMM warm-started at
+    every step (where Pinocchio's ADMM, started from the last impulses, stopped with the
+    normal impulse 4e-5 of the weight off, and kept a sideways force of 2e-6 of it on ice):
+    the floor carries its weight to 1e-6 relative and pushes it sideways by less than 2e-7 of
+    it (3e-7 and 7e-8 measured: the tolerance, 1e-9 on the scaled velocities, is 3e-9 m/s on
+    this box, 3e-7 of a step's weight impulse); it does not move (1e-10 m), and no step is
+    handed over."""
+    model, solver = _box(mu, solver="kernel")
+    q = pin.neutral(model)
+    q[2] = BOX[2] / 2
+    states = _run(model, solver, q, np.zeros(6), 1.0, 1e-3)
+    weight = G0 * 1e-3  # [N s] a step's
+    for _, _, found in states[-100:]:
+        f = found.impulses.sum(axis=0)
+        assert abs(f[2] - weight) < 1e-6 * weight and np.hypot(f[0], f[1]) < 2e-7 * weight
+    assert np.abs(states[-1][0] - q).max() < 1e-10
+    assert solver.fallbacks == 0 and solver.failures == 0

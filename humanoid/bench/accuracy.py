@@ -293,6 +293,7 @@ def _walking_rows(h, dts, tols):
 
 
 FALL_TOLERANCE = 1e-7  # the shipped fall scenes' contact-solver tolerance
+KERNEL_TOLERANCE = 1e-6  # the compiled ADMM's: its residual is the problem's own (stricter)
 FALLS = ("collapse", "drop", "slide")  # the shipped scenes of falls onto the floor
 
 
@@ -306,7 +307,8 @@ def _fall_rows(h, quick: bool):
     or less, as ours). The reference: our scheme at a quarter of the smallest step and
     tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
     Pinocchio's projected Gauss-Seidel (``GroundSpec.solver = "pgs"``) is swept over every other
-    tolerance beside ADMM.
+    tolerance beside ADMM, and the compiled ADMM (``solver = "kernel"``) over the tolerances
+    and, at its tolerance, the steps.
     The error is the configuration error (:func:`_configuration_error`). Returns the rows and
     the references' convergence."""
     from dataclasses import replace
@@ -355,6 +357,12 @@ def _fall_rows(h, quick: bool):
         for tol in tols[::2]:  # the other conic solver on the same problems
             add("ours, PGS, dt 1 ms", f"tol={tol:g}",
                 *run_scene(variant(1e-3, tol, solver="pgs"), h))  # fmt: skip
+        for tol in tols[:-1]:  # the compiled ADMM, warm-started (not at 1e-10: its floor)
+            add("ours, compiled ADMM, dt 1 ms", f"tol={tol:g}",
+                *run_scene(variant(1e-3, tol, solver="kernel"), h))  # fmt: skip
+        for dt in dts:
+            add(f"ours, compiled ADMM, tolerance {KERNEL_TOLERANCE:g}", f"dt={dt:g}",
+                *run_scene(variant(dt, KERNEL_TOLERANCE, solver="kernel"), h))  # fmt: skip
         if he is None:
             continue
         for stiff, method in ((False, "MuJoCo soft contacts (Euler)"),

@@ -32,7 +32,7 @@ solve: their cone is the non-negative orthant.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import ModuleType
 
 import coal
@@ -74,11 +74,16 @@ class GroundSettings:
             but example-robot-data's human, whose walk is fragile (its solves stop at the
             iteration cap in 13 % of its steps, either way), then fell at 4.1 s of its eight
             steps (3.4 s with 5).
-        solver: ``"admm"`` (the default) or ``"pgs"``: Pinocchio's projected Gauss-Seidel on
-            the same problem, the same tolerances (its over-relaxation 1). On the same 1000
-            solves of the drop (19 rows) it took 3 times ADMM's iterations and twice its time,
-            on the person's walk's (16 rows) 2.8 and 2.6 times (warm-started, more): the
-            work-precision chart of ``humanoid bench accuracy`` shows both.
+        solver: ``"kernel"`` (the default): the project's ADMM, compiled
+            (humanoid/kernels.c), started from the last step's impulses at the same points of
+            the body and the same range rows, with Anderson acceleration; it stops on the
+            problem's own residual, and hands a step it does not solve within
+            :data:`KERNEL_ITERATIONS` to Pinocchio's ADMM. ``"admm"``: Pinocchio's ADMM from
+            zero at every step. ``"pgs"``: Pinocchio's projected Gauss-Seidel on the same
+            problem, the same tolerances (its over-relaxation 1). On the same 1000 solves of
+            the drop (19 rows) PGS took 3 times ADMM's iterations and twice its time, on the
+            person's walk's (16 rows) 2.8 and 2.6 times: the work-precision chart of
+            ``humanoid bench accuracy`` shows all three.
     """
 
     mu: float = 0.8
@@ -88,11 +93,24 @@ class GroundSettings:
     max_iterations: int = 1000
     lanczos: int = 10
     anderson: int = 0
-    solver: str = "admm"
+    solver: str = "kernel"
 
 
+# the compiled ADMM (solver "kernel"): its iterations before it hands a step to Pinocchio's,
+# its penalty (the rows scaled to a unit diagonal) and its Anderson memory. Measured on the
+# first 2 s of the falls at their tolerance, 1e-7 (`humanoid bench step`'s scenes): mean
+# iterations and steps handed over of 2000, drop 19.6 and 7, collapse 18.6 and 17, slide 10.8
+# and 3; at 1e-6 without Anderson, 26.5 and 86, 32.7 and 198, 15.8 and 181. A penalty of 0.3
+# or 3 instead of 1 handed over 2 to 4 times as many. The whole drop (6 s) with 100
+# iterations handed 284 steps over, and Pinocchio's ADMM stopped at its cap on 11 of them;
+# with 300, 42 and none.
+KERNEL_ITERATIONS = 300
+KERNEL_RHO = 1.0
+KERNEL_ANDERSON = 3
 # each of humanoid.variants.CONTACT_SOLVERS: Pinocchio's solver, its settings and its result
 CONIC_SOLVERS = {
+    # the compiled ADMM (ContactSolver._kernel_solve), with Pinocchio's ADMM where it hands over
+    "kernel": (pin.ADMMConstraintSolver, pin.ADMMSolverSettings, pin.ADMMSolverResult),
     "admm": (pin.ADMMConstraintSolver, pin.ADMMSolverSettings, pin.ADMMSolverResult),
     "pgs": (pin.PGSConstraintSolver, pin.PGSSolverSettings, pin.PGSSolverResult),
 }
@@ -346,6 +364,8 @@ class GroundContacts:
         local: The points in their joint's frame, (n, 3) [m].
         rows: Their Jacobian, (3n, nv), when the compiled kernel found them (None: the NumPy
             path, which builds it from the joint Jacobians: :meth:`Ground.jacobian`).
+        ids: Each contact's candidate point (the same point of the body from step to step;
+            from the compiled kernel, else None).
     """
 
     points: np.ndarray
@@ -353,6 +373,7 @@ class GroundContacts:
     joints: np.ndarray
     local: np.ndarray
     rows: np.ndarray | None = field(default=None, compare=False, repr=False)
+    ids: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def __len__(self) -> int:
         return len(self.phi)
@@ -430,7 +451,9 @@ class Ground:
         """The contacts' Jacobian, (3n, nv), world axes (x, y, z rows per point): the velocity
         of each point of the body, v_p = v_O + w x p from the world Jacobian of its joint
         (``data`` must hold the joint Jacobians at the contacts' configuration:
-        ``pin.computeJointJacobians``)."""
+        ``pin.computeJointJacobians``); or the rows the compiled kernel found with them."""
+        if contacts.rows is not None:
+            return contacts.rows
         n = len(contacts)
         if not n:
             return np.zeros((0, self._model.nv))
@@ -466,9 +489,10 @@ class Ground:
         n = KERNELS.ground_select(self._plan, q, self.settings.margin)
         points, local = np.empty((n, 3)), np.empty((n, 3))
         joints, rows = np.empty(n, dtype=np.int64), np.empty((3 * n, self._model.nv))
-        KERNELS.ground_write(self._plan, points, joints, local, rows)
-        found = GroundContacts(points, points[:, 2].copy(), joints, local, rows)
-        for a in (points, found.phi, joints, local, rows):
+        ids = np.empty(n, dtype=np.int64)
+        KERNELS.ground_write(self._plan, points, joints, local, rows, ids)
+        found = GroundContacts(points, points[:, 2].copy(), joints, local, rows, ids)
+        for a in (points, found.phi, joints, local, rows, ids):
             a.flags.writeable = False
         return found
 
@@ -547,6 +571,32 @@ class StepContacts:
                                np.cross(floor, self.impulses).sum(axis=0)])  # fmt: skip
 
 
+class _WarmStart:
+    """The last step's impulses by the point of the body they acted at (its ground candidate)
+    and by the range row (a joint's limit): the next solve's start (zero where none was)."""
+
+    def __init__(self, points: int, range_rows: int) -> None:
+        self.points, self.ranges = np.zeros((points, 3)), np.zeros(range_rows)
+        self._ids: tuple = (None, None)
+
+    def start(self, point_ids, n: int, range_ids, m: int) -> np.ndarray:
+        lam = np.zeros(m)
+        if point_ids is not None and n:
+            lam[: 3 * n] = self.points[point_ids].ravel()
+        if range_ids is not None and m > 3 * n:
+            lam[3 * n :] = self.ranges[range_ids]
+        self._ids = (point_ids, range_ids)
+        return lam
+
+    def keep(self, lam: np.ndarray, n: int) -> None:
+        point_ids, range_ids = self._ids
+        self.points[:], self.ranges[:] = 0.0, 0.0
+        if point_ids is not None and n:
+            self.points[point_ids] = lam[: 3 * n].reshape(-1, 3)
+        if range_ids is not None and len(range_ids):
+            self.ranges[range_ids] = lam[3 * n :]
+
+
 class ContactSolver:
     """One velocity-level step of the ground contacts and unilateral rows (joint ranges)."""
 
@@ -555,6 +605,13 @@ class ContactSolver:
         self.model, self.ground, self.ranges, self.settings = model, ground, ranges, settings
         if (why := CONTACT_SOLVERS.refusal(settings.solver)) is not None:
             raise SceneError(why)
+        if settings.solver == "kernel" and KERNELS is None:
+            warnings.warn('contact solver "kernel" needs humanoid.kernels, which was not built '
+                          "(the package was installed without a C compiler): Pinocchio's ADMM "
+                          "solves instead", RuntimeWarning, stacklevel=2)  # fmt: skip
+            self.settings = settings = replace(settings, solver="admm")
+        points = len(ground._candidates._slot) if ground is not None else 0
+        self._warm = _WarmStart(points, ranges.max_rows if ranges is not None else 0)
         solver, solver_settings, result = CONIC_SOLVERS[settings.solver]
         self.solver, st, self.result = solver(), solver_settings(), result()
         if settings.solver == "admm":
@@ -567,6 +624,7 @@ class ContactSolver:
         self.solve_settings = st  # ADMM's or PGS's
         self._orthants: dict[int, tuple] = {}
         self.failures = 0
+        self.fallbacks = 0  # solver "kernel": steps it handed to Pinocchio's ADMM
 
     def _orthant(self, n: int):
         """A constraint model whose cone is the non-negative orthant of size n: Pinocchio's
@@ -593,45 +651,64 @@ class ContactSolver:
         ``data`` must hold the joint placements and Jacobians at q
         (``pin.computeJointJacobians``).
         """
-        model = self.model
-        rows, g_parts = [], []
-        contacts = _NO_CONTACTS
-        cms: list = []  # the rows' cones, as Pinocchio's constraint models
-        cds: list = []
+        contacts, J, gap, n_limits = self._rows(q, dt, data)
+        if J is None:
+            none = np.zeros((0, 3))
+            return v_free, StepContacts(none, np.zeros(0), none, np.zeros(0), 0, True,
+                                        limit_generalized=np.zeros(self.model.nv))  # fmt: skip
+        n_ground = len(contacts)
+        if self.settings.solver == "kernel":
+            solved = self._kernel_solve(J, gap, Minv, v_free, contacts)
+        else:
+            solved = self._pinocchio_solve(J, gap, Minv, v_free, n_ground, n_limits)
+        lam, v_new, iterations, converged = solved
+        if not converged:
+            self.failures += 1
+        impulses = lam[: 3 * n_ground].reshape(-1, 3)
+        limits = lam[3 * n_ground :]
+        generalized = J[3 * n_ground :].T @ limits if n_limits else np.zeros(self.model.nv)
+        out = StepContacts(contacts.points, contacts.phi, impulses, limits, iterations,
+                           converged, contacts.joints, generalized, contacts.local)  # fmt: skip
+        return v_new, out
+
+    def _rows(self, q, dt: float, data: pin.Data):
+        """(contacts, J, gap, number of range rows): the rows of the ground's contacts (three
+        each) and of the ranges near their limits, and each row's constant velocity term (a
+        normal row's gap phi / dt, closed within the step, a penetration's the correction's
+        fraction of it; the same for a range's distance); J None if there are no rows."""
+        rows, gaps, contacts, n_limits = [], [], _NO_CONTACTS, 0
+        corr = self.settings.correction
         if self.ground is not None:
-            contacts = self.ground.detect(model, data, at=q)
+            contacts = self.ground.detect(self.model, data, at=q)
             if len(contacts):
-                cms, cds = self.ground.cones(len(contacts))
-                Jg = self.ground.jacobian(data, contacts)
-                phi = contacts.phi
-                gg = Jg @ v_free
-                gap = np.where(phi >= 0.0, phi, self.settings.correction * phi) / dt
-                gg[2::3] += gap
-                rows.append(Jg)
-                g_parts.append(gg)
-        n_limits = 0
+                rows.append(self.ground.jacobian(data, contacts))
+                gap = np.zeros(3 * len(contacts))
+                gap[2::3] = np.where(contacts.phi >= 0.0, contacts.phi, corr * contacts.phi) / dt
+                gaps.append(gap)
         if self.ranges is not None:
             r, Jr = self.ranges.rows(q)
             n_limits = len(r)
             if n_limits:
-                gap = np.where(r >= 0.0, r, self.settings.correction * r) / dt
                 rows.append(Jr)
-                g_parts.append(Jr @ v_free + gap)
+                gaps.append(np.where(r >= 0.0, r, corr * r) / dt)
         if not rows:
-            none = np.zeros((0, 3))
-            return v_free, StepContacts(none, np.zeros(0), none, np.zeros(0), 0, True,
-                                        limit_generalized=np.zeros(model.nv))  # fmt: skip
-        J = np.vstack(rows) if len(rows) > 1 else rows[0]
-        g = np.concatenate(g_parts) if len(g_parts) > 1 else g_parts[0]
+            return contacts, None, None, 0
+        if len(rows) == 1:
+            return contacts, rows[0], gaps[0], n_limits
+        return contacts, np.vstack(rows), np.concatenate(gaps), n_limits
+
+    def _pinocchio_solve(self, J, gap, Minv, v_free, n_ground: int, n_limits: int):
+        """(impulses, v+, iterations, converged) by Pinocchio's solver (ADMM or PGS)."""
+        g = J @ v_free + gap
         MJt = Minv @ J.T
         G = J @ MJt
         # Jacobi scaling: a hand's range row and a foot's contact differ by 1e6 in G; each
         # contact's three rows share one factor, so its friction cone is unchanged
         d = np.diag(G).copy()
-        n_ground = len(contacts)
         if n_ground:
             d[: 3 * n_ground] = np.repeat(d[: 3 * n_ground].reshape(-1, 3).mean(axis=1), 3)
         d = 1.0 / np.sqrt(np.maximum(d, 1e-12 * d.max()))
+        cms, cds = self.ground.cones(n_ground) if n_ground and self.ground else ([], [])
         if n_limits:
             cm, cd = self._orthant(n_limits)
             cms, cds = [*cms, cm], [*cds, cd]
@@ -640,13 +717,27 @@ class ContactSolver:
         delassus = pin.DelassusOperatorDense(d[:, None] * G * d[None, :])
         self.solver.solve(delassus, d * g, cms, cds, self.solve_settings, res)
         lam = d * np.array(res.retrieveConstraintImpulses())
-        if not res.converged:
-            self.failures += 1
-        v_new = v_free + MJt @ lam
-        impulses = lam[: 3 * n_ground].reshape(-1, 3)
-        limits = lam[3 * n_ground :]
-        generalized = J[3 * n_ground :].T @ limits if n_limits else np.zeros(model.nv)
-        out = StepContacts(contacts.points, contacts.phi, impulses, limits, int(res.iterations),
-                           bool(res.converged), contacts.joints, generalized,
-                           contacts.local)  # fmt: skip
-        return v_new, out
+        return lam, v_free + MJt @ lam, int(res.iterations), bool(res.converged)
+
+    def _kernel_solve(self, J, gap, Minv, v_free, contacts: GroundContacts):
+        """(impulses, v+, iterations, converged) by the compiled ADMM (humanoid/kernels.c),
+        started from the impulses the same points and range rows had at the last step; where
+        it does not reach the tolerance within :data:`KERNEL_ITERATIONS` (an impact on many
+        new contacts: its fixed penalty converges slowly there), Pinocchio's ADMM solves the
+        step from zero (``fallbacks`` counts them)."""
+        assert KERNELS is not None
+        n, ranges = len(contacts), self.ranges
+        lam = self._warm.start(contacts.ids, n, ranges.ids if ranges else None, len(gap))
+        v_new = np.empty_like(v_free)
+        st = self.settings
+        J, Minv, v_free = (np.ascontiguousarray(a) for a in (J, Minv, v_free))
+        iterations, converged, _ = KERNELS.contact_solve(
+            J, Minv, v_free, gap, n, st.mu, st.tolerance, KERNEL_RHO, KERNEL_ITERATIONS,
+            KERNEL_ANDERSON, lam, v_new)  # fmt: skip
+        if not converged:
+            self.fallbacks += 1
+            n_limits = len(gap) - 3 * n
+            lam, v_new, more, converged = self._pinocchio_solve(J, gap, Minv, v_free, n, n_limits)
+            iterations += more
+        self._warm.keep(lam, n)
+        return lam, v_new, iterations, bool(converged)

@@ -65,10 +65,10 @@ def _kernel_plan(ranges: JointRanges):
 
 
 class JointRanges:
-    """The joint ranges of a :class:`~humanoid.model.Humanoid` as unilateral rows."""
+    """The joint ranges of a :class:`~humanoid.model.Humanoid` as unilateral rows
+    (``compiled=False``: :meth:`rows` on the NumPy path, with its certificates)."""
 
     def __init__(self, h, compiled: bool = True) -> None:
-        """``compiled=False``: :meth:`rows` on the NumPy path (with its certificates)."""
         model = h.model
         self.nv = model.nv
         iq, iv, lo, hi = [], [], [], []
@@ -133,8 +133,9 @@ class JointRanges:
             a.flags.writeable = False
         # the compiled kernel's copy of the ranges (humanoid/kernels.c), or None
         self._plan = _kernel_plan(self) if compiled and KERNELS is not None else None
-        rows = 2 * nh + 6 * nb
-        self._out = (np.empty(rows), np.empty((rows, self.nv)))
+        self.max_rows = rows = 2 * nh + 6 * nb  # every bound of every hinge and ball angle
+        self._out = (np.empty(rows), np.empty((rows, self.nv)), np.empty(rows, dtype=np.int64))
+        self.ids: np.ndarray | None = None  # the compiled rows' bounds (< max_rows), or None
         self._angles_now = np.zeros((nb, 3))  # the compiled path's angles: its next hint
 
     def angles(self, q, remember: bool = True) -> np.ndarray:
@@ -217,7 +218,8 @@ class JointRanges:
         """
         margin = np.inf if margin is None else margin
         if certified and self._plan is not None:
-            return self._compiled_rows(q, margin)
+            return _compiled_rows(self, q, margin)
+        self.ids = None
         clear = self._clear(q, margin) if certified and np.isfinite(margin) else None
         if clear is not None and clear.all():
             self.skipped = True
@@ -258,18 +260,6 @@ class JointRanges:
         sgn = np.where(side == 0, 1.0, -1.0)[:, None]
         Jb[np.arange(len(b))[:, None], self._bv[b][:, None] + np.arange(3)] = sgn * rates[b, i]
         return np.concatenate([r[keep], dist[b, i, side]]), np.vstack([J, Jb])
-
-    def _compiled_rows(self, q, margin: float):
-        """:meth:`rows` from the compiled kernel: every ball decomposed (in C that costs less
-        than a certificate's check), with the last angles as the hint, as the NumPy path."""
-        assert KERNELS is not None
-        (r, J), hint = self._out, self._hint is not None
-        if hint and self._hint is not self._angles_now:
-            self._angles_now[:] = self._hint
-        q = np.ascontiguousarray(q, dtype=float)
-        m = KERNELS.range_rows(self._plan, q, margin, self._angles_now, hint, r, J)
-        self._hint, self.skipped = self._angles_now, False
-        return r[:m].copy(), J[:m].copy()
 
     def hinge_rows(self, q):
         """Every hinge's two rows (lower, then upper bound): (r, J), r >= 0 inside, J constant
@@ -314,3 +304,16 @@ class JointRanges:
         """Largest excursion beyond a range [rad] (0 inside every range)."""
         r, _ = self.rows(q, margin=0.0)
         return float(max(0.0, -r.min(initial=0.0)))
+
+
+def _compiled_rows(ranges: JointRanges, q, margin: float):
+    """:meth:`JointRanges.rows` in C: every ball decomposed (cheaper than a certificate's
+    check), the last call's angles the hint."""
+    assert KERNELS is not None
+    (r, J, ids), hint = ranges._out, ranges._hint is not None
+    if hint and ranges._hint is not ranges._angles_now:
+        ranges._angles_now[:] = ranges._hint
+    m = KERNELS.range_rows(ranges._plan, np.ascontiguousarray(q, dtype=float), margin,
+                           ranges._angles_now, hint, r, J, ids)  # fmt: skip
+    ranges._hint, ranges.skipped, ranges.ids = ranges._angles_now, False, ids[:m].copy()
+    return r[:m].copy(), J[:m].copy()
