@@ -786,7 +786,7 @@ static PyObject *contact_solve(PyObject *self, PyObject *args) {
     }
     const double *Jb = J.buf, *Mb = M.buf, *vf = v.buf, *gp = gap.buf;
     double *z = lam.buf, *vo = out.buf;
-    /* scratch: MJt (nv x m), G (m x m), g, d (m), the solver's 6 m + m^2, and each row's
+    /* scratch: J Minv (m x nv), G (m x m), g, d (m), the solver's, and each row's
      * nonzero columns (a contact's row moves with its joint's path to the root alone) */
     double *buf = malloc((nv * m + 2 * m * m + (13 + 2 * MEM_MAX) * m + 1) * D);
     Py_ssize_t *nz = malloc((m * nv + m + 1) * sizeof(Py_ssize_t));
@@ -805,23 +805,27 @@ static PyObject *contact_solve(PyObject *self, PyObject *args) {
             if (Jb[i * nv + k] != 0.0) nz[c++] = k;
         start[i + 1] = c;
     }
-    /* MJt = Minv J^T, G = J MJt, g = J v_free + gap, over the nonzero columns */
-    memset(MJt, 0, nv * m * D);
+    /* JM = J Minv (m x nv, its rows contiguous: Minv is symmetric), G = J Minv J^T,
+     * g = J v_free + gap, over each row's nonzero columns */
+    double *JM = MJt;
+    memset(JM, 0, nv * m * D);
     for (Py_ssize_t i = 0; i < m; ++i) {
         const double *Ji = Jb + i * nv;
-        double t = gp[i];
+        double t = gp[i], *JMi = JM + i * nv;
         for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) {
             const Py_ssize_t k = nz[c];
-            t += Ji[k] * vf[k];
-            for (Py_ssize_t r = 0; r < nv; ++r) MJt[r * m + i] += Mb[r * nv + k] * Ji[k];
+            const double a = Ji[k], *Mk = Mb + k * nv;
+            t += a * vf[k];
+            for (Py_ssize_t r = 0; r < nv; ++r) JMi[r] += a * Mk[r];
         }
         g[i] = t;
     }
     for (Py_ssize_t i = 0; i < m; ++i) {
         const double *Ji = Jb + i * nv;
         for (Py_ssize_t j = 0; j <= i; ++j) {
+            const double *JMj = JM + j * nv;
             double t = 0.0;
-            for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) t += Ji[nz[c]] * MJt[nz[c] * m + j];
+            for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) t += Ji[nz[c]] * JMj[nz[c]];
             G[i * m + j] = G[j * m + i] = t;
         }
     }
@@ -844,10 +848,10 @@ static PyObject *contact_solve(PyObject *self, PyObject *args) {
     double residual = 0.0;
     const long k = m ? admm(G, g, m, nc, mu, tol, max_iter, rho, mem, z, work, &residual) : 0;
     for (Py_ssize_t i = 0; i < m; ++i) z[i] *= d[i];
-    for (Py_ssize_t r = 0; r < nv; ++r) {
-        double t = vf[r];
-        for (Py_ssize_t i = 0; i < m; ++i) t += MJt[r * m + i] * z[i];
-        vo[r] = t;
+    memcpy(vo, vf, nv * D);
+    for (Py_ssize_t i = 0; i < m; ++i) {
+        const double *JMi = JM + i * nv;
+        for (Py_ssize_t r = 0; r < nv; ++r) vo[r] += JMi[r] * z[i];
     }
     free(buf), free(nz);
     PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
