@@ -1,7 +1,8 @@
 """Where a ground-contact step's time goes: each shipped fall (drop, collapse, slide; or the
 scenes named) run for its first 2 s on one thread, with the step's pieces wrapped in timers:
-detection, the contacts' Jacobian, the joint-range rows, Pinocchio's ADMM solve, the whole
-contact step and the whole step (``advance``: the contact step plus the mass matrix with the
+detection, the contacts' Jacobian, the joint-range rows, the compiled solve (with its Delassus
+matrix) and Pinocchio's ADMM (the steps handed to it), the whole contact step and the whole
+step (``advance``: the contact step plus the mass matrix with the
 implicit gains and the free velocity). Microseconds per step, means over the run; the wrappers
 add about a microsecond each. docs/benchmarks.md quotes it.
 
@@ -30,7 +31,8 @@ def split(name: str, duration: float = 2.0) -> str:
     clock.wrap(solver.ground, "jacobian", "jacobian")
     if solver.ranges is not None:
         clock.wrap(solver.ranges, "rows", "range rows")
-    clock.wrap(solver.solver, "solve", "ADMM")
+    clock.wrap(solver, "_kernel_solve", "compiled solve")  # the default solver ("kernel")
+    clock.wrap(solver, "_pinocchio_solve", "Pinocchio's ADMM")  # "admm", or handed over
     clock.wrap(solver, "step", "contact step")
     clock.wrap(ground, "advance", "whole step")
     traj = sim.run(quiet=True)

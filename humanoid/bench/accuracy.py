@@ -350,18 +350,20 @@ def _fall_rows(h, quick: bool):
                   f"error {rows[-1].error:.2e}", flush=True)  # fmt: skip
 
         for dt in dts:
-            add(f"ours, tolerance {FALL_TOLERANCE:g}", f"dt={dt:g}",
+            add(f"ours, Pinocchio's ADMM, tolerance {FALL_TOLERANCE:g}", f"dt={dt:g}",
                 *run_scene(variant(dt, FALL_TOLERANCE), h))  # fmt: skip
         for tol in tols:
-            add("ours, dt 1 ms", f"tol={tol:g}", *run_scene(variant(1e-3, tol), h))
+            add(
+                "ours, Pinocchio's ADMM, dt 1 ms", f"tol={tol:g}", *run_scene(variant(1e-3, tol), h)
+            )
         for tol in tols[::2]:  # the other conic solver on the same problems
             add("ours, PGS, dt 1 ms", f"tol={tol:g}",
                 *run_scene(variant(1e-3, tol, solver="pgs"), h))  # fmt: skip
         for tol in tols[:-1]:  # the compiled ADMM, warm-started (not at 1e-10: its floor)
-            add("ours, compiled ADMM, dt 1 ms", f"tol={tol:g}",
+            add("ours, compiled ADMM (default), dt 1 ms", f"tol={tol:g}",
                 *run_scene(variant(1e-3, tol, solver="kernel"), h))  # fmt: skip
         for dt in dts:
-            add(f"ours, compiled ADMM, tolerance {KERNEL_TOLERANCE:g}", f"dt={dt:g}",
+            add(f"ours, compiled ADMM (default), tolerance {KERNEL_TOLERANCE:g}", f"dt={dt:g}",
                 *run_scene(variant(dt, KERNEL_TOLERANCE, solver="kernel"), h))  # fmt: skip
         if he is None:
             continue
