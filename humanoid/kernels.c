@@ -388,6 +388,7 @@ static PyObject *ground_write(PyObject *self, PyObject *args) {
 typedef struct {
     Py_ssize_t nv, nh, nb;
     double lock; /* |cos(middle angle)| below this: the outer angles are undefined */
+    Py_ssize_t nq; /* the length of q its rows read */
     long long *hq, *hv, *bq, *bv;
     double *hlo, *hhi;          /* the hinges' limits */
     double *blo, *bhi, *bmid;   /* each ball's triplet angles' limits and their middle: nb x 3 */
@@ -434,6 +435,10 @@ static PyObject *range_plan(PyObject *self, PyObject *args) {
         Py_DECREF(capsule);
         return NULL;
     }
+    for (Py_ssize_t k = 0; k < nh; ++k)
+        if (p->hq[k] + 1 > p->nq) p->nq = p->hq[k] + 1;
+    for (Py_ssize_t b = 0; b < nb; ++b)
+        if (p->bq[b] + 4 > p->nq) p->nq = p->bq[b] + 4;
     return capsule;
 }
 
@@ -491,18 +496,26 @@ static PyObject *range_rows(PyObject *self, PyObject *args) {
     Py_buffer q, hint, r, J, idb;
     if (!writable(oids, &idb, rows * (Py_ssize_t)sizeof(long long), "ids")) return NULL;
     long long *ids = idb.buf;
-    PyBuffer_Release(&idb); /* (the caller keeps the array alive) */
-    if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) return NULL;
+    if (PyObject_GetBuffer(oq, &q, PyBUF_C_CONTIGUOUS) < 0) {
+        PyBuffer_Release(&idb);
+        return NULL;
+    }
+    if (q.len < (Py_ssize_t)sizeof(double) * p->nq) {
+        PyErr_SetString(PyExc_ValueError, "range_rows: q is shorter than the model's");
+        PyBuffer_Release(&idb), PyBuffer_Release(&q);
+        return NULL;
+    }
     if (!writable(ohint, &hint, 3 * p->nb * D, "hint")) {
-        PyBuffer_Release(&q);
+        PyBuffer_Release(&idb), PyBuffer_Release(&q);
         return NULL;
     }
     if (!writable(or, &r, rows * D, "r")) {
-        PyBuffer_Release(&q), PyBuffer_Release(&hint);
+        PyBuffer_Release(&idb), PyBuffer_Release(&q), PyBuffer_Release(&hint);
         return NULL;
     }
     if (!writable(oJ, &J, rows * nv * D, "J")) {
-        PyBuffer_Release(&q), PyBuffer_Release(&hint), PyBuffer_Release(&r);
+        PyBuffer_Release(&idb), PyBuffer_Release(&q), PyBuffer_Release(&hint);
+        PyBuffer_Release(&r);
         return NULL;
     }
     const double *x = q.buf;
@@ -542,6 +555,7 @@ static PyObject *range_rows(PyObject *self, PyObject *args) {
             }
     }
     PyBuffer_Release(&q), PyBuffer_Release(&hint), PyBuffer_Release(&r), PyBuffer_Release(&J);
+    PyBuffer_Release(&idb);
     return PyLong_FromSsize_t(m);
 }
 

@@ -417,6 +417,22 @@ MUTATIONS: tuple[Mutation, ...] = (
         ("tests/test_ground.py::test_detection_finds_the_points_each_shape_places_one_by_one",),
         "a tilted cylinder rim's lowest point found off its rim",
     ),
+    M(
+        "G07",
+        "constraints/ground.py",
+        "found = GroundContacts(points, points[:, 2].copy(), joints, local, rows, ids)",
+        "found = GroundContacts(points, points[:, 1].copy(), joints, local, rows, ids)",
+        ("tests/test_kernels.py",),
+        "the compiled detection's signed distances read off the wrong axis",
+    ),
+    M(
+        "G08",
+        "simulation/ground.py",
+        "model.armature = p.model.armature + dt * np.diag(D) + (dt * dt) * np.diag(K)",
+        "model.armature = p.model.armature + np.diag(D) + (dt * dt) * np.diag(K)",
+        ("tests/test_ground.py::test_diagonal_implicit_gains_are_an_armature",),
+        "the implicit damping as an armature without its step",
+    ),
     # --- integrators, simulation plant and loop ---
     M(
         "I01",

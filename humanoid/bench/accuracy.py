@@ -306,9 +306,8 @@ def _fall_rows(h, quick: bool):
     its default parameters and with its stiffest (solref 2 dt, solimp 0.9999: a millimetre deep
     or less, as ours). The reference: our scheme at a quarter of the smallest step and
     tolerance 1e-10 (first order in dt: its convergence is reported against twice its step).
-    Pinocchio's projected Gauss-Seidel (``GroundSpec.solver = "pgs"``) is swept over every other
-    tolerance beside ADMM, and the compiled ADMM (``solver = "kernel"``) over the tolerances
-    and, at its tolerance, the steps.
+    Pinocchio's PGS (``solver = "pgs"``) is swept over every other tolerance beside its ADMM,
+    the compiled ADMM (``"kernel"``) over the tolerances and, at its tolerance, the steps.
     The error is the configuration error (:func:`_configuration_error`). Returns the rows and
     the references' convergence."""
     from dataclasses import replace
