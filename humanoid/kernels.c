@@ -763,17 +763,83 @@ static long admm(const double *G, const double *g, Py_ssize_t m, Py_ssize_t nc, 
     return -(k > max_iter ? max_iter : k);
 }
 
+/* the problem on the rows idx[0 .. mk) of J (the first 3 nck of them the kept contacts'
+ * triplets, whole): J Minv and the Delassus matrix over each row's nonzero columns
+ * (nz[start[i] .. start[i + 1])), Jacobi scaling (one factor per contact, its cone unchanged),
+ * ADMM from lam[idx] (then the impulses there); vo = v_free + Minv J^T lam over those rows.
+ * buf: nv mk + 2 mk^2 + (14 + 2 MEM_MAX) mk doubles. Returns admm's count. */
+static long solve_rows(const double *Jb, Py_ssize_t nv, const Py_ssize_t *nz,
+                       const Py_ssize_t *start, const double *Mb, const double *vf,
+                       const double *gall, const Py_ssize_t *idx, Py_ssize_t mk, Py_ssize_t nck,
+                       double mu, double tol, long max_iter, double rho, int mem, double *lam,
+                       double *vo, double *buf, double *residual) {
+    double *JM = buf, *G = JM + nv * mk, *g = G + mk * mk, *d = g + mk, *z = d + mk;
+    double *work = z + mk;
+    memset(JM, 0, nv * mk * sizeof(double));
+    for (Py_ssize_t a = 0; a < mk; ++a) { /* JM = J Minv, its rows contiguous (Minv symmetric) */
+        const Py_ssize_t i = idx[a];
+        const double *Ji = Jb + i * nv;
+        double *JMa = JM + a * nv;
+        for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) {
+            const double s = Ji[nz[c]], *Mk = Mb + nz[c] * nv;
+            for (Py_ssize_t r = 0; r < nv; ++r) JMa[r] += s * Mk[r];
+        }
+        g[a] = gall[i];
+    }
+    for (Py_ssize_t a = 0; a < mk; ++a) {
+        const Py_ssize_t i = idx[a];
+        const double *Ji = Jb + i * nv;
+        for (Py_ssize_t b = 0; b <= a; ++b) {
+            const double *JMb = JM + b * nv;
+            double t = 0.0;
+            for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) t += Ji[nz[c]] * JMb[nz[c]];
+            G[a * mk + b] = G[b * mk + a] = t;
+        }
+    }
+    double dmax = 0.0;
+    for (Py_ssize_t a = 0; a < mk; ++a) {
+        d[a] = G[a * mk + a];
+        if (a < 3 * nck && a % 3 == 2) {
+            const double mean = (d[a - 2] + d[a - 1] + d[a]) / 3.0;
+            d[a - 2] = d[a - 1] = d[a] = mean;
+        }
+    }
+    for (Py_ssize_t a = 0; a < mk; ++a)
+        if (d[a] > dmax) dmax = d[a];
+    for (Py_ssize_t a = 0; a < mk; ++a) d[a] = 1.0 / sqrt(d[a] > 1e-12 * dmax ? d[a] : 1e-12 * dmax);
+    for (Py_ssize_t a = 0; a < mk; ++a) {
+        g[a] *= d[a], z[a] = lam[idx[a]] / d[a];
+        for (Py_ssize_t b = 0; b < mk; ++b) G[a * mk + b] *= d[a] * d[b];
+    }
+    const long k = mk ? admm(G, g, mk, nck, mu, tol, max_iter, rho, mem, z, work, residual) : 0;
+    memcpy(vo, vf, nv * sizeof(double));
+    for (Py_ssize_t a = 0; a < mk; ++a) {
+        const double *JMa = JM + a * nv, s = z[a] * d[a];
+        lam[idx[a]] = s;
+        for (Py_ssize_t r = 0; r < nv; ++r) vo[r] += JMa[r] * s;
+    }
+    return k;
+}
+
 /* the solve of a step: J (m x nv, the contacts' 3 rows each first, then the orthant rows),
  * Minv, v_free, the rows' constant velocity terms gap; lam (m): the start (the last step's
- * impulses, or zero), then the impulses; v (nv): v_free + Minv J^T lam */
+ * impulses, or zero), then the impulses; v (nv): v_free + Minv J^T lam.
+ * A contact whose free motion keeps its point off the floor by more than screen
+ * (J_n v_free + gap > screen [m/s]: a speculative point within the margin that the step does
+ * not bring down), and an orthant row likewise [rad/s], is left out of the solve with a zero
+ * impulse; if the solved velocity then brings one of them through (J v + gap < 0: another
+ * contact's impulse pushed it), the step is solved again with every row. A row left out is
+ * one the solution does not load: the answer is the whole problem's. Returns (iterations,
+ * converged, residual, rows left out, solved again). */
 static PyObject *contact_solve(PyObject *self, PyObject *args) {
     PyObject *oJ, *oM, *ov, *ogap, *olam, *oout;
     Py_ssize_t nc;
     double mu, tol, rho;
     long max_iter;
     int mem;
-    if (!PyArg_ParseTuple(args, "OOOOndddliOO", &oJ, &oM, &ov, &ogap, &nc, &mu, &tol, &rho,
-                          &max_iter, &mem, &olam, &oout))
+    double screen;
+    if (!PyArg_ParseTuple(args, "OOOOndddlidOO", &oJ, &oM, &ov, &ogap, &nc, &mu, &tol, &rho,
+                          &max_iter, &mem, &screen, &olam, &oout))
         return NULL;
     Py_buffer J, M, v, gap, lam, out;
     if (PyObject_GetBuffer(oJ, &J, PyBUF_C_CONTIGUOUS) < 0) return NULL;
@@ -800,77 +866,54 @@ static PyObject *contact_solve(PyObject *self, PyObject *args) {
     }
     const double *Jb = J.buf, *Mb = M.buf, *vf = v.buf, *gp = gap.buf;
     double *z = lam.buf, *vo = out.buf;
-    /* scratch: J Minv (m x nv), G (m x m), g, d (m), the solver's, and each row's
-     * nonzero columns (a contact's row moves with its joint's path to the root alone) */
-    double *buf = malloc((nv * m + 2 * m * m + (13 + 2 * MEM_MAX) * m + 1) * D);
-    Py_ssize_t *nz = malloc((m * nv + m + 1) * sizeof(Py_ssize_t));
+    double *buf = malloc((nv * m + 2 * m * m + (16 + 2 * MEM_MAX) * m + 1) * D);
+    Py_ssize_t *nz = malloc((m * nv + 2 * m + 2) * sizeof(Py_ssize_t));
     if (!buf || !nz) {
         free(buf), free(nz);
         PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
         PyBuffer_Release(&gap), PyBuffer_Release(&lam), PyBuffer_Release(&out);
         return PyErr_NoMemory();
     }
-    double *MJt = buf, *G = MJt + nv * m, *g = G + m * m, *d = g + m, *work = d + m;
-    Py_ssize_t *start = nz + m * nv; /* row i's columns: nz[start[i] .. start[i + 1]) */
+    /* each row's nonzero columns (a contact's row moves with its joint's path to the root
+     * alone), and g = J v_free + gap over them */
+    Py_ssize_t *start = nz + m * nv, *idx = start + m + 1;
+    double *gall = buf, *rest = gall + m;
     start[0] = 0;
     for (Py_ssize_t i = 0; i < m; ++i) {
         Py_ssize_t c = start[i];
+        double t = gp[i];
         for (Py_ssize_t k = 0; k < nv; ++k)
-            if (Jb[i * nv + k] != 0.0) nz[c++] = k;
-        start[i + 1] = c;
+            if (Jb[i * nv + k] != 0.0) nz[c++] = k, t += Jb[i * nv + k] * vf[k];
+        start[i + 1] = c, gall[i] = t;
     }
-    /* JM = J Minv (m x nv, its rows contiguous: Minv is symmetric), G = J Minv J^T,
-     * g = J v_free + gap, over each row's nonzero columns */
-    double *JM = MJt;
-    memset(JM, 0, nv * m * D);
-    for (Py_ssize_t i = 0; i < m; ++i) {
-        const double *Ji = Jb + i * nv;
-        double t = gp[i], *JMi = JM + i * nv;
-        for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) {
-            const Py_ssize_t k = nz[c];
-            const double a = Ji[k], *Mk = Mb + k * nv;
-            t += a * vf[k];
-            for (Py_ssize_t r = 0; r < nv; ++r) JMi[r] += a * Mk[r];
-        }
-        g[i] = t;
-    }
-    for (Py_ssize_t i = 0; i < m; ++i) {
-        const double *Ji = Jb + i * nv;
-        for (Py_ssize_t j = 0; j <= i; ++j) {
-            const double *JMj = JM + j * nv;
-            double t = 0.0;
-            for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) t += Ji[nz[c]] * JMj[nz[c]];
-            G[i * m + j] = G[j * m + i] = t;
-        }
-    }
-    /* Jacobi scaling, one factor per contact (its cone unchanged): as ContactSolver.step */
-    double dmax = 0.0;
-    for (Py_ssize_t i = 0; i < m; ++i) {
-        d[i] = G[i * m + i];
-        if (i < 3 * nc && i % 3 == 2) {
-            const double mean = (d[i - 2] + d[i - 1] + d[i]) / 3.0;
-            d[i - 2] = d[i - 1] = d[i] = mean;
-        }
-    }
-    for (Py_ssize_t i = 0; i < m; ++i)
-        if (d[i] > dmax) dmax = d[i];
-    for (Py_ssize_t i = 0; i < m; ++i) d[i] = 1.0 / sqrt(d[i] > 1e-12 * dmax ? d[i] : 1e-12 * dmax);
-    for (Py_ssize_t i = 0; i < m; ++i) {
-        g[i] *= d[i], z[i] /= d[i];
-        for (Py_ssize_t j = 0; j < m; ++j) G[i * m + j] *= d[i] * d[j];
-    }
+    Py_ssize_t mk = 0, nck = 0;
+    for (Py_ssize_t c = 0; c < nc; ++c)
+        if (gall[3 * c + 2] <= screen) idx[mk++] = 3 * c, idx[mk++] = 3 * c + 1, idx[mk++] = 3 * c + 2, ++nck;
+        else z[3 * c] = z[3 * c + 1] = z[3 * c + 2] = 0.0;
+    for (Py_ssize_t i = 3 * nc; i < m; ++i)
+        if (gall[i] <= screen) idx[mk++] = i;
+        else z[i] = 0.0;
     double residual = 0.0;
-    const long k = m ? admm(G, g, m, nc, mu, tol, max_iter, rho, mem, z, work, &residual) : 0;
-    for (Py_ssize_t i = 0; i < m; ++i) z[i] *= d[i];
-    memcpy(vo, vf, nv * D);
-    for (Py_ssize_t i = 0; i < m; ++i) {
-        const double *JMi = JM + i * nv;
-        for (Py_ssize_t r = 0; r < nv; ++r) vo[r] += JMi[r] * z[i];
+    long k = solve_rows(Jb, nv, nz, start, Mb, vf, gall, idx, mk, nck, mu, tol, max_iter, rho,
+                        mem, z, vo, rest, &residual);
+    int through = 0; /* a row left out that the solved velocity brings through */
+    for (Py_ssize_t i = 0; i < m && mk < m && !through; ++i) {
+        if ((i < 3 * nc && i % 3 != 2) || gall[i] <= screen) continue; /* a row left out */
+        double s = gp[i];
+        for (Py_ssize_t c = start[i]; c < start[i + 1]; ++c) s += Jb[i * nv + nz[c]] * vo[nz[c]];
+        through = s < 0.0;
+    }
+    if (through) {
+        for (Py_ssize_t i = 0; i < m; ++i) idx[i] = i;
+        const long more = solve_rows(Jb, nv, nz, start, Mb, vf, gall, idx, m, nc, mu, tol,
+                                     max_iter, rho, mem, z, vo, rest, &residual);
+        const long total = labs(k) + labs(more);
+        k = more < 0 ? -total : total;
     }
     free(buf), free(nz);
     PyBuffer_Release(&J), PyBuffer_Release(&M), PyBuffer_Release(&v);
     PyBuffer_Release(&gap), PyBuffer_Release(&lam), PyBuffer_Release(&out);
-    return Py_BuildValue("(lid)", k < 0 ? -k : k, k >= 0, residual);
+    return Py_BuildValue("(lidii)", k < 0 ? -k : k, k >= 0, residual, (int)(m - mk), through);
 }
 
 /* every joint's placement from q, into R (nj x 9) and t (nj x 3): for the tests */

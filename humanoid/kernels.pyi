@@ -32,6 +32,7 @@ def contact_solve(
     rho: float,
     max_iter: int,
     mem: int,
+    screen: float,
     lam: Any,
     v: Any,
-) -> tuple[int, bool, float]: ...
+) -> tuple[int, bool, float, int, bool]: ...

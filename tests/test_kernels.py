@@ -205,9 +205,9 @@ def test_the_compiled_admm_solves_the_falls_problems():
     seen = []
     solve = G.KERNELS.contact_solve
 
-    def recorded(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, lam, v):
+    def recorded(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, screen, lam, v):
         start = lam.copy()
-        out = solve(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, lam, v)
+        out = solve(J, Minv, v_free, gap, nc, mu, tol, rho, iters, mem, screen, lam, v)
         seen.append((J.copy(), Minv.copy(), v_free.copy(), gap.copy(), nc, mu, tol, start,
                      lam.copy(), v.copy(), out))  # fmt: skip
         return out
@@ -221,7 +221,7 @@ def test_the_compiled_admm_solves_the_falls_problems():
     finally:
         G.KERNELS = original
     converged = 0
-    for J, Minv, v_free, gap, nc, mu, tol, _, lam, v, (_, ok, residual) in seen:
+    for J, Minv, v_free, gap, nc, mu, tol, _, lam, v, (_, ok, residual, *_) in seen:
         np.testing.assert_allclose(v, v_free + Minv @ J.T @ lam, rtol=0, atol=1e-12)
         if not ok:
             continue
@@ -234,12 +234,13 @@ def test_the_compiled_admm_solves_the_falls_problems():
                               nc, mu)  # fmt: skip
         assert r <= 100 * tol * (1 + 1e-9) and r == pytest.approx(residual, rel=1e-6, abs=1e-15)
     assert len(seen) == 400 and converged >= 390 and solver.fallbacks == len(seen) - converged
+    assert sum(out[3] for *_, out in seen) > 100  # rows left out of the solves (speculative)
     # a start from other points' impulses: the same velocities as from zero, to the tolerance
     J, Minv, v_free, gap, nc, mu, tol, *_ = seen[200]
     v0, v1 = np.empty_like(v_free), np.empty_like(v_free)
     rng = np.random.default_rng(3)
     for v, lam in ((v0, np.zeros(len(gap))), (v1, rng.uniform(0, 1, len(gap)))):
-        assert G.KERNELS.contact_solve(J, Minv, v_free, gap, nc, mu, 1e-10, 1.0, 2000, 3,
+        assert G.KERNELS.contact_solve(J, Minv, v_free, gap, nc, mu, 1e-10, 1.0, 2000, 3, 0.1,
                                        lam, v)[1]  # fmt: skip
     np.testing.assert_allclose(v0, v1, rtol=0, atol=1e-6)
 
@@ -263,3 +264,33 @@ def test_a_box_at_rest_carries_its_weight_and_no_sideways_force(mu):
         assert abs(f[2] - weight) < 1e-6 * weight and np.hypot(f[0], f[1]) < 2e-7 * weight
     assert np.abs(states[-1][0] - q).max() < 1e-10
     assert solver.fallbacks == 0 and solver.failures == 0
+
+
+def test_a_row_left_out_that_the_solution_pushes_through_is_solved_again():
+    """A rigid bar (1 kg, a small inertia) whose end A lands at 1 m/s while its other end B,
+    1.2 mm up, would stay off the floor in the free motion (B's row left out of the solve):
+    A's impulse tips the bar and drives B through the floor, so the step is solved again with
+    B, and the answer is the whole problem's (the same velocities to 1e-9 as with no row left
+    out); a point far above stays out."""
+    Minv = np.diag([1.0, 1.0, 1.0, 100.0, 100.0, 100.0])  # mass 1 kg, inertia 0.01 kg m^2
+
+    def rows(p):  # v_p = v + w x p, world axes at the identity
+        skew = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+        return np.hstack([np.eye(3), -skew])
+
+    v_free = np.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0])
+    J = np.vstack([rows(np.array([0.5, 0.0, 0.0])), rows(np.array([-0.5, 0.0, 0.0]))])
+    out = {}
+    for phi_b, screen in ((1.2e-3, 0.1), (1.2e-3, np.inf), (3.0, 0.1), (3.0, np.inf)):
+        gap = np.array([0.0, 0.0, 0.0, 0.0, 0.0, phi_b / 1e-3])
+        lam, v = np.zeros(6), np.zeros(6)
+        its, ok, _, left_out, again = G.KERNELS.contact_solve(
+            J, Minv, v_free, gap, 2, 0.8, 1e-12, 1.0, 2000, 3, screen, lam, v)  # fmt: skip
+        assert ok
+        out[phi_b, screen] = (v, lam, left_out, again)
+    v, lam, left_out, again = out[1.2e-3, 0.1]
+    assert left_out == 3 and again and lam[5] > 0  # B was left out, then carried load
+    np.testing.assert_allclose(v, out[1.2e-3, np.inf][0], rtol=0, atol=1e-9)
+    v, lam, left_out, again = out[3.0, 0.1]
+    assert left_out == 3 and not again and lam[5] == 0.0
+    np.testing.assert_allclose(v, out[3.0, np.inf][0], rtol=0, atol=1e-9)
