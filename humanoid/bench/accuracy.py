@@ -315,7 +315,7 @@ def _fall_rows(h, quick: bool):
     from ..scene import Scene
 
     T = 0.5 if quick else 1.0
-    dts = (2e-3, 1e-3, 5e-4) if quick else (2e-3, 1e-3, 5e-4, 2.5e-4)
+    dts = (2e-3, 1e-3, 5e-4) if quick else (8e-3, 4e-3, 2e-3, 1e-3, 5e-4, 2.5e-4)
     tols = (1e-3, 1e-5, 1e-7) if quick else (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-10)
     rows, convergence = [], {}
     try:

@@ -99,10 +99,10 @@ class GroundSettings:
 # the compiled ADMM (solver "kernel"): its iterations before it hands a step to Pinocchio's,
 # its penalty (the rows scaled to a unit diagonal) and its Anderson memory. Measured on the
 # first 2 s of the falls at their tolerance, 1e-7 (`humanoid bench step`'s scenes): mean
-# iterations and steps handed over of 2000, drop 19.6 and 7, collapse 18.6 and 17, slide 10.8
-# and 3; at 1e-6 without Anderson, 26.5 and 86, 32.7 and 198, 15.8 and 181. A penalty of 0.3
-# or 3 instead of 1 handed over 2 to 4 times as many. The whole drop (6 s) with 100
-# iterations handed 284 steps over, and Pinocchio's ADMM stopped at its cap on 11 of them;
+# iterations and steps handed over of 2000, drop 18.1 and 11, collapse 14.0 and 15, slide 9.0
+# and 3; at 1e-6 without Anderson (and no rows left out), 26.5 and 86, 32.7 and 198, 15.8 and
+# 181. A penalty of 0.3 or 3 instead of 1 handed over 2 to 4 times as many. The whole drop
+# (6 s) with 100 iterations handed 284 steps over, and Pinocchio's ADMM capped 11 of them;
 # with 300, 42 and none.
 KERNEL_ITERATIONS = 300
 KERNEL_RHO = 1.0
