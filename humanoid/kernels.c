@@ -1,21 +1,26 @@
 /* The ground contact's per-step kernels in C (humanoid.constraints.ground's compiled path).
  *
  * A step of the ground contact is a few hundred small NumPy operations (place the candidate
- * points, pick those near the floor, their Jacobian rows): each costs the interpreter a
- * microsecond or more, the arithmetic a few nanoseconds. Here they are one call:
+ * points, pick those near the floor, their Jacobian rows, the joint ranges' rows, the Delassus
+ * matrix): each costs the interpreter a microsecond or more, the arithmetic a few
+ * nanoseconds. Here each is one call:
  *
  *   plan = ground_plan(...)   the model's kinematic tree and the candidate points, copied once
  *   n = ground_select(plan, q, margin)
- *   ground_write(plan, points, joints, local, J)   (arrays of the n contacts, to fill)
+ *   ground_write(plan, points, joints, local, J, ids)   (arrays of the n contacts, to fill)
+ *   ranges = range_plan(...); m = range_rows(ranges, q, margin, hint, has_hint, r, J, ids)
+ *   contact_solve(J, Minv, v_free, gap, nc, mu, tol, rho, max_iter, mem, screen, lam, v)
  *
  * ground_select places every joint from q (the forward kinematics of the joint kinds below,
  * the same products as Pinocchio's: oMi = oMparent * jointPlacement * jointMotion(q)), places
- * every candidate point, keeps those within the margin of the floor exactly as the NumPy path
- * does (ground.py: Ground._detect); ground_write writes each kept point's world position, joint, local
- * position and its three rows of the contact Jacobian (world axes; v_p = v_O + w x p).
+ * every candidate point and keeps those within the margin of the floor exactly as the NumPy
+ * path does (ground.py: Ground._detect); ground_write writes each kept point's world position,
+ * joint, local position, its three rows of the contact Jacobian (world axes; v_p = v_O + w x p)
+ * and its candidate's id. range_rows is limits.py's JointRanges.rows; contact_solve is the
+ * step's conic solve (ADMM on the Delassus matrix, warm-started by the caller).
  *
  * Only the Python C API and the buffer protocol: no NumPy headers, no Pinocchio, so it builds
- * in a second with any C compiler. The NumPy path stays, and tests/test_kernels.py holds the
+ * in a second with any C compiler. The NumPy paths stay, and tests/test_kernels.py holds the
  * two to each other.
  */
 #define PY_SSIZE_T_CLEAN
@@ -24,9 +29,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* joint kinds (ground.py: JOINT_KINDS) */
 static const double PI = 3.14159265358979323846;
 
+/* joint kinds (ground.py: JOINT_KINDS) */
 enum { J_FREE = 0, J_BALL = 1, J_REVOLUTE = 2, J_PRISMATIC = 3, J_UNBOUNDED = 4 };
 /* candidate kinds: a fixed point, a sphere's centre (lowest point: radius below), a rim's
  * centre (lowest point: radius along the axis' downward normal) */
