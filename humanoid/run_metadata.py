@@ -42,7 +42,8 @@ class RunMetadata:
         steps: Steps run. wall_time: [s]. max_residual: Largest constraint position error
             [m or rad]. max_velocity_residual: Largest ``|J v|`` [m/s or rad/s].
             quaternion_drift: Largest quaternion norm error.
-        max_penetration: [m] and contact_solver_failures: with ground contact.
+        max_penetration: [m], contact_solver_failures and contact_solver_fallbacks (the steps
+            the compiled solver handed to Pinocchio's ADMM): with ground contact.
         adaptive: An adaptive integrator's counters.
         extra: Keys this record does not type (a walk's gait, footsteps, weight...), and
             typed ones recorded as null.
@@ -71,6 +72,7 @@ class RunMetadata:
     quaternion_drift: float | None = None
     max_penetration: float | None = None
     contact_solver_failures: int | None = None
+    contact_solver_fallbacks: int | None = None
     adaptive: dict | None = None
     extra: dict = field(default_factory=dict)
 
@@ -132,7 +134,8 @@ class RunMetadata:
 
 # the type of each recorded field: how a table's value is checked and stored
 _KINDS = {"status": str, "message": str, "model": str, "ball_joints": str, "nq": int, "nv": int,
-          "steps": int, "contact_solver_failures": int, "dt": float, "record_rate": float,
+          "steps": int, "contact_solver_failures": int, "contact_solver_fallbacks": int,
+          "dt": float, "record_rate": float,
           "wall_time": float, "max_residual": float, "max_velocity_residual": float,
           "quaternion_drift": float, "max_penetration": float, "body": dict, "contacts": dict,
           "scene": dict, "violations": dict, "counters": dict, "adaptive": dict,

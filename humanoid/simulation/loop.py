@@ -218,6 +218,7 @@ def metadata(sim: Simulation, rec: Recorder, status: str, message: str, steps: i
     if ground is not None:
         meta["max_penetration"] = ground.max_penetration
         meta["contact_solver_failures"] = ground.solver.failures
+        meta["contact_solver_fallbacks"] = ground.solver.fallbacks
     return meta | sim.setup.integrator.metadata()
 
 
