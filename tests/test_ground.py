@@ -133,7 +133,7 @@ def test_a_falling_body_comes_to_rest_on_the_floor(fall):
     meta = traj.metadata
     assert meta["max_penetration"] < 1e-3
     # of 4000-6000 steps (ADMM at its 1000-iteration cap); and those the compiled solver
-    # handed to Pinocchio's ADMM (22 and 12 measured)
+    # handed to Pinocchio's ADMM (14 and 15 measured)
     assert meta["contact_solver_failures"] <= 4
     assert 0 < meta["contact_solver_fallbacks"] < 0.05 * meta["steps"]
     assert np.diff(traj.energy).max() < 1e-6

@@ -294,3 +294,16 @@ def test_a_row_left_out_that_the_solution_pushes_through_is_solved_again():
     v, lam, left_out, again = out[3.0, 0.1]
     assert left_out == 3 and not again and lam[5] == 0.0
     np.testing.assert_allclose(v, out[3.0, np.inf][0], rtol=0, atol=1e-9)
+
+
+def test_the_steps_handed_over_go_to_the_configured_admm():
+    """The compiled solver hands its hard steps to Pinocchio's ADMM as ``solver = "admm"``
+    configures it (the spectral update rule, the short Lanczos estimate), not to its
+    defaults (an OSQP-like rule, a Lanczos estimate as long as the problem)."""
+    from humanoid.constraints.ground import ContactSolver
+
+    model, _ = _box(0.5)
+    settings = GroundSettings(solver="kernel", lanczos=7)
+    handed = ContactSolver(model, None, None, settings).solve_settings
+    assert handed.admm_update_rule == pin.ADMMUpdateRule.SPECTRAL
+    assert handed.lanczos_size == 7

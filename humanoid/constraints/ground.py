@@ -624,7 +624,7 @@ class ContactSolver:
         self._warm = _WarmStart(points, ranges.max_rows if ranges is not None else 0)
         solver, solver_settings, result = CONIC_SOLVERS[settings.solver]
         self.solver, st, self.result = solver(), solver_settings(), result()
-        if settings.solver == "admm":
+        if solver is pin.ADMMConstraintSolver:  # "admm", and "kernel"'s hand-over: the same
             st.admm_update_rule = pin.ADMMUpdateRule.SPECTRAL  # no iteration-cap hits on impacts
             st.lanczos_size = settings.lanczos
             st.anderson_capacity = settings.anderson
