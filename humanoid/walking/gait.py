@@ -50,6 +50,7 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 import numpy as np
 import pinocchio as pin
 
+from ..control.qp import JointWrenches
 from ..errors import RunFailed, WalkError
 from ..linalg import cross
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
@@ -74,6 +75,7 @@ EVENT_OFF = 0.01  # [body weights] ... and ends where it falls below this (hyste
 CUTOFF = 15.0  # [Hz] the zero-lag low-pass of the ground forces, joint moments and powers
 MIN_CONTACT = 0.05  # [s] shorter contacts and gaps are ignored (bounces, not steps)
 POINT_LOAD = 1.0  # [N] a contact point with more vertical force carries load
+_NO_LOAD = (np.zeros(0, dtype=int), np.zeros((0, 3)), np.zeros((0, 3)))  # no ground force
 FALL_HEIGHT = 0.7  # a fall: the centre of mass below this fraction of its height in the cycle
 PERCENT = np.linspace(0.0, 100.0, 51)  # the normative data's samples of the cycle
 KINETICS = (
@@ -164,10 +166,7 @@ class GaitRecorder:
         self.h, self.model = h, model
         self.data = model.createData()
         self.next = model.createData()
-        self._fext = pin.StdVec_Force()  # the ground's wrenches on the joints (RNEA's)
-        for _ in range(model.njoints):
-            self._fext.append(pin.Force.Zero())
-        self._loaded: list[int] = []  # the joints the last step's ground forces act on
+        self._wrenches = JointWrenches(model)  # the ground's wrenches on the joints (RNEA's)
         self.chains = leg_chains(h)
         self.sole = {s: h.sole_id(s) for s in SIDES}
         self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
@@ -192,10 +191,7 @@ class GaitRecorder:
         dt = sim.scene.dt
         a = (step.v - v) / dt
         pin.forwardKinematics(model, d, q)
-        fext = self._fext  # kept between steps: the joints loaded last step are zeroed
-        for j in self._loaded:
-            fext[j] = pin.Force.Zero()
-        self._loaded = []
+        joints, local, forces = _NO_LOAD  # the ground's forces at points of the joints
         force = {s: np.zeros(3) for s in SIDES}
         moment = {s: np.zeros(3) for s in SIDES}
         heel = dict.fromkeys(SIDES, False)
@@ -206,17 +202,13 @@ class GaitRecorder:
         if gs is not None and len(gs.impulses):
             pin.forwardKinematics(model, self.next, step.q)
             soles = {s: pin.updateFramePlacement(model, d, self.sole[s]) for s in SIDES}
-            # every point's force, its moment about the origin and about the origin's
-            # vertical (the centre of pressure's), at once
-            points = np.asarray(gs.points)
+            # every point's force and its moment about the origin's vertical (the centre of
+            # pressure's), at once
+            points, joints, local = np.asarray(gs.points), gs.joints, gs.local
             forces = np.asarray(gs.impulses) / dt
-            moments = cross(points, forces)
             flat = cross(points * (1.0, 1.0, 0.0), forces)
-            joints = gs.joints.tolist()
-            self._loaded = joints
-            for i, j in enumerate(joints):
+            for i, j in enumerate(joints.tolist()):
                 f = forces[i]
-                fext[j] = fext[j] + d.oMi[j].actInv(pin.Force(f, moments[i]))
                 s = self.side_of.get(j)
                 if s is None:
                     continue
@@ -228,10 +220,10 @@ class GaitRecorder:
                         heel[s] = True
                     else:
                         toe[s] = True
-                    moved = self.next.oMi[j].act(d.oMi[j].actInv(p)) - p
+                    moved = self.next.oMi[j].act(local[i]) - p
                     slip[s] += f[2] * moved[:2]
                     load[s] += f[2]
-        pin.rnea(model, d, q, v, a, fext)
+        pin.rnea(model, d, q, v, a, self._wrenches.set(d, joints, local, forces))
         row = [t]
         for s in SIDES:
             fz = force[s][2]
