@@ -99,11 +99,12 @@ def test_the_erd_human_walks_eight_steps_through_the_same_pipeline():
     to toe in every stance, the speed it was asked, joints in their ranges. Seven heel strikes
     are asked, not eight: the stop's last strike (at 5.4 s of 5.68) was missed in 1 of 8 runs
     of the same walk (and in 1 of 3 fresh-clone suites): the walk differs from run to run by
-    the QP's round-off, and the stop amplifies it. (It fell at
-    every heel strike before the walk loaded only the soles' own points. It does not walk ten
-    yet: it falls at about 7 s, after nine or ten strikes (6.94 s and 7.58 s in 11-step walks),
-    so a 10-step walk completed in some runs and missed its tenth strike in others; at 1.0 m/s
-    it falls at 2.3 s; its slides reach 3.2 mm, above the issue's 2.)"""
+    the QP's round-off, and the stop amplifies it. The walk is chaotic: before the footstep
+    correction's larger share behind the plan (``TrackingGains.placement_behind``), 4 of 12
+    walks started 1e-6 m/s apart fell at about 4.1 s, and a CI run fell there; with it, 24 of
+    24 (1e-6 and 1e-4 m/s apart) completed. (It fell at every heel strike before the walk
+    loaded only the soles' own points. It does not walk twenty yet: a 20-step walk fell at
+    9.6 s; at 1.0 m/s it falls at 2.1 s; its slides reach 3.4 mm, above the issue's 2.)"""
     h = hm.load("human")
     walk = walk_on_ground(h, speed=0.8, steps=8)
     assert walk.completed, walk.trajectory.metadata["message"]

@@ -44,7 +44,9 @@ joint torques tau = (M dv + h - J^T f)[6:] leave it:
 
 **Balance** is kept the way people keep it, by where the feet land: the divergent component of
 motion xi = c + c'/omega (the capture point) is compared with the cycle's, and the landing foot
-is moved by that error (Hof 2008's "constant offset" control). Each footstep then re-anchors
+is moved by that error (Hof 2008's "constant offset" control), and by half as much again
+along the walk when the body is behind its plan: a body that falls behind stalls over its
+straight stance leg unless its next step is shorter. Each footstep then re-anchors
 the reference: the cycle is followed relative to the footholds the body actually has, not to a
 fixed place in the world, so its errors never accumulate.
 
@@ -170,7 +172,14 @@ class TrackingGains:
     # it (off: at 10 the male trough rose from 0.52 to 0.72 BW and 0.8 m/s was a person's
     # force, but the 1.95 m body's feet bounced, 6 mm slides; at 100 the trough fell to 0.17)
     mu: float = 0.6
-    placement: float = 1.0  # the capture-point error's share moved into the next footstep
+    placement: float = 1.0  # the capture-point error's share moved into the next footstep ...
+    placement_behind: float = 1.5  # ... its share along the walk when the body is behind its
+    # plan (a shorter step). At 1.0 example-robot-data's human fell in 4 of 12 of its 8-step
+    # walks started 1e-6 m/s apart, each about 4.1 s in: a slow step, then a footstep too far
+    # ahead of a body that stalled over its straight stance leg; at 1.5 it completed 24 of 24
+    # (1e-6 and 1e-4 m/s apart), and fell at 9.6 s of 20 steps (1.5 both ways completed
+    # them, but slid the g1's feet 3.2 mm, 1.2 now, and made the male body's stop take an
+    # extra step; 1.25 both ways slowed the human to 0.67 m/s of 0.8).
     max_shift: float = 0.15  # [m] largest footstep correction
     touch: float = 1e-2  # [m] a sole point this close to the floor may carry load ...
     settle: float = 0.02  # [s] ... and one above it settles onto the floor in this time
@@ -485,7 +494,14 @@ class _CyclePlan:
                 base = bend(self.anchor(OTHER[s], k_other), x_other, self.radius,
                             self.step_x(s, k + 1) - x_other)  # fmt: skip
                 if psi < 0.85 + 0.15 * self.off:  # frozen in the last part of the swing
-                    shift = g.placement * err
+                    # a body behind its plan (along the walk's direction at the other foot)
+                    # steps shorter by the larger share; a stop's steps (planned to bring the
+                    # body to rest) take the one share
+                    ahead = _rot(base)[:2, 0]
+                    along = float(ahead @ err)
+                    stopping = self.ends is not None and (s, k + 1) in self.ends.moved
+                    more = 0.0 if stopping or along > 0.0 else g.placement_behind - g.placement
+                    shift = g.placement * err + more * along * ahead
                     norm = np.linalg.norm(shift)
                     if norm > g.max_shift:
                         shift *= g.max_shift / norm
