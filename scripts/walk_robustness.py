@@ -4,7 +4,7 @@ seeded standard normal (seeds 1..N), two at a time. A walk at the edge of fallin
 round-off alone (another machine's BLAS) changes which of its runs fall, so one run proves
 little. docs/walking.md quotes it for example-robot-data's human.
 
-    python scripts/walk_robustness.py [--model human] [--speed 0.8] [--steps 8] [--runs 12]
+    python scripts/walk_robustness.py [--model human] [--speed V] [--steps 8] [--runs 12]
         [--eps 1e-6] [--gain PLACEMENT_BEHIND]
 """
 
@@ -42,17 +42,25 @@ def one(args: tuple) -> tuple[int, bool, float]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--model", default="human")
-    p.add_argument("--speed", type=float, default=0.8)
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=None,
+        help="[m/s] (default: 0.8 for the human, else the body's free speed)",
+    )
     p.add_argument("--steps", type=int, default=8)
     p.add_argument("--runs", type=int, default=12)
     p.add_argument("--eps", type=float, default=1e-6, help="[m/s, rad/s] the disturbance")
     p.add_argument("--gain", type=float, default=None, help="TrackingGains.placement_behind")
     a = p.parse_args()
+    if a.speed is None and a.model == "human":
+        a.speed = 0.8
     jobs = [(s, a.model, a.speed, a.steps, a.eps, a.gain) for s in range(1, a.runs + 1)]
     with ProcessPoolExecutor(2) as pool:
         results = list(pool.map(one, jobs))
     falls = [f"{t:.2f} s (seed {s})" for s, ok, t in results if not ok]
-    print(f"{a.model} at {a.speed} m/s, {a.steps} steps, starts {a.eps:g} apart: "
+    speed = "its free speed" if a.speed is None else f"{a.speed} m/s"
+    print(f"{a.model} at {speed}, {a.steps} steps, starts {a.eps:g} apart: "
           f"{len(results) - len(falls)} of {len(results)} completed"
           + (f"; fell at {', '.join(falls)}" if falls else ""))  # fmt: skip
 
