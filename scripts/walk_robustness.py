@@ -1,6 +1,7 @@
 """How often a walk on the ground completes when its start is disturbed: the same walk
 (``walk_on_ground``) run from the cycle's start with every velocity moved by ``EPS`` times a
-seeded standard normal (seeds 1..N), two at a time. A walk at the edge of falling is chaotic:
+seeded standard normal (seeds 1..N), two at a time; of the walks that complete, their largest
+slide of a stance (the gait analysis's). A walk at the edge of falling is chaotic:
 round-off alone (another machine's BLAS) changes which of its runs fall, so one run proves
 little. docs/walking.md quotes it for example-robot-data's human.
 
@@ -11,6 +12,7 @@ little. docs/walking.md quotes it for example-robot-data's human.
 from __future__ import annotations
 
 import argparse
+import math
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 
@@ -22,7 +24,7 @@ from humanoid.walking import gait
 from humanoid.walking.tracking import TrackingGains
 
 
-def one(args: tuple) -> tuple[int, bool, float]:
+def one(args: tuple) -> tuple[int, bool, float, float]:
     seed, model, speed, steps, eps, gain = args
     warnings.simplefilter("ignore")
     run = gait.Simulation.run
@@ -34,9 +36,14 @@ def one(args: tuple) -> tuple[int, bool, float]:
 
     gait.Simulation.run = disturbed  # this worker process's own copy
     gains = TrackingGains() if gain is None else TrackingGains(placement_behind=gain)
+    h = hm.load(model)
     with one_thread():
-        w = gait.walk_on_ground(hm.load(model), speed=speed, steps=steps, gains=gains)
-    return seed, w.completed, float(w.record.t[-1])
+        w = gait.walk_on_ground(h, speed=speed, steps=steps, gains=gains)
+        if not w.completed:
+            return seed, False, float(w.record.t[-1]), math.nan
+        a = gait.analyse(h, w)
+    slide = max(f["slip"] for s in a.feet for f in a.feet[s])
+    return seed, True, float(w.record.t[-1]), slide
 
 
 def main() -> None:
@@ -58,11 +65,14 @@ def main() -> None:
     jobs = [(s, a.model, a.speed, a.steps, a.eps, a.gain) for s in range(1, a.runs + 1)]
     with ProcessPoolExecutor(2) as pool:
         results = list(pool.map(one, jobs))
-    falls = [f"{t:.2f} s (seed {s})" for s, ok, t in results if not ok]
+    falls = [f"{t:.2f} s (seed {s})" for s, ok, t, _ in results if not ok]
+    slides = [1e3 * x for *_, x in results if math.isfinite(x)]
     speed = "its free speed" if a.speed is None else f"{a.speed} m/s"
     print(f"{a.model} at {speed}, {a.steps} steps, starts {a.eps:g} apart: "
           f"{len(results) - len(falls)} of {len(results)} completed"
-          + (f"; fell at {', '.join(falls)}" if falls else ""))  # fmt: skip
+          + (f"; fell at {', '.join(falls)}" if falls else "")
+          + (f"; largest slide of a stance {min(slides):.2f}-{max(slides):.2f} mm, median "
+             f"{np.median(slides):.2f}" if slides else ""))  # fmt: skip
 
 
 if __name__ == "__main__":
