@@ -280,15 +280,23 @@ class CenterOfMassPlan:
         lap's end would blend in the first sample, a stride behind)."""
         return self.c - np.outer(self.phase, [self.stride, 0.0, 0.0])
 
+    @functools.cached_property
+    def _table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The phases and the (periodic c, dc, ddc) rows, the first repeated at phase 1."""
+        rows = np.hstack([self.periodic, self.dc, self.ddc])
+        return np.append(self.phase, self.phase[0] + 1.0), np.vstack([rows, rows[:1]])
+
     def at(self, phi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(c, dc, ddc) at the cycle's phase phi (any real number: laps add strides)."""
+        """(c, dc, ddc) at the cycle's phase phi (any real number: laps add strides): linear
+        between the samples, periodic, in ``np.interp``'s own arithmetic (the same bits as
+        its nine calls, one per column, at a ninth of their cost)."""
         u = phi - math.floor(phi)
-        out = [
-            np.array([np.interp(u, self.phase, x[:, i], period=1.0) for i in range(3)])
-            for x in (self.periodic, self.dc, self.ddc)
-        ]
-        out[0][0] += self.stride * phi
-        return out[0], out[1], out[2]
+        xp, fp = self._table
+        j = min(max(int(np.searchsorted(xp, u, side="right")) - 1, 0), len(xp) - 2)
+        slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+        out = slope * (u - xp[j]) + fp[j]
+        out[0] += self.stride * phi
+        return out[:3], out[3:6], out[6:]
 
 
 def plan_com(gait: dict, feet: dict, z_mean: float, g: float = 9.81,
