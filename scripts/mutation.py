@@ -918,6 +918,14 @@ MUTATIONS: tuple[Mutation, ...] = (
         ),
         "the ZMP reference under the swinging foot, not the stance foot",
     ),
+    M(
+        "W05",
+        "walking/reference.py",
+        "slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])",
+        "slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j - 1])",
+        ("tests/test_reference.py::test_the_centre_of_mass_plan_reads_like_np_interp",),
+        "the centre-of-mass plan's lookup dividing by two sample spacings (and wrapping at 0)",
+    ),
     # --- effects, the ball-joint fusion, the MuJoCo export, the scene's checks ---
     M(
         "E01",
