@@ -23,16 +23,17 @@ from humanoid.linalg import one_thread
 from humanoid.walking import gait
 from humanoid.walking.tracking import TrackingGains
 
+RUN = gait.Simulation.run  # the undisturbed run (a worker runs several walks)
+
 
 def one(args: tuple) -> tuple[int, bool, float, float]:
     seed, model, speed, steps, eps, gain = args
     warnings.simplefilter("ignore")
-    run = gait.Simulation.run
 
     def disturbed(self, *a, initial, **k):
         q0, v0 = initial
         v0 = v0 + eps * np.random.default_rng(seed).standard_normal(v0.shape)
-        return run(self, *a, initial=(q0, v0), **k)
+        return RUN(self, *a, initial=(q0, v0), **k)
 
     gait.Simulation.run = disturbed  # this worker process's own copy
     gains = TrackingGains() if gain is None else TrackingGains(placement_behind=gain)
