@@ -45,12 +45,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 import pinocchio as pin
 
-from ..control.qp import JointWrenches
 from ..errors import RunFailed, WalkError
 from ..linalg import cross
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
@@ -75,7 +75,9 @@ EVENT_OFF = 0.01  # [body weights] ... and ends where it falls below this (hyste
 CUTOFF = 15.0  # [Hz] the zero-lag low-pass of the ground forces, joint moments and powers
 MIN_CONTACT = 0.05  # [s] shorter contacts and gaps are ignored (bounces, not steps)
 POINT_LOAD = 1.0  # [N] a contact point with more vertical force carries load
-_NO_LOAD = (np.zeros(0, dtype=int), np.zeros((0, 3)), np.zeros((0, 3)))  # no ground force
+# a step without ground contacts, as a StepContacts has them
+_NO_STEP = SimpleNamespace(points=np.zeros((0, 3)), joints=np.zeros(0, dtype=int),
+                           local=np.zeros((0, 3)), impulses=np.zeros((0, 3)))  # fmt: skip
 FALL_HEIGHT = 0.7  # a fall: the centre of mass below this fraction of its height in the cycle
 PERCENT = np.linspace(0.0, 100.0, 51)  # the normative data's samples of the cycle
 KINETICS = (
@@ -106,16 +108,18 @@ def ankle_joint(h, chain) -> int:
     return below[0]
 
 
-def clinical_kinetics(chain, ankle: int, foot: int, data, moment, velocity) -> list[float]:
+def clinical_kinetics(chain, ankle: int, foot: int, rotation, moment, velocity) -> np.ndarray:
     """One leg's moments [N m] and powers [W] of :data:`_MOMENTS` (hip extensor, hip abductor,
     knee extensor, ankle plantarflexor; hip, knee, ankle power) as a gait lab signs them (see
-    the module docstring), from ``data``'s placements (the sole frame's updated) and
-    ``moment(j)``, ``velocity(j)``: joint ``j``'s moment on its body (the proximal segment's
-    on the distal one) [N m] and its body's angular velocity [rad/s], world axes. ``ankle``:
-    :func:`ankle_joint`; ``foot``: the joint the sole hangs from."""
-    pelvis, thigh, _, _ = chain.segments(data)
+    the module docstring), from ``rotation(j)``: joint ``j``'s world rotation (its body's
+    axes), ``moment(j)``: its moment on its body (the proximal segment's on the distal one)
+    [N m] and ``velocity(j)``: its body's angular velocity [rad/s], both in world axes. One
+    instant ((3, 3) and (3,) each; returns (7,)) or many at once ((n, 3, 3) and (n, 3);
+    (n, 7)). ``ankle``: :func:`ankle_joint`; ``foot``: the joint the sole hangs from."""
+    pelvis = rotation(1)
+    thigh = rotation(chain.thigh) @ chain.knee_placement
+    shank = rotation(chain.knee)
     p0, t0, s0, _ = chain.zero
-    shank = data.oMi[chain.knee].rotation
     x_p, y_p = pelvis @ p0[0], pelvis @ p0[1]
     y_t, y_s = thigh @ t0[1], shank @ s0[1]
     sign = 1.0 if chain.side == "right" else -1.0
@@ -123,11 +127,24 @@ def clinical_kinetics(chain, ankle: int, foot: int, data, moment, velocity) -> l
     m_hip, m_knee, m_ankle = moment(hip), moment(knee), moment(ankle)
     w_pelvis, w_thigh, w_shank = velocity(1), velocity(chain.thigh), velocity(knee)
     w_foot = velocity(foot)
-    return [
-        m_hip @ y_p, -sign * (m_hip @ x_p), -(m_knee @ y_t), m_ankle @ y_s,
-        m_hip @ (w_thigh - w_pelvis), m_knee @ (w_shank - w_thigh),
-        m_ankle @ (w_foot - w_shank),
-    ]  # fmt: skip
+    return np.stack([
+        _dot(m_hip, y_p), -sign * _dot(m_hip, x_p), -_dot(m_knee, y_t), _dot(m_ankle, y_s),
+        _dot(m_hip, w_thigh - w_pelvis), _dot(m_knee, w_shank - w_thigh),
+        _dot(m_ankle, w_foot - w_shank),
+    ], axis=-1)  # fmt: skip
+
+
+def _sums(x: np.ndarray, at: np.ndarray, n: int) -> np.ndarray:
+    """The rows of ``x`` (k, c) summed by their step ``at`` (k,): (n, c)."""
+    out = np.zeros((n, x.shape[1]))
+    for c in range(x.shape[1]):
+        out[:, c] = np.bincount(at, weights=x[:, c], minlength=n)
+    return out
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products over the last axis."""
+    return (a * b).sum(axis=-1)
 
 
 @dataclass
@@ -160,117 +177,152 @@ class GaitRecord:
 
 class GaitRecorder:
     """A simulation monitor: ground forces, load on heel and toe, slip, joint moments and
-    powers at every step (see the module docstring); raises RunFailed at a fall."""
+    powers at every step (see the module docstring); raises RunFailed at a fall.
+
+    During the run it keeps each step's states and contacts (and watches for the fall);
+    :meth:`record` measures them all at once.
+    """
 
     def __init__(self, h, model: pin.Model, fall_height: float | None = None) -> None:
         self.h, self.model = h, model
         self.data = model.createData()
         self.next = model.createData()
-        self._wrenches = JointWrenches(model)  # the ground's wrenches on the joints (RNEA's)
         self.chains = leg_chains(h)
         self.sole = {s: h.sole_id(s) for s in SIDES}
         self.foot = {s: model.frames[self.sole[s]].parentJoint for s in SIDES}
         self.middle = {s: float(np.mean(h.sole_points(s)[:, 0])) for s in SIDES}
         self.ankle = {s: ankle_joint(h, chain) for s, chain in self.chains.items()}
-        # the side of every joint at or below a hip
-        self.side_of = {}
+        # the side of every joint at or below a hip (-1: none)
+        self.side_of = np.full(model.njoints, -1)
         for j in range(1, model.njoints):
             i = j
             while i > 0 and not any(i in c.joints for c in self.chains.values()):
                 i = model.parents[i]
-            for s, c in self.chains.items():
+            for k, c in enumerate(self.chains[s] for s in SIDES):
                 if i in c.joints:
-                    self.side_of[j] = s
+                    self.side_of[j] = k
+        # the joints whose moments, angular velocities and rotations the kinetics read
+        self._moments = sorted({j for s, c in self.chains.items()
+                                for j in (c.joints[0], c.knee, self.ankle[s])})  # fmt: skip
+        self._omegas = sorted({1} | {j for s, c in self.chains.items()
+                                     for j in (c.thigh, c.knee, self.foot[s])})  # fmt: skip
+        self._rotations = sorted(set(self._moments) | set(self._omegas))
+        # below[j, i]: joint i is joint j's or in its subtree (a ground force on i loads j)
+        self._below = np.zeros((model.njoints, model.njoints), dtype=bool)
+        for j in self._moments:
+            self._below[j, list(model.subtrees[j])] = True
         self.fall_height = fall_height
-        self.rows: list[list[float]] = []
-        self.qs: list[np.ndarray] = []
-        self.vs: list[np.ndarray] = []
+        # each step: t, q, v, the state after it, its ground contacts (StepContacts or None)
+        self.steps: list[tuple] = []
+        self.dt: float | None = None
 
     def observe(self, sim, k: int, t: float, q, v, step) -> None:
-        model, d = self.model, self.data
-        dt = sim.scene.dt
-        a = (step.v - v) / dt
-        pin.forwardKinematics(model, d, q)
-        joints, local, forces = _NO_LOAD  # the ground's forces at points of the joints
-        force = {s: np.zeros(3) for s in SIDES}
-        moment = {s: np.zeros(3) for s in SIDES}
-        heel = dict.fromkeys(SIDES, False)
-        toe = dict.fromkeys(SIDES, False)
-        slip = {s: np.zeros(2) for s in SIDES}
-        load = dict.fromkeys(SIDES, 0.0)
-        gs = sim.ground_step
-        if gs is not None and len(gs.impulses):
-            pin.forwardKinematics(model, self.next, step.q)
-            soles = {s: pin.updateFramePlacement(model, d, self.sole[s]) for s in SIDES}
-            # every point's force and its moment about the origin's vertical (the centre of
-            # pressure's), at once
-            points, joints, local = np.asarray(gs.points), gs.joints, gs.local
-            forces = np.asarray(gs.impulses) / dt
-            flat = cross(points * (1.0, 1.0, 0.0), forces)
-            for i, j in enumerate(joints.tolist()):
-                f = forces[i]
-                s = self.side_of.get(j)
-                if s is None:
-                    continue
-                force[s] += f
-                moment[s] += flat[i]
-                if f[2] > POINT_LOAD:
-                    p = points[i]
-                    if soles[s].actInv(p)[0] < self.middle[s]:
-                        heel[s] = True
-                    else:
-                        toe[s] = True
-                    moved = self.next.oMi[j].act(local[i]) - p
-                    slip[s] += f[2] * moved[:2]
-                    load[s] += f[2]
-        pin.rnea(model, d, q, v, a, self._wrenches.set(d, joints, local, forces))
-        row = [t]
-        for s in SIDES:
-            fz = force[s][2]
-            cop = (np.array([-moment[s][1], moment[s][0]]) / fz if fz > POINT_LOAD
-                   else np.full(2, np.nan))  # fmt: skip
-            row += [*force[s], *cop, heel[s], toe[s],
-                    *(slip[s] / load[s] if load[s] > 0 else slip[s]),
-                    *self._kinetics(s)]  # fmt: skip
-        self.rows.append(row)
-        self.qs.append(np.array(q))
-        self.vs.append(np.array(v))
+        self.dt = sim.scene.dt
+        self.steps.append((t, np.array(q), np.array(v), np.array(step.q), np.array(step.v),
+                           sim.ground_step))  # fmt: skip
         if self.fall_height is not None and k % EVERY == 0:
-            z = pin.centerOfMass(model, self.next, q)[2]
+            z = pin.centerOfMass(self.model, self.next, q)[2]
             if z < self.fall_height:
                 raise RunFailed(f"the body fell at t = {t:.2f} s (centre of mass {z:.2f} m high)")
 
-    def _kinetics(self, side: str) -> list[float]:
-        """Moments [N m] and powers [W] of :data:`_MOMENTS` (``data`` after RNEA)."""
-        d = self.data
-        pin.updateFramePlacement(self.model, d, self.sole[side])
-
-        def m(j):
-            return d.oMi[j].rotation @ d.f[j].angular
-
-        def w(j):
-            return d.oMi[j].rotation @ d.v[j].angular
-
-        return clinical_kinetics(self.chains[side], self.ankle[side], self.foot[side], d, m, w)
-
     def record(self, mass: float, dt: float) -> GaitRecord:
-        width = 3 + 2 + 2 + 2 + len(_MOMENTS)
+        """What the run's steps measure (see :class:`GaitRecord`), all steps at once."""
+        model, n = self.model, len(self.steps)
+        t = np.array([s[0] for s in self.steps], dtype=float)
+        q, v, q_next, v_next = (np.array([s[i] for s in self.steps], dtype=float).reshape(n, nx)
+                                for i, nx in ((1, model.nq), (2, model.nv), (3, model.nq),
+                                              (4, model.nv)))  # fmt: skip
         # (a run that failed at its first step recorded nothing)
-        rows = np.array(self.rows, dtype=float).reshape(len(self.rows), 1 + 2 * width)
+        found = [s[5] if s[5] is not None else _NO_STEP for s in self.steps] or [_NO_STEP]
+        counts = np.array([len(f.impulses) for f in found[:n]], dtype=int)
+        at = np.repeat(np.arange(n), counts)  # each point's step
+        pts, joints, local, forces = (
+            np.concatenate([np.asarray(getattr(f, k), dtype=float).reshape(-1, w) for f in found])
+            for k, w in (("points", 3), ("joints", 1), ("local", 3), ("impulses", 3))
+        )  # fmt: skip
+        joints = joints[:, 0].astype(int)
+        forces = forces / dt
+        side = self.side_of[joints]
+        bearing = (forces[:, 2] > POINT_LOAD) & (side >= 0)
+        kin = self._placements(q, v, (v_next - v) / dt, q_next, at, joints, local, bearing)
+        R, O, M, W, soles, after = kin
+        moved = after - pts[bearing]  # the bearing points' moves over their step
+        # the ground's share of each joint's moment: RNEA's without external forces, less the
+        # moments of the forces on the joint's subtree about its origin
+        for j in self._moments:
+            on = self._below[j, joints]
+            M[j] -= _sums(cross(pts[on] - O[j][at[on]], forces[on]), at[on], n)
+        flat = cross(pts * (1.0, 1.0, 0.0), forces)  # moments about the origin's vertical
         out: dict[str, dict[str, np.ndarray]] = {
             k: {} for k in ("force", "cop", "heel", "toe", "slip", "kinetics")
         }
         for i, s in enumerate(SIDES):
-            c = 1 + i * width
-            out["force"][s] = rows[:, c : c + 3]
-            out["cop"][s] = rows[:, c + 3 : c + 5]
-            out["heel"][s] = rows[:, c + 5] > 0.5
-            out["toe"][s] = rows[:, c + 6] > 0.5
-            out["slip"][s] = rows[:, c + 7 : c + 9]
-            out["kinetics"][s] = rows[:, c + 9 : c + width]
-        q = np.array(self.qs) if self.qs else np.zeros((0, self.model.nq))
-        v = np.array(self.vs) if self.vs else np.zeros((0, self.model.nv))
-        return GaitRecord(rows[:, 0], q, v, mass=mass, dt=dt, **out)
+            on = side == i
+            force, moment = _sums(forces[on], at[on], n), _sums(flat[on], at[on], n)
+            fz = force[:, 2]
+            out["force"][s] = force
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out["cop"][s] = np.where((fz > POINT_LOAD)[:, None],
+                                         np.column_stack([-moment[:, 1], moment[:, 0]]) / fz[:, None],
+                                         np.nan)  # fmt: skip
+            mine = on & bearing
+            rot, origin = soles[s]
+            along = np.einsum("ij,ij->i", pts[mine] - origin[at[mine]], rot[at[mine]])
+            rear = along < self.middle[s]
+            out["heel"][s] = np.bincount(at[mine][rear], minlength=n) > 0
+            out["toe"][s] = np.bincount(at[mine][~rear], minlength=n) > 0
+            fzs = forces[mine, 2]
+            load = np.bincount(at[mine], weights=fzs, minlength=n)
+            slip = _sums(fzs[:, None] * moved[mine[bearing], :2], at[mine], n)
+            out["slip"][s] = slip / np.where(load > 0, load, 1.0)[:, None]
+            out["kinetics"][s] = clinical_kinetics(
+                self.chains[s], self.ankle[s], self.foot[s], R.__getitem__, M.__getitem__,
+                W.__getitem__).reshape(n, len(_MOMENTS))  # fmt: skip
+        return GaitRecord(t, q, v, mass=mass, dt=dt, **out)
+
+    def _placements(self, q, v, a, q_next, at, joints, local, bearing) -> tuple:
+        """Step by step, what Pinocchio gives: the kinetics' joints' world rotations R[j]
+        (n, 3, 3), origins O[j] (n, 3), moments M[j] without the ground (RNEA's, world axes)
+        and angular velocities W[j] (n, 3); the soles' placements by side (rotation's first
+        column, origin: (n, 3) each, at the steps with bearing points); the bearing points'
+        places after their step (k, 3)."""
+        model, d, after = self.model, self.data, self.next
+        n = len(q)
+        R = {j: np.empty((n, 3, 3)) for j in self._rotations}
+        O = {j: np.empty((n, 3)) for j in self._moments}
+        M = {j: np.empty((n, 3)) for j in self._moments}
+        W = {j: np.empty((n, 3)) for j in self._omegas}
+        soles = {s: (np.empty((n, 3)), np.empty((n, 3))) for s in SIDES}
+        # each bearing point's joint's placement after its step
+        points = np.flatnonzero(bearing)
+        Rn, tn = np.empty((len(points), 3, 3)), np.empty((len(points), 3))
+        first = np.searchsorted(at[points], np.arange(n + 1))  # step i's: first[i]:first[i+1]
+        for i in range(n):
+            pin.forwardKinematics(model, d, q[i])  # (the placements: RNEA's are relative)
+            pin.rnea(model, d, q[i], v[i], a[i])
+            for j, Rj in R.items():
+                Rj[i] = d.oMi[j].rotation
+            for j, Mj in M.items():  # (in the joints' frames: turned to the world's below)
+                O[j][i] = d.oMi[j].translation
+                Mj[i] = d.f[j].angular
+            for j, Wj in W.items():
+                Wj[i] = d.v[j].angular
+            lo, hi = first[i], first[i + 1]
+            if lo == hi:
+                continue
+            for s, (rot, origin) in soles.items():
+                sole = pin.updateFramePlacement(model, d, self.sole[s])
+                rot[i], origin[i] = sole.rotation[:, 0], sole.translation
+            pin.forwardKinematics(model, after, q_next[i])
+            for j in set(joints[points[lo:hi]].tolist()):
+                placed = after.oMi[j]
+                ks = lo + np.flatnonzero(joints[points[lo:hi]] == j)
+                Rn[ks], tn[ks] = placed.rotation, placed.translation
+        moved = np.einsum("kij,kj->ki", Rn, local[points]) + tn
+        for X in (M, W):
+            for j, Xj in X.items():
+                X[j] = np.einsum("nij,nj->ni", R[j], Xj)
+        return R, O, M, W, soles, moved
 
 
 @dataclass

@@ -261,13 +261,13 @@ def leg_kinetics(h, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> dict:
         pin.computeJointJacobians(model, data, q[i])
         # each joint's world angular axes (3, nv): its body's angular velocity is J v
         J = {j: pin.getJointJacobian(model, data, j, world)[3:] for j in needed}
+        rotation = {j: data.oMi[j].rotation for j in needed}
         for s, (chain, ankle, foot, groups, cols) in legs.items():
-            pin.updateFramePlacement(model, data, h.sole_id(s))
             moment = {j: np.linalg.lstsq(J[g[-1]][:, cols[j]].T, tau[i, cols[j]], rcond=None)[0]
                       for j, g in groups.items()}  # fmt: skip
             omega = {j: J[j] @ v[i] for j in (1, chain.thigh, chain.knee, foot)}
-            out[s][i] = clinical_kinetics(chain, ankle, foot, data, moment.__getitem__,
-                                          omega.__getitem__)  # fmt: skip
+            out[s][i] = clinical_kinetics(chain, ankle, foot, rotation.__getitem__,
+                                          moment.__getitem__, omega.__getitem__)  # fmt: skip
     return out
 
 
