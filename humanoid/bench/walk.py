@@ -143,7 +143,8 @@ def _timed_person(h, steps: int, control_dt: float) -> tuple[dict, GroundWalk]:
     clock = Clock()
     _, walk = ground_walker(h, "person", dt=1e-3, mu=0.8, quiet=True, control_dt=control_dt)
     patched = [(CycleTracker, "update", "qp"), (Sampled, "torques", "held"),
-               (Plant, "step", "plant"), (GaitRecorder, "observe", "record"), (GaitRecorder, "record", "record"),
+               (Plant, "step", "plant"), (GaitRecorder, "observe", "record"),
+               (GaitRecorder, "record", "record"),
                (ContactSolver, "_kernel_solve", "solve")]  # fmt: skip
     originals = [(owner, name, getattr(owner, name)) for owner, name, _ in patched]
     for owner, name, label in patched:

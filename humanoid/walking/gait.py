@@ -261,9 +261,9 @@ class GaitRecorder:
             force, moment = _sums(forces[on], at[on], n), _sums(flat[on], at[on], n)
             fz = force[:, 2]
             out["force"][s] = force
+            pressure = np.column_stack([-moment[:, 1], moment[:, 0]])
             with np.errstate(divide="ignore", invalid="ignore"):
-                out["cop"][s] = np.where((fz > POINT_LOAD)[:, None],
-                                         np.column_stack([-moment[:, 1], moment[:, 0]]) / fz[:, None],
+                out["cop"][s] = np.where((fz > POINT_LOAD)[:, None], pressure / fz[:, None],
                                          np.nan)  # fmt: skip
             mine = on & bearing
             rot, origin = soles[s]
