@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import TrajectoryError
+from .linalg import cross
 from .run_metadata import RunMetadata
 
 __all__ = ["Trajectory"]
@@ -178,6 +179,9 @@ class Recorder:
             # the world origin, the impulses at their own points (an exact wrench: what inverse
             # dynamics applies), and the joint ranges' moments in generalised coordinates
             self.legs = legs or {}
+            # each leg's joints as a lookup by joint (a step's points are sorted by a gather)
+            self._leg_of = {side: np.isin(np.arange(model.njoints), joints)
+                            for side, joints in self.legs.items()}  # fmt: skip
             for side in self.legs:
                 self.forces[f"ground_{side}"] = np.zeros((n, 6))
             self.forces["joint_ranges"] = np.zeros((n, model.nv))
@@ -208,12 +212,11 @@ class Recorder:
         found = getattr(sim, "ground_step", None)
         if found is not None and "ground" in self.forces:
             self.forces["ground"][i] = found.wrench / sim.scene.dt
-            for side, joints in self.legs.items():
-                mine = np.isin(found.joints, joints)
+            for side, leg in self._leg_of.items():
+                mine = leg[found.joints]
                 f, p = found.impulses[mine] / sim.scene.dt, found.points[mine]
-                self.forces[f"ground_{side}"][i] = np.concatenate(
-                    [f.sum(axis=0), np.cross(p, f).sum(axis=0)]
-                )
+                self.forces[f"ground_{side}"][i, :3] = f.sum(axis=0)
+                self.forces[f"ground_{side}"][i, 3:] = cross(p, f).sum(axis=0)
             if found.limit_generalized is not None:
                 self.forces["joint_ranges"][i] = found.limit_generalized / sim.scene.dt
         constraints = sim.active_constraints()

@@ -162,8 +162,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "P10",
         "constraints/ground.py",
-        "np.cross(floor, self.impulses).sum(axis=0)",
-        "np.cross(self.impulses, floor).sum(axis=0)",
+        "cross(floor, self.impulses).sum(axis=0)",
+        "cross(self.impulses, floor).sum(axis=0)",
         (P, *GROUND),
         "the ground wrench's moment with the wrong sign (f x r)",
     ),
@@ -814,6 +814,14 @@ MUTATIONS: tuple[Mutation, ...] = (
             *("tests/test_gaitlab.py::test_a_curve_in_band_and_its_roughness", *GAIT),
         ),
         "in_band's width 1 SD whatever sds says",
+    ),
+    M(
+        "GA5",
+        "walking/gait.py",
+        "M[j] -= _sums(cross(pts[on] - O[j][at[on]], forces[on]), at[on], n)",
+        "M[j] += _sums(cross(pts[on] - O[j][at[on]], forces[on]), at[on], n)",
+        ("tests/test_gait.py::test_joint_moments_are_the_plants_torques",),
+        "the gait record's joint moments with the ground's forces added, not taken away",
     ),
     M(
         "RP1",

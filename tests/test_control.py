@@ -345,3 +345,75 @@ def test_the_cached_pyramids_and_the_identity_force_task_are_the_products():
     target, S = rng.normal(size=24), np.eye(24)
     P, q = ForceTask(target, 0.01).terms(24)
     assert np.array_equal(P, 0.01 * S.T @ S) and np.array_equal(q, -0.01 * S.T @ target)
+
+
+def test_point_drifts_are_pinocchios_classical_accelerations_at_zero_dv():
+    """point_drifts (J' v of points on joints, world axes) against Pinocchio's classical
+    acceleration of a frame placed at each point, at a random state with a rotated, moving
+    pelvis and dv = 0."""
+    from humanoid.control.qp import point_drifts
+
+    h = get_model("male", "quaternion")
+    model = h.model.copy()
+    rng = np.random.default_rng(11)
+    q, v = random_state(h, rng)
+    joints = [3, 3, 7, 12, 12, 12]
+    local = rng.normal(size=(len(joints), 3)) * 0.1
+    frames = [model.addFrame(pin.Frame(f"p{i}", j, 0, pin.SE3(np.eye(3), r),
+                                       pin.FrameType.OP_FRAME))
+              for i, (j, r) in enumerate(zip(joints, local, strict=True))]  # fmt: skip
+    data = model.createData()
+    dynamics_terms(model, data, q, v)
+    want = np.array([pin.getFrameClassicalAcceleration(model, data, f, LWA).linear
+                     for f in frames])  # fmt: skip
+    got = point_drifts(data, joints, local)
+    assert np.abs(got).max() > 1.0  # a real drift at this state
+    np.testing.assert_allclose(got, want, atol=1e-12 * np.abs(want).max())
+
+
+def test_the_sticking_rows_span_the_loaded_points_rows():
+    """row_space gives an orthonormal basis of a foot's twelve dependent rows' span (rank 6):
+    the same projector as the SVD's, so U^T J dv = U^T b is the least-squares-consistent
+    set of J dv = b."""
+    from humanoid.control.qp import row_space
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    rng = np.random.default_rng(13)
+    q, v = random_state(h, rng)
+    data = model.createData()
+    dynamics_terms(model, data, q, v)
+    foot = model.frames[h.sole_id("right")].parentJoint
+    J6 = pin.getJointJacobian(model, data, foot, LWA)
+    origin = data.oMi[foot].translation
+    points = origin + rng.normal(size=(4, 3)) * 0.1
+    J = np.vstack([J6[:3] - pin.skew(p - origin) @ J6[3:] for p in points])
+    U = row_space(J)
+    V, S, _ = np.linalg.svd(J, full_matrices=False)
+    want = V[:, S > 1e-9 * S[0]]
+    assert U.shape == (12, 6)
+    np.testing.assert_allclose(U.T @ U, np.eye(6), atol=1e-12)
+    np.testing.assert_allclose(U @ U.T, want @ want.T, atol=1e-9)
+
+
+def test_the_qps_identity_force_task_is_the_explicit_one():
+    """whole_body_qp adds an identity ForceTask to P's diagonal: the same P and q as the
+    task with its rows given (S = I, through its products)."""
+    from humanoid.control.qp import whole_body_qp
+    from humanoid.control.tasks import ForceTask, PostureTask, TaskStack
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    rng = np.random.default_rng(17)
+    q, v = random_state(h, rng)
+    data = model.createData()
+    M, hv = dynamics_terms(model, data, q, v)
+    tasks = TaskStack(model, data, q, v)
+    tasks.add(PostureTask(h.standing_configuration(), 10.0, 2.0, 0.1))
+    Jc = rng.normal(size=(12, model.nv))
+    target = rng.normal(size=12)
+    fast = whole_body_qp(M, hv, 700.0, tasks, Jc, 0.6, forces=[ForceTask(target, 0.3)])
+    slow = whole_body_qp(M, hv, 700.0, tasks, Jc, 0.6,
+                         forces=[ForceTask(target, 0.3, np.eye(12))])  # fmt: skip
+    np.testing.assert_allclose(fast.P, slow.P, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-12)

@@ -40,6 +40,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ModelError, SceneError
+from ..linalg import cross
 from ..variants import CONTACT_SOLVERS
 
 try:  # the compiled detection (humanoid/kernels.c); without a C compiler, the NumPy path
@@ -580,7 +581,7 @@ class StepContacts:
             return np.zeros(6)
         floor = self.points * np.array([1.0, 1.0, 0.0])
         return np.concatenate([self.impulses.sum(axis=0),
-                               np.cross(floor, self.impulses).sum(axis=0)])  # fmt: skip
+                               cross(floor, self.impulses).sum(axis=0)])  # fmt: skip
 
 
 class _WarmStart:

@@ -33,9 +33,11 @@ __all__ = [
     "dynamics_terms",
     "feet_contacts",
     "frame_jacobians",
+    "point_drifts",
     "pyramid_rows",
     "ramped_bound",
     "range_damper",
+    "row_space",
     "whole_body_qp",
 ]
 
@@ -238,6 +240,10 @@ def whole_body_qp(M, hvec, weight: float, tasks, Jc, mu: float, *, forces=(), mo
     P[:nv, :nv] = B.T @ (W[:, None] * B)
     qv[:nv] = -B.T @ (W * a)
     for task in forces:
+        if task.rows is None:  # S = I: the weight on the forces' diagonal
+            P.flat[nv * (n + 1) :: n + 1] += task.weight
+            qv[nv:] -= task.weight * np.asarray(task.target, dtype=float)
+            continue
         Pf, qf = task.terms(nf)
         P[nv:, nv:] += Pf
         qv[nv:] += qf
@@ -280,6 +286,37 @@ def frame_jacobians(model, data, frames) -> np.ndarray:
     if not frames:
         return np.zeros((0, model.nv))
     return np.vstack([pin.getFrameJacobian(model, data, f, lwa)[:3] for f in frames])
+
+
+def point_drifts(data, joints, local) -> np.ndarray:
+    """Points' accelerations at dv = 0, J' v, world axes, (k, 3), from ``data``'s kinematics
+    at dv = 0 (:func:`dynamics_terms`): the points at ``local`` (k, 3) in the frames of their
+    ``joints`` (k,). A point r of a joint with velocity (v, w) and acceleration (a, alpha) in
+    its axes: a + alpha x r + w x (v + w x r) = c + K r, with c = a + w x v and
+    K = [alpha]x + w w^T - |w|^2 I (a point at rest on a moving chain, a stance foot under a
+    walking body, has a few m/s^2 of it)."""
+    out = np.empty((len(joints), 3))
+    joints = np.asarray(joints, dtype=int)
+    for j in set(joints.tolist()):
+        vj, aj = data.v[j], data.a[j]
+        w = vj.angular
+        c = aj.linear + cross(w, vj.linear)
+        K = np.outer(w, w)
+        K.flat[::4] -= w @ w
+        K += pin.skew(aj.angular)
+        R = data.oMi[j].rotation
+        on = joints == j
+        out[on] = local[on] @ (R @ K).T + R @ c
+    return out
+
+
+def row_space(J: np.ndarray) -> np.ndarray:
+    """An orthonormal basis U (m, r) of the span of J's columns (m, n), whose r combinations
+    U^T J of J's rows are independent: the eigenvectors of J J^T with an eigenvalue above
+    1e-12 of the largest (singular values above 1e-6 of the largest; a rigid body's points'
+    rows have their dependent ones at 1e-16). For m < n, a third of an SVD's cost."""
+    lam, V = np.linalg.eigh(J @ J.T)
+    return V[:, lam > 1e-12 * lam[-1]]
 
 
 def contact_qp(model, data, solver, found, loaded, free, tasks, M, hvec, q, v, dt: float,
@@ -327,8 +364,7 @@ def contact_qp(model, data, solver, found, loaded, free, tasks, M, hvec, q, v, d
             target[2::3] -= np.where(phi[at] <= 0.0, gap[at], phi[at] / g.settle)
         else:
             target[2::3] -= gap[at]
-        U, S, _ = np.linalg.svd(Jc, full_matrices=False)
-        U = U[:, S > 1e-9 * S[0]]
+        U = row_space(Jc)
         rate = target / max(dt, g.contact_time)
         if drift is not None:
             rate = rate - np.asarray(drift, dtype=float).ravel()
@@ -366,12 +402,21 @@ class JointWrenches:
         object at every call; the joints the last call loaded and this one does not are
         zeroed)."""
         fext = self.fext
+        ids = np.asarray(joints, dtype=int)
+        loaded = list(dict.fromkeys(ids.tolist()))
         for j in self._loaded:
-            fext[j] = pin.Force.Zero()
-        joints = np.asarray(joints, dtype=int)
-        self._loaded = list(dict.fromkeys(joints.tolist()))
-        for j in self._loaded:
-            on = joints == j
-            f_j = f[on] @ data.oMi[j].rotation  # R^T f: the joint's axes
-            fext[j] = pin.Force(f_j.sum(axis=0), cross(local[on], f_j).sum(axis=0))
+            if j not in loaded:
+                fext[j] = pin.Force.Zero()
+        self._loaded = loaded
+        for j in loaded:
+            if len(loaded) == 1:
+                f_j, r_j = f, local
+            else:
+                on = ids == j
+                f_j, r_j = f[on], local[on]
+            f_j = f_j @ data.oMi[j].rotation  # R^T f: the joint's axes
+            # sum r x f: the antisymmetric part of sum r f^T
+            c = (r_j.T @ f_j).ravel().tolist()
+            fext[j] = pin.Force(np.array([*f_j.sum(axis=0).tolist(), c[5] - c[7], c[6] - c[2],
+                                          c[1] - c[3]]))  # fmt: skip
         return fext

@@ -52,6 +52,7 @@ from ..control.qp import (
     contact_qp,
     dynamics_terms,
     feet_contacts,
+    point_drifts,
     ramped_bound,
 )
 from ..control.tasks import (
@@ -64,7 +65,6 @@ from ..control.tasks import (
 )
 from ..effects import Effect
 from ..errors import WalkError
-from ..linalg import cross
 from ..model import SIDES
 from ..optimal.cycle import (
     KINDS,
@@ -96,6 +96,7 @@ MATCH = 0.01  # [m] a detected corner is the cycle's contact point this near, on
 CONTROL_PERIOD = 4e-3
 SLIDING = 0.01  # [m/s] a loaded point this fast slides: the QP is solved at once
 OFF_COURSE = 0.5  # [m/s, rad/s] a velocity this far from the held accelerations': solved at once
+TABLE_STEP = 1e-3  # [s] the tracker's reference is tabulated this finely (CycleReference.tabulated)
 
 
 @dataclass(frozen=True)
@@ -252,11 +253,86 @@ class CycleReference:
         x[0] += lap * self.stride
         return x, v, a
 
+    def _coordinates_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x, v) of :meth:`coordinates` at many times at once, (n, nx) each (the same
+        numbers)."""
+        if self.periodic:
+            laps = np.floor(times / self.period)
+            tau = times - laps * self.period
+        else:
+            laps, tau = np.zeros(len(times)), np.clip(times, 0.0, self.period)
+        k = np.clip(np.searchsorted(self.t, tau, side="right") - 1, 0, len(self.t) - 2)
+        h = (self.t[k + 1] - self.t[k])[:, None]
+        u = ((tau - self.t[k]) / h[:, 0])[:, None]
+        x0, x1, v0, v1 = self.x[k], self.x[k + 1], self.v[k], self.v[k + 1]
+        x = ((2 * u**3 - 3 * u**2 + 1) * x0 + (u**3 - 2 * u**2 + u) * h * v0
+             + (-2 * u**3 + 3 * u**2) * x1 + (u**3 - u**2) * h * v1)  # fmt: skip
+        v = ((6 * u**2 - 6 * u) * x0 + (3 * u**2 - 4 * u + 1) * h * v0
+             + (-6 * u**2 + 6 * u) * x1 + (3 * u**2 - 2 * u) * h * v1) / h  # fmt: skip
+        if self.turn is None:
+            x[:, 0] += laps * self.stride
+            return x, v
+        for i in np.flatnonzero(laps).tolist():  # (a turned lap: the rows beyond the cycle)
+            x[i], v[i], _ = self.gait.lapped(x[i], v[i], v[i], int(laps[i]))
+        return x, v
+
     def state(self, t: float, h: float = 1e-3):
         """(q, v, a) of the body at t (a by central differences of v)."""
         xs, vs = zip(*(self.coordinates(s)[:2] for s in (t, t - h, t + h)), strict=True)
         q, vb = self.om.to_body(np.array(xs), np.array(vs))  # the three at once
         return q[0], vb[0], (vb[2] - vb[1]) / (2 * h)
+
+    def tabulated(self, t: float):
+        """:meth:`state` from a table of it every :data:`TABLE_STEP` (its difference step) of
+        the cycle, made at the first call: at the table's times the same numbers; between two,
+        the configuration's geodesic (``pin.interpolate``) and the rates' straight line, off
+        :meth:`state`'s by at most an eighth of the step squared times their second
+        derivative (1e-6 rad at 8 rad/s^2... 1e-5 at 80). The tracker reads its reference here
+        at every QP tick: the map from the cycle's coordinates to the body's costs 60 times
+        the lookup (0.3 ms)."""
+        times, T, Q, V, A = self._table()
+        if self.periodic:
+            lap = math.floor(t / self.period)
+            tau = t - lap * self.period
+        else:
+            lap, tau = 0, min(max(t, T[0]), T[-1])
+        k = min(max(bisect.bisect_right(times, tau) - 1, 0), len(times) - 2)
+        u = (tau - T[k]) / (T[k + 1] - T[k])
+        q = pin.interpolate(self.om.body.model, Q[k], Q[k + 1], u)
+        v = V[k] + u * (V[k + 1] - V[k])
+        a = A[k] + u * (A[k + 1] - A[k])
+        if lap:
+            if self.turn is None:
+                q[0] += lap * self.stride
+            else:  # turned about the circle's centre: the root's place and its yaw
+                theta = lap * self.turn
+                c = np.array([0.0, self.gait.radius])
+                q[:2] = rotation(theta) @ (q[:2] - c) + c
+                turned = pin.Quaternion(math.cos(theta / 2), 0.0, 0.0, math.sin(theta / 2))
+                q[3:7] = (turned * pin.Quaternion(q[3:7])).coeffs()
+        return q, v, a
+
+    def _table(self) -> tuple:
+        """(times as a list, times, q, v, a): :meth:`state` at each node and at least every
+        :data:`TABLE_STEP` between two (within an interval the coordinates are smooth: the
+        nodes' kinks are the table's), over the cycle (lap 0) or the whole motion and two
+        steps beyond each end; made again when ``t`` is replaced."""
+        cached = getattr(self, "_tabled", None)
+        if cached is not None and cached[0] is self.t:
+            return cached[1]
+        h = TABLE_STEP
+        pieces = [np.linspace(a, b, max(1, math.ceil((b - a) / h - 1e-9)) + 1)[:-1]
+                  for a, b in zip(self.t[:-1], self.t[1:], strict=True)]  # fmt: skip
+        times = np.concatenate([*pieces, self.t[-1:]])
+        if not self.periodic:  # (state holds the ends beyond them)
+            times = np.concatenate([self.t[0] - h * np.array([2.0, 1.0]), times,
+                                    self.t[-1] + h * np.array([1.0, 2.0])])  # fmt: skip
+        xs, vs = self._coordinates_at(np.column_stack([times, times - h, times + h]).ravel())
+        q, vb = self.om.to_body(xs, vs)
+        table = (times.tolist(), times, q[0::3].copy(), vb[0::3].copy(),
+                 (vb[2::3] - vb[1::3]) / (2 * h))  # fmt: skip
+        self._tabled = (self.t, table)
+        return table
 
     def heading(self, t: float) -> float:
         """[rad] the direction of travel at t: 0 straight on; along a circle, turning at the
@@ -268,14 +344,19 @@ class CycleReference:
 
     def force(self, t: float, point: str) -> np.ndarray:
         """[N] the cycle's force at ``point`` at t, world axes."""
+        return self.forces_at(t, [point])[0]
+
+    def forces_at(self, t: float, points) -> np.ndarray:
+        """[N] the cycle's forces at ``points`` at t, (n, 3), world axes (zero at a point it
+        has no force at)."""
         lap, k, s = self._interval(t)
-        f = self.forces.get(point)
-        if f is None:
-            return np.zeros(3)
         u = s / (self.t[k + 1] - self.t[k])
-        out = (1 - u) * f[k] + u * f[k + 1]
+        none = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        ends = np.array([(f[k], f[k + 1]) if (f := self.forces.get(p)) is not None else none
+                         for p in points]).reshape(len(points), 2, 3)  # fmt: skip
+        out = (1 - u) * ends[:, 0] + u * ends[:, 1]
         if self.turn is not None and lap:
-            out[:2] = rotation(lap * self.turn) @ out[:2]
+            out[:, :2] = out[:, :2] @ rotation(lap * self.turn).T
         return out
 
     def contacts(self, t: float) -> set:
@@ -356,10 +437,10 @@ class Sampled:
         pushed = found.impulses[:, 2] > 0.0
         joints, local, vj = found.joints[pushed], found.local[pushed], self.data.v
         for j in set(joints.tolist()):
-            r = local[joints == j]
-            w = vj[j].angular
-            speed = np.linalg.norm(vj[j].linear + cross(w, r), axis=1)
-            if speed.max(initial=0.0) > SLIDING:
+            r = local[joints == j] if len(joints) > 1 else local
+            # the points' velocities v + w x r (joint j's axes), as r [w]x^T + v
+            velocity = r @ pin.skew(vj[j].angular).T + vj[j].linear
+            if (velocity * velocity).sum(axis=1).max() > SLIDING * SLIDING:
                 return True
         return False
 
@@ -398,6 +479,10 @@ class CycleTracker(Effect):
                            and f.name in set(reference.forces)] for s in SIDES}  # fmt: skip
         self.point_id = {p: model.getFrameId(p) for s in SIDES for p in self.points[s]}
         self.point_joint = {p: model.frames[f].parentJoint for p, f in self.point_id.items()}
+        # the cycle's points of both feet: names, frames, joints
+        names = [p for s in SIDES for p in self.points[s]]
+        self._all_points = (names, [self.point_id[p] for p in names],
+                            np.array([self.point_joint[p] for p in names], dtype=int))  # fmt: skip
         self.side_of_joint = {
             j: s for s in SIDES for j in model.subtrees[model.frames[self.sole[s]].parentJoint]
         }
@@ -444,7 +529,7 @@ class CycleTracker(Effect):
         M, hvec = dynamics_terms(model, data, q, v)
         found, _ = feet_contacts(self.ground, model, data, {}, q)
         phi, pts, joint_of = found.phi, found.points, found.joints.tolist()
-        q_r, v_r, a_r = ref.state(tc)
+        q_r, v_r, a_r = ref.tabulated(tc)
         # the reference follows the footsteps the body makes (blended in)
         u = min(1.0, (t - self.offset_t) / g.blend) if self.offset_t >= 0 else 1.0
         self.offset = self.offset_from + smooth(u) * (self.offset_to - self.offset_from)
@@ -497,7 +582,8 @@ class CycleTracker(Effect):
         target, upper = self._cycle_forces(tc, match)
         p = contact_qp(model, data, self.ground, found, loaded, free, tasks, M, hvec, q, v, dt,
                        self.weight, g, self.ranges, g.range_margin, g.range_time,
-                       drift=[self._drift(joint_of[i], found.local[i]) for i in loaded],
+                       drift=point_drifts(self.data, [joint_of[i] for i in loaded],
+                                          found.local[loaded]),
                        forces=[ForceTask(target, g.w_force)],
                        upper=upper if loaded else None)  # fmt: skip
         x, relaxed = p.solve(self.qp)
@@ -514,16 +600,15 @@ class CycleTracker(Effect):
         point's shared among the corners matched to it, and their vertical upper bounds: the
         cycle's plus a margin that fades to zero before the cycle lifts the point."""
         g, ref = self.gains, self.ref
-        count: dict[int, int] = {}
+        count: dict[str, int] = {}
         for m in match:
             count[m] = count.get(m, 0) + 1
-        target = np.zeros(3 * len(match))
-        upper = np.zeros(len(match))
-        for j, m in enumerate(match):
-            f_ref = ref.force(tc, m) / self.weight / count[m]
-            target[3 * j : 3 * j + 3] = f_ref
-            upper[j] = ramped_bound(f_ref[2], ref.time_to_lift(tc, m), g.ramp, g.margin / count[m])
-        return target, upper
+        shares = np.array([count[m] for m in match], dtype=float)
+        f_ref = ref.forces_at(tc, match) / self.weight / shares[:, None]
+        lift = {m: ref.time_to_lift(tc, m) for m in count}
+        upper = np.array([ramped_bound(f, lift[m], g.ramp, g.margin / count[m])
+                          for f, m in zip(f_ref[:, 2].tolist(), match, strict=True)])  # fmt: skip
+        return f_ref.ravel(), upper
 
     def _advance_clock(self, t: float, q) -> float:
         """The cycle's time at t: real time, sped up or slowed down by how far the body's
@@ -545,20 +630,10 @@ class CycleTracker(Effect):
     def _corners(self, joint_of, phi, pts, in_contact):
         """The detected corners split into loaded and free (indices), and the cycle's point
         each loaded one is (see the module)."""
-        g, data = self.gains, self.data
+        g = self.gains
         loaded, free, match = [], [], []
-        at: dict[str, np.ndarray] = {}  # the cycle's points' places, read once
-        for i, joint in enumerate(joint_of):
-            side = self.side_of_joint.get(joint)
-            best = None
-            if side is not None:  # the cycle's point at this corner: on its body, within 1 cm
-                for p in self.points[side]:
-                    if p not in at and self.point_joint[p] == joint:
-                        at[p] = data.oMf[self.point_id[p]].translation
-                d = [np.linalg.norm(at[p] - pts[i]) if self.point_joint[p] == joint else np.inf
-                     for p in self.points[side]]  # fmt: skip
-                k = int(np.argmin(d)) if d else -1
-                best = self.points[side][k] if d and d[k] < MATCH else None
+        nearest = self._nearest(joint_of, pts)
+        for i, best in enumerate(nearest):
             keep = best is not None and best in self.loaded_before and phi[i] < g.touch
             if best is not None and (best in in_contact or keep) and phi[i] < g.touch:
                 loaded.append(i)
@@ -580,6 +655,24 @@ class CycleTracker(Effect):
         free = [i for i in free if self.side_of_joint.get(joint_of[i]) not in bearing]
         self.loaded_before = set(match)
         return loaded, free, match
+
+    def _nearest(self, joint_of, pts) -> list:
+        """The cycle's point at each detected corner (or None): the nearest of the cycle's
+        points on the same body, within :data:`MATCH`."""
+        out = [None] * len(joint_of)
+        names, ids, joints = self._all_points
+        if not len(joint_of) or not names:
+            return out
+        oMf = self.data.oMf
+        at = np.array([oMf[f].translation for f in ids])
+        d = pts[:, None, :] - at[None]
+        d2 = np.where(np.asarray(joint_of)[:, None] == joints[None], (d * d).sum(axis=2), np.inf)
+        k = d2.argmin(axis=1)
+        for i, (ki, di) in enumerate(zip(k.tolist(), d2[np.arange(len(k)), k].tolist(),
+                                         strict=True)):  # fmt: skip
+            if di < MATCH * MATCH:
+                out[i] = names[ki]
+        return out
 
     def _reanchor(self, t: float, tc: float, match) -> None:
         """At a heel strike, the reference moves (over ``blend``) to where the foot landed; on
@@ -603,15 +696,6 @@ class CycleTracker(Effect):
                 self.offset_t = t
             self.landed[s] = heel_down or (self.landed[s] and any(
                 m.startswith(s) for m in match))  # fmt: skip
-
-    def _drift(self, j: int, r: np.ndarray) -> np.ndarray:
-        """A loaded corner's acceleration at dv = 0, J' v, world axes (``data`` holds the
-        kinematics at dv = 0): the corner at r in joint j's frame."""
-        vj, aj = self.data.v[j], self.data.a[j]
-        w = vj.angular
-        lin = aj.linear + cross(aj.angular, r)
-        vel = vj.linear + cross(w, r)
-        return self.data.oMi[j].rotation @ (lin + cross(w, vel))
 
 
 def smooth(u: float) -> float:
