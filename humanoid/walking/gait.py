@@ -284,15 +284,12 @@ class GaitRecorder:
         """Step by step, what Pinocchio gives: the kinetics' joints' world rotations R[j]
         (n, 3, 3), origins O[j] (n, 3), moments M[j] without the ground (RNEA's, world axes)
         and angular velocities W[j] (n, 3); the soles' placements by side (rotation's first
-        column, origin: (n, 3) each, at the steps with bearing points); the bearing points'
-        places after their step (k, 3)."""
+        column, origin: (n, 3) each); the bearing points' places after their step (k, 3)."""
         model, d, after = self.model, self.data, self.next
         n = len(q)
-        R = {j: np.empty((n, 3, 3)) for j in self._rotations}
-        O = {j: np.empty((n, 3)) for j in self._moments}
+        H = {j: np.empty((n, 4, 4)) for j in self._rotations}  # the placements, homogeneous
         M = {j: np.empty((n, 3)) for j in self._moments}
         W = {j: np.empty((n, 3)) for j in self._omegas}
-        soles = {s: (np.empty((n, 3)), np.empty((n, 3))) for s in SIDES}
         # each bearing point's joint's placement after its step
         points = np.flatnonzero(bearing)
         Rn, tn = np.empty((len(points), 3, 3)), np.empty((len(points), 3))
@@ -300,28 +297,31 @@ class GaitRecorder:
         for i in range(n):
             pin.forwardKinematics(model, d, q[i])  # (the placements: RNEA's are relative)
             pin.rnea(model, d, q[i], v[i], a[i])
-            for j, Rj in R.items():
-                Rj[i] = d.oMi[j].rotation
+            for j, Hj in H.items():
+                Hj[i] = d.oMi[j].homogeneous
             for j, Mj in M.items():  # (in the joints' frames: turned to the world's below)
-                O[j][i] = d.oMi[j].translation
                 Mj[i] = d.f[j].angular
             for j, Wj in W.items():
                 Wj[i] = d.v[j].angular
             lo, hi = first[i], first[i + 1]
             if lo == hi:
                 continue
-            for s, (rot, origin) in soles.items():
-                sole = pin.updateFramePlacement(model, d, self.sole[s])
-                rot[i], origin[i] = sole.rotation[:, 0], sole.translation
             pin.forwardKinematics(model, after, q_next[i])
             for j in set(joints[points[lo:hi]].tolist()):
                 placed = after.oMi[j]
                 ks = lo + np.flatnonzero(joints[points[lo:hi]] == j)
                 Rn[ks], tn[ks] = placed.rotation, placed.translation
         moved = np.einsum("kij,kj->ki", Rn, local[points]) + tn
+        R = {j: Hj[:, :3, :3] for j, Hj in H.items()}
+        O = {j: Hj[:, :3, 3] for j, Hj in H.items()}
         for X in (M, W):
             for j, Xj in X.items():
                 X[j] = np.einsum("nij,nj->ni", R[j], Xj)
+        soles = {}  # each sole's frame: its joint's placement times the frame's
+        for s in SIDES:
+            frame = model.frames[self.sole[s]].placement
+            Rf = R[self.foot[s]]
+            soles[s] = (Rf @ frame.rotation[:, 0], O[self.foot[s]] + Rf @ frame.translation)
         return R, O, M, W, soles, moved
 
 
