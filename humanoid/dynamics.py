@@ -16,17 +16,30 @@ show both agree to 1e-9.
 
 from __future__ import annotations
 
+from types import ModuleType, SimpleNamespace
+
 import numpy as np
 import pinocchio as pin
 
+from .errors import ModelError
 from .model import Humanoid, check_configuration
 
+try:  # the compiled kernels (humanoid/kernels.c)
+    from . import kernels as _compiled
+
+    KERNELS: ModuleType | None = _compiled
+except ImportError:  # pragma: no cover - the package built without its extension
+    KERNELS = None
+
 __all__ = [
+    "JOINT_KINDS",
+    "TreeDynamics",
     "bias_forces",
     "centre_of_mass",
     "centre_of_pressure",
     "centroidal_momentum",
     "gravity_forces",
+    "kernel_tree",
     "kinetic_energy",
     "mass_matrix",
     "potential_energy",
@@ -36,6 +49,92 @@ __all__ = [
 
 # [N] a vertical force under this has no centre of pressure
 COP_FORCE = 1e-9
+
+# the joints the compiled kernels place (as kernels.c's J_*): a model with another kind of
+# joint keeps the NumPy and Pinocchio paths
+JOINT_KINDS = {"JointModelFreeFlyer": 0, "JointModelSpherical": 1, "JointModelRX": 2,
+               "JointModelRY": 2, "JointModelRZ": 2, "JointModelRevoluteUnaligned": 2,
+               "JointModelPX": 3, "JointModelPY": 3, "JointModelPZ": 3,
+               "JointModelPrismaticUnaligned": 3, "JointModelRUBX": 4, "JointModelRUBY": 4,
+               "JointModelRUBZ": 4, "JointModelRevoluteUnboundedUnaligned": 4}  # fmt: skip
+
+
+def _joint_axis(jm) -> np.ndarray:
+    """A revolute or prismatic joint's unit axis in its frame (zero for the others)."""
+    name = jm.shortname()
+    if name[-1] in "XYZ" and ("JointModelR" in name or "JointModelP" in name):
+        return np.eye(3)["XYZ".index(name[-1])]
+    if "Unaligned" in name:
+        return np.asarray(jm.extract().axis, dtype=float)
+    return np.zeros(3)
+
+
+def kernel_tree(model: pin.Model) -> list[np.ndarray] | None:
+    """The compiled kernels' copy of a model's tree: its parents, joint kinds
+    (:data:`JOINT_KINDS`), configuration and velocity indices (int64), joint axes (nj, 3) and
+    joint placements (nj, 12: rotation row-major, translation); None if a joint is of a kind
+    the kernels do not place."""
+    kinds = [JOINT_KINDS.get(jm.shortname(), -1) for jm in model.joints]
+    if min(kinds[1:], default=0) < 0:
+        return None
+    place = np.array([np.concatenate([M.rotation.ravel(), M.translation])
+                      for M in model.jointPlacements])  # fmt: skip
+    ints = [np.array(model.parents), kinds, [jm.idx_q for jm in model.joints],
+            [jm.idx_v for jm in model.joints]]  # fmt: skip
+    return [*(np.ascontiguousarray(a, dtype=np.int64) for a in ints),
+            np.ascontiguousarray([_joint_axis(jm) for jm in model.joints], dtype=float),
+            np.ascontiguousarray(place, dtype=float)]  # fmt: skip
+
+
+class TreeDynamics:
+    """Many states' kinematics and inverse dynamics in one compiled call (kernels.c's
+    ``tree_dynamics``): each joint's world placement and its body's angular velocity, the
+    force each joint carries (RNEA's, without external forces: the moment about the joint's
+    origin and the force, world axes) and the generalised forces tau = M a + b. The same
+    numbers as Pinocchio's forward kinematics and RNEA to 1e-9 (tests/test_kernels.py), a
+    hundredth of the cost of calling them state by state from Python.
+
+    ``available`` is False when the kernels are not built or a joint is of a kind they do not
+    place (then use Pinocchio).
+
+    Args:
+        model: The Pinocchio model (its gravity is the one used).
+    """
+
+    def __init__(self, model: pin.Model) -> None:
+        self.model = model
+        tree = kernel_tree(model) if KERNELS is not None else None
+        self.available = tree is not None
+        self._plan = None
+        if tree is not None and KERNELS is not None:
+            i64, none = np.int64, np.zeros(0)
+            # a ground plan without candidate points: the tree alone
+            empty = [np.zeros(0, dtype=i64)] * 3 + [none] * 3 + [np.zeros(0, dtype=i64)] * 2
+            self._plan = KERNELS.ground_plan(model.njoints, model.nq, model.nv, 0, 0, 0, 1, 0.0,
+                                             0.0, *tree, *empty, none)  # fmt: skip
+        self._inertia = np.ascontiguousarray([
+            np.concatenate([[I.mass], I.lever, I.inertia.ravel()]) for I in model.inertias
+        ])  # fmt: skip
+
+    def __call__(self, q, v, a) -> SimpleNamespace:
+        """At the states (q, v, a) (n, nq), (n, nv), (n, nv): ``R`` (n, nj, 3, 3) and ``t``
+        (n, nj, 3) the joints' placements, ``w`` (n, nj, 3) their bodies' angular
+        velocities, ``m`` and ``f`` (n, nj, 3) the moment about each joint's origin and the
+        force it carries, world axes (the root's zero), ``tau`` (n, nv)."""
+        if self._plan is None or KERNELS is None:
+            raise ModelError(f"{self.model.name or 'the model'}: TreeDynamics is not available "
+                             "(the kernels are not built, or a joint is of a kind they do not "
+                             "place)")  # fmt: skip
+        model = self.model
+        q, v, a = (np.ascontiguousarray(x, dtype=float) for x in (q, v, a))
+        n, nj = len(q), model.njoints
+        out = SimpleNamespace(R=np.empty((n, nj, 3, 3)), t=np.empty((n, nj, 3)),
+                              w=np.empty((n, nj, 3)), m=np.empty((n, nj, 3)),
+                              f=np.empty((n, nj, 3)), tau=np.empty((n, model.nv)))  # fmt: skip
+        KERNELS.tree_dynamics(self._plan, n, self._inertia,
+                              np.ascontiguousarray(model.gravity.linear), q, v, a, out.R, out.t,
+                              out.w, out.m, out.f, out.tau)  # fmt: skip
+        return out
 
 
 def centre_of_pressure(wrench, height: float = 0.0) -> np.ndarray:

@@ -942,6 +942,164 @@ static PyObject *placements(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* a joint's motion subspace in world axes about the world's origin, placed (oR, ot of j):
+ * S (6 x nvj, column-major: each column angular then linear), returns nvj */
+static int subspace(const Plan *p, Py_ssize_t j, double *S) {
+    const double *R = p->oR + 9 * j, *o = p->ot + 3 * j;
+    double a[3];
+    int n = 0;
+    switch (p->kind[j]) {
+    case J_FREE: /* the body's twist in its own axes: linear, then angular */
+        for (int i = 0; i < 3; ++i, ++n) {
+            double *c = S + 6 * n;
+            c[0] = c[1] = c[2] = 0.0;
+            c[3] = R[i], c[4] = R[3 + i], c[5] = R[6 + i];
+        }
+        /* the angular columns: a ball's */
+        /* fall through */
+    case J_BALL:
+        for (int i = 0; i < 3; ++i, ++n) {
+            double *c = S + 6 * n;
+            c[0] = R[i], c[1] = R[3 + i], c[2] = R[6 + i];
+            cross(o, c, c + 3); /* the origin's velocity o x w */
+        }
+        return n;
+    case J_PRISMATIC:
+        mv3(R, p->axis + 3 * j, a);
+        S[0] = S[1] = S[2] = 0.0, S[3] = a[0], S[4] = a[1], S[5] = a[2];
+        return 1;
+    default: /* revolute, bounded or not */
+        mv3(R, p->axis + 3 * j, S);
+        cross(o, S, S + 3);
+        return 1;
+    }
+}
+
+/* (w, v) x (w2, v2) for motion vectors, added to out: (w x w2, w x v2 + v x w2) */
+static void motion_cross_add(const double *V, const double *U, double *out) {
+    double c[3];
+    cross(V, U, c);
+    out[0] += c[0], out[1] += c[1], out[2] += c[2];
+    cross(V, U + 3, c);
+    out[3] += c[0], out[4] += c[1], out[5] += c[2];
+    cross(V + 3, U, c);
+    out[3] += c[0], out[4] += c[1], out[5] += c[2];
+}
+
+/* every state's kinematics and inverse dynamics (RNEA) in world axes about the world origin:
+ * V_j = V_parent + S q', A_j = A_parent + S q'' + V_j x S q' (A_0: minus gravity), the body's
+ * force I A + V x* I V (I: its inertia about the origin), summed from the leaves */
+static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
+    PyObject *capsule, *oI, *og, *oQ, *oV, *oA, *oR, *ot, *ow, *om, *of, *otau;
+    Py_ssize_t N;
+    if (!PyArg_ParseTuple(args, "OnOOOOOOOOOOO", &capsule, &N, &oI, &og, &oQ, &oV, &oA, &oR,
+                          &ot, &ow, &om, &of, &otau))
+        return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    const Py_ssize_t nj = p->nj, nq = p->nq, nv = p->nv, D = sizeof(double);
+    Py_buffer b[11];
+    PyObject *objs[11] = {oI, og, oQ, oV, oA, oR, ot, ow, om, of, otau};
+    const Py_ssize_t sizes[11] = {13 * nj, 3, N * nq, N * nv, N * nv, N * 9 * nj, N * 3 * nj,
+                                  N * 3 * nj, N * 3 * nj, N * 3 * nj, N * nv};
+    const char *names[11] = {"inertia", "gravity", "Q", "V", "A", "R", "t", "w", "m", "f", "tau"};
+    int got = 0;
+    for (; got < 11; ++got) {
+        int ok = got < 5 ? PyObject_GetBuffer(objs[got], &b[got], PyBUF_C_CONTIGUOUS) == 0
+                         : writable(objs[got], &b[got], sizes[got] * D, names[got]);
+        if (!ok) break;
+        if (got < 5 && b[got].len != sizes[got] * D) {
+            PyErr_Format(PyExc_ValueError, "tree_dynamics: %s has %zd bytes, expected %zd",
+                         names[got], b[got].len, sizes[got] * D);
+            ++got;
+            break;
+        }
+    }
+    double *scratch = got == 11 ? malloc(18 * nj * D) : NULL;
+    if (got == 11 && !scratch) PyErr_NoMemory();
+    if (scratch) {
+        const double *I = b[0].buf, *g = b[1].buf;
+        double *Vs = scratch, *As = scratch + 6 * nj, *Fs = scratch + 12 * nj, S[36];
+        for (Py_ssize_t k = 0; k < N; ++k) {
+            const double *q = (const double *)b[2].buf + k * nq;
+            const double *qd = (const double *)b[3].buf + k * nv;
+            const double *qdd = (const double *)b[4].buf + k * nv;
+            double *R = (double *)b[5].buf + k * 9 * nj, *t = (double *)b[6].buf + k * 3 * nj;
+            double *w = (double *)b[7].buf + k * 3 * nj, *m = (double *)b[8].buf + k * 3 * nj;
+            double *f = (double *)b[9].buf + k * 3 * nj, *tau = (double *)b[10].buf + k * nv;
+            kinematics(p, q);
+            memset(Vs, 0, 6 * D), memset(As, 0, 6 * D);
+            As[3] = -g[0], As[4] = -g[1], As[5] = -g[2];
+            for (Py_ssize_t j = 1; j < nj; ++j) {
+                const Py_ssize_t par = p->parent[j];
+                const long long iv = p->iv[j];
+                const int n = subspace(p, j, S);
+                double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = Vs + 6 * j, *Aj = As + 6 * j;
+                for (int c = 0; c < n; ++c)
+                    for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * qd[iv + c];
+                for (int i = 0; i < 6; ++i) Vj[i] = Vs[6 * par + i] + vj[i];
+                for (int i = 0; i < 6; ++i) Aj[i] = As[6 * par + i];
+                for (int c = 0; c < n; ++c)
+                    for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * qdd[iv + c];
+                motion_cross_add(Vj, vj, Aj);
+                /* the body: mass, centre of mass (joint frame), inertia about it (joint axes,
+                 * row-major), in world axes */
+                const double *In = I + 13 * j, *Rj = p->oR + 9 * j, *oj = p->ot + 3 * j;
+                const double mass = In[0];
+                double c[3], RI[9], Ic[9], RT[9];
+                mv3(Rj, In + 1, c);
+                c[0] += oj[0], c[1] += oj[1], c[2] += oj[2];
+                mat3(Rj, In + 4, RI);
+                for (int r = 0; r < 3; ++r)
+                    for (int s = 0; s < 3; ++s) RT[3 * r + s] = Rj[3 * s + r];
+                mat3(RI, RT, Ic);
+                const double *wv = Vj, *vO = Vj + 3, *al = Aj, *aO = Aj + 3;
+                double x[3], hl[3], ha[3], la[3], *F = Fs + 6 * j;
+                cross(wv, c, x); /* the momentum: m (vO + w x c), Ic w + c x it */
+                for (int i = 0; i < 3; ++i) hl[i] = mass * (vO[i] + x[i]);
+                mv3(Ic, wv, ha);
+                cross(c, hl, x);
+                for (int i = 0; i < 3; ++i) ha[i] += x[i];
+                cross(al, c, x); /* I A: m (aO + alpha x c), Ic alpha + c x it */
+                for (int i = 0; i < 3; ++i) la[i] = mass * (aO[i] + x[i]);
+                mv3(Ic, al, F);
+                cross(c, la, x);
+                for (int i = 0; i < 3; ++i) F[i] += x[i], F[3 + i] = la[i];
+                cross(wv, ha, x); /* V x* h: (w x ha + vO x hl, w x hl) */
+                for (int i = 0; i < 3; ++i) F[i] += x[i];
+                cross(vO, hl, x);
+                for (int i = 0; i < 3; ++i) F[i] += x[i];
+                cross(wv, hl, x);
+                for (int i = 0; i < 3; ++i) F[3 + i] += x[i];
+            }
+            for (Py_ssize_t j = nj - 1; j > 0; --j) {
+                const Py_ssize_t par = p->parent[j];
+                const double *F = Fs + 6 * j, *oj = p->ot + 3 * j;
+                const int n = subspace(p, j, S);
+                for (int c = 0; c < n; ++c) {
+                    double s = 0.0;
+                    for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[i];
+                    tau[p->iv[j] + c] = s;
+                }
+                double x[3];
+                cross(oj, F + 3, x); /* the moment about the joint's origin */
+                for (int i = 0; i < 3; ++i) {
+                    m[3 * j + i] = F[i] - x[i], f[3 * j + i] = F[3 + i];
+                    w[3 * j + i] = Vs[6 * j + i];
+                }
+                if (par > 0)
+                    for (int i = 0; i < 6; ++i) Fs[6 * par + i] += F[i];
+            }
+            memcpy(R, p->oR, 9 * nj * D), memcpy(t, p->ot, 3 * nj * D);
+            memset(m, 0, 3 * D), memset(f, 0, 3 * D), memset(w, 0, 3 * D);
+        }
+        free(scratch);
+    }
+    for (int i = 0; i < got; ++i) PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred()) return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"ground_plan", ground_plan, METH_VARARGS, "The model's tree and the candidate points."},
     {"ground_select", ground_select, METH_VARARGS,
@@ -954,6 +1112,8 @@ static PyMethodDef methods[] = {
     {"contact_solve", contact_solve, METH_VARARGS,
      "A step's contact impulses and velocity (ADMM); returns (iterations, converged)."},
     {"placements", placements, METH_VARARGS, "Every joint's placement at q (for the tests)."},
+    {"tree_dynamics", tree_dynamics, METH_VARARGS,
+     "States' joint placements, angular velocities, joint forces and torques (RNEA)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "kernels",

@@ -36,3 +36,18 @@ def contact_solve(
     lam: Any,
     v: Any,
 ) -> tuple[int, bool, float, int, bool]: ...
+def tree_dynamics(
+    plan: object,
+    n: int,
+    inertia: Any,
+    gravity: Any,
+    q: Any,
+    v: Any,
+    a: Any,
+    R: Any,
+    t: Any,
+    w: Any,
+    m: Any,
+    f: Any,
+    tau: Any,
+) -> None: ...

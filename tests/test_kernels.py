@@ -21,6 +21,7 @@ from test_ground import BOX, G0, _box, _run
 
 from humanoid.constraints import ground as G
 from humanoid.constraints.ground import Ground, GroundSettings
+from humanoid.errors import ModelError
 from humanoid.scene import Scene
 
 pytestmark = pytest.mark.skipif(G.KERNELS is None, reason="humanoid.kernels is not built")
@@ -307,3 +308,97 @@ def test_the_steps_handed_over_go_to_the_configured_admm():
     handed = ContactSolver(model, None, None, settings).solve_settings
     assert handed.admm_update_rule == pin.ADMMUpdateRule.SPECTRAL
     assert handed.lanczos_size == 7
+
+
+def _tree_dynamics_agrees(model: pin.Model, rng: np.random.Generator, states: int) -> None:
+    """TreeDynamics at random states (a turned, moving root) against Pinocchio's forward
+    kinematics and RNEA: placements 1e-12; angular velocities, the joints' forces and moments
+    (world axes, about each joint's origin) and tau to 1e-9 of their size."""
+    from humanoid.dynamics import TreeDynamics
+
+    tree = TreeDynamics(model)
+    assert tree.available
+    q = np.array([_random_q(model, rng, 1.0) for _ in range(states)])
+    v = rng.normal(size=(states, model.nv))
+    a = rng.normal(size=(states, model.nv)) * 5.0
+    got = tree(q, v, a)
+    data = model.createData()
+    for i in range(states):
+        pin.forwardKinematics(model, data, q[i], v[i], a[i])
+        tau = pin.rnea(model, data, q[i], v[i], a[i])
+        size = max(1.0, np.abs(tau).max())
+        np.testing.assert_allclose(got.tau[i], tau, rtol=0, atol=1e-9 * size)
+        for j in range(1, model.njoints):
+            R = data.oMi[j].rotation
+            np.testing.assert_allclose(got.R[i, j], R, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(got.t[i, j], data.oMi[j].translation, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(got.w[i, j], R @ data.v[j].angular, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(got.m[i, j], R @ data.f[j].angular, rtol=0,
+                                       atol=1e-9 * size)  # fmt: skip
+            np.testing.assert_allclose(got.f[i, j], R @ data.f[j].linear, rtol=0,
+                                       atol=1e-9 * size)  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["male", "human", "talos"])
+@pytest.mark.parametrize("mode", ["quaternion", "euler"])
+def test_the_compiled_inverse_dynamics_is_pinocchios(name, mode):
+    model = get_model(name, mode).model
+    _tree_dynamics_agrees(model, np.random.default_rng(21), 40)
+
+
+def test_the_compiled_inverse_dynamics_moves_every_joint_kind():
+    """The chain of :func:`_chain` (free, ball, continuous and unaligned hinges, unaligned and
+    aligned sliders), its gravity turned off the vertical."""
+    model, _ = _chain()
+    model.gravity.linear = np.array([1.0, -2.0, -9.0])
+    _tree_dynamics_agrees(model, np.random.default_rng(22), 200)
+
+
+def test_a_model_the_kernels_do_not_place_has_no_tree_dynamics():
+    from humanoid.dynamics import TreeDynamics
+
+    model = pin.Model()
+    j = model.addJoint(0, pin.JointModelPlanar(), pin.SE3.Identity(), "planar")
+    model.appendBodyToJoint(j, pin.Inertia.Random(), pin.SE3.Identity())
+    tree = TreeDynamics(model)
+    assert not tree.available
+    with pytest.raises(ModelError, match="not available"):
+        tree(np.zeros((1, model.nq)), np.zeros((1, model.nv)), np.zeros((1, model.nv)))
+
+
+def test_the_gait_records_compiled_kinetics_are_pinocchios():
+    """GaitRecorder.record with its compiled kinematics and RNEA and with Pinocchio's, on 60
+    steps of random states with random ground forces on the feet (a rotated, moving pelvis):
+    the same forces, centres of pressure, loads, slips and joint moments and powers."""
+    from humanoid.walking.gait import GaitRecorder
+
+    h = get_model("male", "quaternion")
+    model = h.model
+    rng = np.random.default_rng(23)
+    rec = GaitRecorder(h, model)
+    feet = [model.frames[h.sole_id(s)].parentJoint for s in ("left", "right")]
+    dt = 1e-3
+    for k in range(60):
+        q, v = random_state(h, rng)
+        step = SimpleNamespace(q=pin.integrate(model, q, dt * v), v=v + rng.normal(size=model.nv))
+        n = int(rng.integers(0, 9))
+        joints = rng.choice(feet, size=n)
+        local = rng.normal(size=(n, 3)) * 0.05
+        data = model.createData()
+        pin.forwardKinematics(model, data, q)
+        points = np.array([data.oMi[int(j)].act(r) for j, r in zip(joints, local, strict=True)])
+        impulses = np.column_stack([rng.normal(size=(n, 2)), rng.uniform(-0.1, 1.0, n)])
+        found = SimpleNamespace(points=points.reshape(n, 3), joints=joints, local=local,
+                                impulses=impulses * dt * 300.0)  # fmt: skip
+        sim = SimpleNamespace(scene=SimpleNamespace(dt=dt), ground_step=found if n else None)
+        rec.observe(sim, k, k * dt, q, v, step)
+    compiled = rec.record(h.mass, dt)
+    rec._tree = SimpleNamespace(available=False)
+    stepwise = rec.record(h.mass, dt)
+    for key in ("force", "cop", "heel", "toe", "slip", "kinetics"):
+        for side in ("left", "right"):
+            a, b = getattr(compiled, key)[side], getattr(stepwise, key)[side]
+            np.testing.assert_allclose(np.asarray(a, float), np.asarray(b, float), rtol=1e-9,
+                                       atol=1e-9)  # fmt: skip
+    assert np.abs(compiled.kinetics["left"]).max() > 10.0  # real moments, not zeros
+    assert compiled.heel["left"].any() and compiled.toe["right"].any()

@@ -39,6 +39,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from ..dynamics import kernel_tree
 from ..errors import ModelError, SceneError
 from ..linalg import cross
 from ..variants import CONTACT_SOLVERS
@@ -303,31 +304,12 @@ def _shared_corners(model: pin.Model, shapes) -> list[tuple[int, int, np.ndarray
     return out
 
 
-# the joints the compiled kernel places (as kernels.c's J_*): a model with another kind of
-# joint detects on the NumPy path
-JOINT_KINDS = {"JointModelFreeFlyer": 0, "JointModelSpherical": 1, "JointModelRX": 2,
-               "JointModelRY": 2, "JointModelRZ": 2, "JointModelRevoluteUnaligned": 2,
-               "JointModelPX": 3, "JointModelPY": 3, "JointModelPZ": 3,
-               "JointModelPrismaticUnaligned": 3, "JointModelRUBX": 4, "JointModelRUBY": 4,
-               "JointModelRUBZ": 4, "JointModelRevoluteUnboundedUnaligned": 4}  # fmt: skip
-
-
-def _joint_axis(jm) -> np.ndarray:
-    """A revolute or prismatic joint's unit axis in its frame (zero for the others)."""
-    name = jm.shortname()
-    if name[-1] in "XYZ" and ("JointModelR" in name or "JointModelP" in name):
-        return np.eye(3)["XYZ".index(name[-1])]
-    if "Unaligned" in name:
-        return np.asarray(jm.extract().axis, dtype=float)
-    return np.zeros(3)
-
-
 def _kernel_plan(model: pin.Model, cand: _Candidates, shared, key: int):
     """The compiled kernel's copy of the model's tree and of the candidate points (sorted as
     :meth:`Ground._detect` returns them), or None if the kernel is not built or a joint is
     of a kind it does not place."""
-    kinds = [JOINT_KINDS.get(jm.shortname(), -1) for jm in model.joints]
-    if min(kinds[1:], default=0) < 0:
+    tree = kernel_tree(model)
+    if tree is None:
         return None
     if KERNELS is None:
         warnings.warn("humanoid.kernels is not built (the package was installed without a C "
@@ -335,9 +317,6 @@ def _kernel_plan(model: pin.Model, cand: _Candidates, shared, key: int):
                       "about ten times slower", RuntimeWarning, stacklevel=3)  # fmt: skip
         return None
     i64 = np.int64
-    place = np.array([np.concatenate([M.rotation.ravel(), M.translation])
-                      for M in model.jointPlacements])  # fmt: skip
-    axis = np.array([_joint_axis(jm) for jm in model.joints])
     n = len(cand._slot)
     kind = np.zeros(n, dtype=i64)
     kind[cand._sphere], kind[cand._round :] = 1, 2
@@ -350,10 +329,7 @@ def _kernel_plan(model: pin.Model, cand: _Candidates, shared, key: int):
     pa, pb = (rank[shared[0]], rank[shared[1]]) if shared is not None else (np.zeros(0),) * 2
     ang = np.linspace(0.0, 2 * np.pi, MAX_POINTS, endpoint=False)
     dirs = np.column_stack([np.cos(ang), np.sin(ang)])
-    arrays = [np.array(model.parents), kinds, [jm.idx_q for jm in model.joints],
-              [jm.idx_v for jm in model.joints]]  # fmt: skip
-    arrays = [np.ascontiguousarray(a, dtype=i64) for a in arrays]
-    arrays += [np.ascontiguousarray(a, dtype=float) for a in (axis, place)]
+    arrays = list(tree)
     arrays += [
         np.ascontiguousarray(a, dtype=i64)
         for a in (cand.joints[cand._slot][order], kind[order], cand._shape[order])

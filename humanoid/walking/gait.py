@@ -51,6 +51,7 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 import numpy as np
 import pinocchio as pin
 
+from ..dynamics import TreeDynamics
 from ..errors import RunFailed, WalkError
 from ..linalg import cross
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
@@ -211,6 +212,7 @@ class GaitRecorder:
         self._below = np.zeros((model.njoints, model.njoints), dtype=bool)
         for j in self._moments:
             self._below[j, list(model.subtrees[j])] = True
+        self._tree = TreeDynamics(model)  # (its kinematics and RNEA of all steps at once)
         self.fall_height = fall_height
         # each step: t, q, v, the state after it, its ground contacts (StepContacts or None)
         self.steps: list[tuple] = []
@@ -281,17 +283,40 @@ class GaitRecorder:
         return GaitRecord(t, q, v, mass=mass, dt=dt, **out)
 
     def _placements(self, q, v, a, q_next, at, joints, local, bearing) -> tuple:
-        """Step by step, what Pinocchio gives: the kinetics' joints' world rotations R[j]
-        (n, 3, 3), origins O[j] (n, 3), moments M[j] without the ground (RNEA's, world axes)
-        and angular velocities W[j] (n, 3); the soles' placements by side (rotation's first
-        column, origin: (n, 3) each); the bearing points' places after their step (k, 3)."""
+        """What the kinetics read of each step: the kinetics' joints' world rotations R[j]
+        (n, 3, 3), origins O[j] (n, 3), moments M[j] without the ground (RNEA's, about the
+        joint's origin) and angular velocities W[j] (n, 3), world axes; the soles' placements
+        by side (rotation's first column, origin: (n, 3) each); the bearing points' places
+        after their step (k, 3). All steps in one compiled call
+        (:class:`~humanoid.dynamics.TreeDynamics`), or step by step with Pinocchio."""
+        points = np.flatnonzero(bearing)
+        if self._tree.available:
+            now = self._tree(q, v, a)
+            R = {j: now.R[:, j] for j in self._rotations}
+            O = {j: now.t[:, j] for j in self._rotations}
+            M = {j: now.m[:, j] for j in self._moments}
+            W = {j: now.w[:, j] for j in self._omegas}
+            zero = np.zeros((len(q_next), self.model.nv))
+            after = self._tree(q_next, zero, zero)
+            Rn, tn = after.R[at[points], joints[points]], after.t[at[points], joints[points]]
+        else:
+            R, O, M, W, Rn, tn = self._pinocchio(q, v, a, q_next, at, joints, points)
+        moved = np.einsum("kij,kj->ki", Rn, local[points]) + tn
+        soles = {}  # each sole's frame: its joint's placement times the frame's
+        for s in SIDES:
+            frame = self.model.frames[self.sole[s]].placement
+            Rf = R[self.foot[s]]
+            soles[s] = (Rf @ frame.rotation[:, 0], O[self.foot[s]] + Rf @ frame.translation)
+        return R, O, M, W, soles, moved
+
+    def _pinocchio(self, q, v, a, q_next, at, joints, points) -> tuple:
+        """:meth:`_placements`' R, O, M, W and the bearing points' joints' placements after
+        their step (rotations, translations), step by step with Pinocchio."""
         model, d, after = self.model, self.data, self.next
         n = len(q)
         H = {j: np.empty((n, 4, 4)) for j in self._rotations}  # the placements, homogeneous
         M = {j: np.empty((n, 3)) for j in self._moments}
         W = {j: np.empty((n, 3)) for j in self._omegas}
-        # each bearing point's joint's placement after its step
-        points = np.flatnonzero(bearing)
         Rn, tn = np.empty((len(points), 3, 3)), np.empty((len(points), 3))
         first = np.searchsorted(at[points], np.arange(n + 1))  # step i's: first[i]:first[i+1]
         for i in range(n):
@@ -311,18 +336,12 @@ class GaitRecorder:
                 placed = after.oMi[j]
                 ks = lo + np.flatnonzero(joints[points[lo:hi]] == j)
                 Rn[ks], tn[ks] = placed.rotation, placed.translation
-        moved = np.einsum("kij,kj->ki", Rn, local[points]) + tn
         R = {j: Hj[:, :3, :3] for j, Hj in H.items()}
         O = {j: Hj[:, :3, 3] for j, Hj in H.items()}
         for X in (M, W):
             for j, Xj in X.items():
                 X[j] = np.einsum("nij,nj->ni", R[j], Xj)
-        soles = {}  # each sole's frame: its joint's placement times the frame's
-        for s in SIDES:
-            frame = model.frames[self.sole[s]].placement
-            Rf = R[self.foot[s]]
-            soles[s] = (Rf @ frame.rotation[:, 0], O[self.foot[s]] + Rf @ frame.translation)
-        return R, O, M, W, soles, moved
+        return R, O, M, W, Rn, tn
 
 
 @dataclass

@@ -367,13 +367,24 @@ class CycleReference:
     def time_to_lift(self, t: float, point: str) -> float:
         """[s] until the cycle lifts ``point`` (inf if it stays down for a whole stride)."""
         lap, k, s = self._interval(t)
-        n = len(self.sets)
-        for j in range(n if self.periodic else n - k):
-            if point not in self.sets[(k + j) % n]:
-                kk = k + j
-                lapj, kj = divmod(kk, n)
-                return (lap + lapj) * self.period + self.t[kj] - t
-        return math.inf
+        j = self._lifts(point)[k]
+        if j < 0:
+            return math.inf
+        lapj, kj = divmod(k + j, len(self.sets))
+        return (lap + lapj) * self.period + self.t[kj] - t
+
+    def _lifts(self, point: str) -> list[int]:
+        """For each interval k, how many intervals on the cycle first leaves ``point`` out of
+        its contacts (-1: not within a stride, or before the motion's end); made once per
+        point, again when ``sets`` is replaced."""
+        if getattr(self, "_lifted", (None,))[0] is not self.sets:
+            self._lifted: tuple[list, dict[str, list[int]]] = (self.sets, {})
+        tables, n = self._lifted[1], len(self.sets)
+        if point not in tables:
+            tables[point] = [next((j for j in range(n if self.periodic else n - k)
+                                   if point not in self.sets[(k + j) % n]), -1)
+                             for k in range(n)]  # fmt: skip
+        return tables[point]
 
 
 class Sampled:
@@ -479,10 +490,13 @@ class CycleTracker(Effect):
                            and f.name in set(reference.forces)] for s in SIDES}  # fmt: skip
         self.point_id = {p: model.getFrameId(p) for s in SIDES for p in self.points[s]}
         self.point_joint = {p: model.frames[f].parentJoint for p, f in self.point_id.items()}
-        # the cycle's points of both feet: names, frames, joints
+        # the cycle's points of both feet: names, places in their joints' frames, joints
         names = [p for s in SIDES for p in self.points[s]]
-        self._all_points = (names, [self.point_id[p] for p in names],
-                            np.array([self.point_joint[p] for p in names], dtype=int))  # fmt: skip
+        self._all_points = (
+            names,
+            np.array([model.frames[self.point_id[p]].placement.translation for p in names]),
+            np.array([self.point_joint[p] for p in names], dtype=int),
+        )
         self.side_of_joint = {
             j: s for s in SIDES for j in model.subtrees[model.frames[self.sole[s]].parentJoint]
         }
@@ -528,7 +542,7 @@ class CycleTracker(Effect):
         tc = self._advance_clock(t, q)
         M, hvec = dynamics_terms(model, data, q, v)
         found, _ = feet_contacts(self.ground, model, data, {}, q)
-        phi, pts, joint_of = found.phi, found.points, found.joints.tolist()
+        phi, joint_of = found.phi, found.joints.tolist()
         q_r, v_r, a_r = ref.tabulated(tc)
         # the reference follows the footsteps the body makes (blended in)
         u = min(1.0, (t - self.offset_t) / g.blend) if self.offset_t >= 0 else 1.0
@@ -539,7 +553,7 @@ class CycleTracker(Effect):
         pin.forwardKinematics(model, rd, q_r, v_r, a_r)
         pin.updateFramePlacements(model, rd)
         in_contact = ref.contacts(tc)
-        loaded, free, match = self._corners(joint_of, phi, pts, in_contact)
+        loaded, free, match = self._corners(joint_of, phi, found.local, in_contact)
         bearing = {self.side_of_joint.get(joint_of[i]) for i in loaded}
         self._reanchor(t, tc, match)
         tasks = TaskStack(model, data, q, v)
@@ -627,12 +641,12 @@ class CycleTracker(Effect):
         self.t_last = t
         return self.tc
 
-    def _corners(self, joint_of, phi, pts, in_contact):
+    def _corners(self, joint_of, phi, local, in_contact):
         """The detected corners split into loaded and free (indices), and the cycle's point
         each loaded one is (see the module)."""
         g = self.gains
         loaded, free, match = [], [], []
-        nearest = self._nearest(joint_of, pts)
+        nearest = self._nearest(joint_of, local)
         for i, best in enumerate(nearest):
             keep = best is not None and best in self.loaded_before and phi[i] < g.touch
             if best is not None and (best in in_contact or keep) and phi[i] < g.touch:
@@ -656,16 +670,15 @@ class CycleTracker(Effect):
         self.loaded_before = set(match)
         return loaded, free, match
 
-    def _nearest(self, joint_of, pts) -> list:
-        """The cycle's point at each detected corner (or None): the nearest of the cycle's
-        points on the same body, within :data:`MATCH`."""
+    def _nearest(self, joint_of, local) -> list:
+        """The cycle's point at each detected corner (``local``: in its joint's frame), or
+        None: the nearest of the cycle's points on the same body, within :data:`MATCH` (on
+        one body, measured in its frame)."""
         out = [None] * len(joint_of)
-        names, ids, joints = self._all_points
+        names, at, joints = self._all_points
         if not len(joint_of) or not names:
             return out
-        oMf = self.data.oMf
-        at = np.array([oMf[f].translation for f in ids])
-        d = pts[:, None, :] - at[None]
+        d = local[:, None, :] - at[None]
         d2 = np.where(np.asarray(joint_of)[:, None] == joints[None], (d * d).sum(axis=2), np.inf)
         k = d2.argmin(axis=1)
         for i, (ki, di) in enumerate(zip(k.tolist(), d2[np.arange(len(k)), k].tolist(),
