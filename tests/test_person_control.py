@@ -124,3 +124,65 @@ def test_a_velocity_off_the_held_course_asks_for_the_qp():
     held.held_for = 3
     assert not held.off_course(v0 + 4 * dt * dv, dt)
     assert held.off_course(v0 + dt * dv, dt) == (np.abs(3 * dt * dv).max() > OFF_COURSE)
+
+
+def _references():
+    """The male body's shipped cycle as the tracker reads it: straight, on the 2 m circle, and
+    from standing through two strides to a stop."""
+    from humanoid.optimal.cycle import stored_transition, stored_turn
+    from humanoid.walking.person import CycleReference
+
+    h = get_model("male", "quaternion")
+    gait = stored_gait(h)
+    through = CycleReference.through(gait, stored_transition(gait, "start"),
+                                     stored_transition(gait, "stop"), 2)  # fmt: skip
+    return h, [CycleReference(gait), CycleReference(stored_turn(gait, 2.0)), through]
+
+
+def test_the_tabulated_reference_is_the_cycles_state():
+    """CycleReference.tabulated against state: the same numbers at the table's times (the
+    nodes and every millisecond between, over later laps too), close between them, and the
+    whole motion's ends held beyond them."""
+    import pinocchio as pin
+
+    h, refs = _references()
+    rng = np.random.default_rng(31)
+    for ref in refs:
+        times = ref._table()[1]
+        laps = (0, 1, 3) if ref.periodic else (0,)
+        for t in [*rng.choice(times, 40), *(times[-1] + ref.period * np.array(laps[1:]))]:
+            for lap in laps:
+                s = float(t) + lap * ref.period
+                (q, v, a), (q0, v0, a0) = ref.tabulated(s), ref.state(s)
+                # (a lap's turned quaternion may be the other of the rotation's two)
+                assert np.abs(pin.difference(h.model, q0, q)).max() < 1e-9
+                np.testing.assert_allclose(v, v0, rtol=0, atol=1e-9)
+                np.testing.assert_allclose(a, a0, rtol=0, atol=1e-9)
+        span = 3 * ref.period if ref.periodic else ref.period + 0.1
+        for t in rng.uniform(-0.05, span, 200):
+            q, v, a = ref.tabulated(t)
+            q0, v0, a0 = ref.state(t)
+            assert np.abs(pin.difference(h.model, q0, q)).max() < 1e-4
+            assert np.abs(v - v0).max() < 3e-4
+            assert np.abs(a - a0).max() < 10.0
+
+
+def test_the_lift_times_are_the_contact_sets_scanned():
+    """time_to_lift from its table per point: the first later interval whose contact set
+    leaves the point out (inf if none within a stride, or before the motion ends)."""
+    import math
+
+    _, refs = _references()
+    rng = np.random.default_rng(32)
+    for ref in refs:
+        n = len(ref.sets)
+        for t in rng.uniform(-0.05, 2.5 * ref.period, 100):
+            lap, k, _ = ref._interval(t)
+            for p in sorted(ref.forces):
+                want = math.inf
+                for j in range(n if ref.periodic else n - k):
+                    if p not in ref.sets[(k + j) % n]:
+                        lapj, kj = divmod(k + j, n)
+                        want = (lap + lapj) * ref.period + ref.t[kj] - t
+                        break
+                assert ref.time_to_lift(t, p) == want
