@@ -118,7 +118,9 @@ class GroundSpec:
 
     bodies: str | tuple[str, ...] = "all"
     mu: float = 0.8
-    margin: float = 0.01  # [m] contact candidates closer than this to the floor
+    # [m] contact candidates closer than this to the floor (or than 5 m/s times the step,
+    # humanoid.constraints.ground.SPECULATIVE_SPEED, if that is wider)
+    margin: float = 0.01
     tolerance: float = 1e-9  # the contact solver's tolerance
     solver: str = "kernel"  # the conic solver (humanoid.variants.CONTACT_SOLVERS)
 

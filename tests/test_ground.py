@@ -565,3 +565,23 @@ def test_diagonal_implicit_gains_are_an_armature():
         got = step._implicit_inverse(0.0, q, dt, K, D)
         assert (step._armed[3] is not None) == (np.count_nonzero(K - np.diag(np.diag(K))) == 0)
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max())
+
+
+@pytest.mark.parametrize(("name", "dt"), [("drop", 1e-2), ("slide", 4e-3)])
+def test_a_long_step_finds_a_fast_body_before_it_reaches_the_floor(name, dt):
+    """At a long step the ground's candidates reach SPECULATIVE_SPEED times it from the floor
+    (5 m/s: 5 cm at 10 ms): the drop's body, landing at 3.1 m/s, and the slide's, tossed at
+    2 m/s and tumbling, stay within 1 mm of the floor (with the 1 cm margin alone, 18 mm
+    and 13.5 mm deep: a whole step's fall before their contacts were found). At the default
+    1 ms step the margin is the scene's own."""
+    from humanoid.constraints.ground import SPECULATIVE_SPEED
+    from humanoid.simulation import Simulation
+
+    scene = Scene.load(SCENES / f"{name}.toml").replace(dt=dt, duration=0.6, record_rate=100.0)
+    sim = Simulation(scene)
+    assert sim.ground.settings.margin == pytest.approx(SPECULATIVE_SPEED * dt)
+    traj = sim.run(quiet=True)
+    assert traj.status == "completed"
+    assert traj.metadata["max_penetration"] < 1e-3
+    default = Simulation(Scene.load(SCENES / f"{name}.toml"))
+    assert default.ground.settings.margin == scene.effects.ground.margin == 0.01

@@ -14,7 +14,7 @@ import pinocchio as pin
 from ..anthropometry import BodyParameters
 from ..body import build_urdf
 from ..constraints import Baumgarte, JointLock, update_kinematics
-from ..constraints.ground import ContactSolver, Ground, GroundSettings
+from ..constraints.ground import SPECULATIVE_SPEED, ContactSolver, Ground, GroundSettings
 from ..constraints.limits import JointRanges
 from ..contacts import ContactState
 from ..effects import (
@@ -227,7 +227,9 @@ def ground_solver(setup: Setup) -> ContactSolver:
         chosen = GROUND_BODIES[spec.bodies](setup, geometry)
     else:
         chosen = _link_geometries(setup, geometry, spec.bodies)
-    settings = GroundSettings(mu=spec.mu, margin=spec.margin, tolerance=spec.tolerance,
+    # the candidates reach SPECULATIVE_SPEED times the step (at the default 1 ms, the margin)
+    margin = max(spec.margin, SPECULATIVE_SPEED * setup.scene.dt)
+    settings = GroundSettings(mu=spec.mu, margin=margin, tolerance=spec.tolerance,
                               solver=spec.solver)  # fmt: skip
     ground = Ground(setup.model, geometry, chosen, settings) if chosen else None
     return ContactSolver(setup.model, ground, setup.ranges, settings)

@@ -216,10 +216,8 @@ class GaitRecorder:
         self.fall_height = fall_height
         # each step: t, q, v, the state after it, its ground contacts (StepContacts or None)
         self.steps: list[tuple] = []
-        self.dt: float | None = None
 
     def observe(self, sim, k: int, t: float, q, v, step) -> None:
-        self.dt = sim.scene.dt
         self.steps.append((t, np.array(q), np.array(v), np.array(step.q), np.array(step.v),
                            sim.ground_step))  # fmt: skip
         if self.fall_height is not None and k % EVERY == 0:
