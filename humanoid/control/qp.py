@@ -314,7 +314,8 @@ def row_space(J: np.ndarray) -> np.ndarray:
     """An orthonormal basis U (m, r) of the span of J's columns (m, n), whose r combinations
     U^T J of J's rows are independent: the eigenvectors of J J^T with an eigenvalue above
     1e-12 of the largest (singular values above 1e-6 of the largest; a rigid body's points'
-    rows have their dependent ones at 1e-16). For m < n, a third of an SVD's cost."""
+    rows have their dependent ones at 1e-16). For m < n, about half an SVD's cost (12 to 24
+    rows of 39 columns: 15-54 us against 34-112)."""
     lam, V = np.linalg.eigh(J @ J.T)
     return V[:, lam > 1e-12 * lam[-1]]
 
