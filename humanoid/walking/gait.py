@@ -236,11 +236,11 @@ class GaitRecorder:
         found = [s[5] if s[5] is not None else _NO_STEP for s in self.steps] or [_NO_STEP]
         counts = np.array([len(f.impulses) for f in found[:n]], dtype=int)
         at = np.repeat(np.arange(n), counts)  # each point's step
-        pts, joints, local, forces = (
-            np.concatenate([np.asarray(getattr(f, k), dtype=float).reshape(-1, w) for f in found])
-            for k, w in (("points", 3), ("joints", 1), ("local", 3), ("impulses", 3))
+        pts, local, forces = (
+            np.concatenate([np.asarray(getattr(f, k), dtype=float).reshape(-1, 3) for f in found])
+            for k in ("points", "local", "impulses")
         )  # fmt: skip
-        joints = joints[:, 0].astype(int)
+        joints = np.concatenate([np.asarray(f.joints, dtype=int) for f in found])
         forces = forces / dt
         side = self.side_of[joints]
         bearing = (forces[:, 2] > POINT_LOAD) & (side >= 0)
@@ -294,9 +294,11 @@ class GaitRecorder:
             O = {j: now.t[:, j] for j in self._rotations}
             M = {j: now.m[:, j] for j in self._moments}
             W = {j: now.w[:, j] for j in self._omegas}
-            zero = np.zeros((len(q_next), self.model.nv))
-            after = self._tree(q_next, zero, zero)
-            Rn, tn = after.R[at[points], joints[points]], after.t[at[points], joints[points]]
+            # the placements after the steps with bearing points (their rates play no part)
+            steps, which = np.unique(at[points], return_inverse=True)
+            zero = np.zeros((len(steps), self.model.nv))
+            after = self._tree(q_next[steps], zero, zero)
+            Rn, tn = after.R[which, joints[points]], after.t[which, joints[points]]
         else:
             R, O, M, W, Rn, tn = self._pinocchio(q, v, a, q_next, at, joints, points)
         moved = np.einsum("kij,kj->ki", Rn, local[points]) + tn
