@@ -33,23 +33,16 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field, replace
-from types import ModuleType
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-from ..dynamics import kernel_tree
+# the compiled kernels (humanoid/kernels.c), None without a C compiler: the NumPy paths then
+from ..dynamics import KERNELS, kernel_tree
 from ..errors import ModelError, SceneError
 from ..linalg import cross
 from ..variants import CONTACT_SOLVERS
-
-try:  # the compiled detection (humanoid/kernels.c); without a C compiler, the NumPy path
-    from .. import kernels as _compiled
-
-    KERNELS: ModuleType | None = _compiled
-except ImportError:  # pragma: no cover - the package built without its extension
-    KERNELS = None
 
 __all__ = ["SPECULATIVE_SPEED", "ContactSolver", "Ground", "GroundSettings"]
 
