@@ -115,6 +115,7 @@ class TreeDynamics:
         self._inertia = np.ascontiguousarray([
             np.concatenate([[I.mass], I.lever, I.inertia.ravel()]) for I in model.inertias
         ])  # fmt: skip
+        self._gravity = np.ascontiguousarray(model.gravity.linear, dtype=float)
 
     def __call__(self, q, v, a) -> SimpleNamespace:
         """At the states (q, v, a) (n, nq), (n, nv), (n, nv): ``R`` (n, nj, 3, 3) and ``t``
@@ -136,6 +137,17 @@ class TreeDynamics:
                               out.w, out.m, out.f, out.tau)  # fmt: skip
         return out
 
+
+    def held(self, q, v, dv, ints: np.ndarray, reals: np.ndarray, tau: np.ndarray) -> int:
+        """The welded walk's torques between its QP ticks into ``tau`` (kernels.c's
+        ``held_torques``, the holds packed by
+        :meth:`~humanoid.walking.controller.WalkingController.update`): 0 when written, 1 or 2
+        when the caller must compute them itself (rows without a Cholesky factor, a weld
+        turned by about pi)."""
+        if self._plan is None or KERNELS is None:
+            return 3
+        return int(KERNELS.held_torques(self._plan, self._inertia, self._gravity, q, v, dv, ints,
+                                        reals, tau))  # fmt: skip
 
 def centre_of_pressure(wrench, height: float = 0.0) -> np.ndarray:
     """Where on the plane z = ``height`` [m] a wrench about the origin (n, 6) [N, N m: force,

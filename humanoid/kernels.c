@@ -986,6 +986,49 @@ static void motion_cross_add(const double *V, const double *U, double *out) {
     out[3] += c[0], out[4] += c[1], out[5] += c[2];
 }
 
+/* the body of joint j (In: mass, centre of mass in the joint's frame, inertia about it in the
+ * joint's axes, row-major) placed at (Rj, oj): its mass, centre of mass and rotational inertia
+ * about it in world axes */
+static void body_world(const double *In, const double *Rj, const double *oj, double *c,
+                       double *Ic) {
+    double RI[9], RT[9];
+    mv3(Rj, In + 1, c);
+    c[0] += oj[0], c[1] += oj[1], c[2] += oj[2];
+    mat3(Rj, In + 4, RI);
+    for (int r = 0; r < 3; ++r)
+        for (int s = 0; s < 3; ++s) RT[3 * r + s] = Rj[3 * s + r];
+    mat3(RI, RT, Ic);
+}
+
+/* the force F (moment about the origin, force; world axes) a body needs for the spatial
+ * acceleration A (about the origin) at the velocity V: I A + V x* I V; V NULL: I A alone */
+static void body_force(const double *In, const double *Rj, const double *oj, const double *V,
+                       const double *A, double *F) {
+    const double mass = In[0];
+    double c[3], Ic[9], x[3], la[3];
+    body_world(In, Rj, oj, c, Ic);
+    const double *al = A, *aO = A + 3;
+    cross(al, c, x); /* I A: m (aO + alpha x c), Ic alpha + c x it */
+    for (int i = 0; i < 3; ++i) la[i] = mass * (aO[i] + x[i]);
+    mv3(Ic, al, F);
+    cross(c, la, x);
+    for (int i = 0; i < 3; ++i) F[i] += x[i], F[3 + i] = la[i];
+    if (!V) return;
+    const double *wv = V, *vO = V + 3;
+    double hl[3], ha[3];
+    cross(wv, c, x); /* the momentum: m (vO + w x c), Ic w + c x it */
+    for (int i = 0; i < 3; ++i) hl[i] = mass * (vO[i] + x[i]);
+    mv3(Ic, wv, ha);
+    cross(c, hl, x);
+    for (int i = 0; i < 3; ++i) ha[i] += x[i];
+    cross(wv, ha, x); /* V x* h: (w x ha + vO x hl, w x hl) */
+    for (int i = 0; i < 3; ++i) F[i] += x[i];
+    cross(vO, hl, x);
+    for (int i = 0; i < 3; ++i) F[i] += x[i];
+    cross(wv, hl, x);
+    for (int i = 0; i < 3; ++i) F[3 + i] += x[i];
+}
+
 /* every state's kinematics and inverse dynamics (RNEA) in world axes about the world origin:
  * V_j = V_parent + S q', A_j = A_parent + S q'' + V_j x S q' (A_0: minus gravity), the body's
  * force I A + V x* I V (I: its inertia about the origin), summed from the leaves */
@@ -1042,35 +1085,7 @@ static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
                 for (int c = 0; c < n; ++c)
                     for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * qdd[iv + c];
                 motion_cross_add(Vj, vj, Aj);
-                /* the body: mass, centre of mass (joint frame), inertia about it (joint axes,
-                 * row-major), in world axes */
-                const double *In = I + 13 * j, *Rj = p->oR + 9 * j, *oj = p->ot + 3 * j;
-                const double mass = In[0];
-                double c[3], RI[9], Ic[9], RT[9];
-                mv3(Rj, In + 1, c);
-                c[0] += oj[0], c[1] += oj[1], c[2] += oj[2];
-                mat3(Rj, In + 4, RI);
-                for (int r = 0; r < 3; ++r)
-                    for (int s = 0; s < 3; ++s) RT[3 * r + s] = Rj[3 * s + r];
-                mat3(RI, RT, Ic);
-                const double *wv = Vj, *vO = Vj + 3, *al = Aj, *aO = Aj + 3;
-                double x[3], hl[3], ha[3], la[3], *F = Fs + 6 * j;
-                cross(wv, c, x); /* the momentum: m (vO + w x c), Ic w + c x it */
-                for (int i = 0; i < 3; ++i) hl[i] = mass * (vO[i] + x[i]);
-                mv3(Ic, wv, ha);
-                cross(c, hl, x);
-                for (int i = 0; i < 3; ++i) ha[i] += x[i];
-                cross(al, c, x); /* I A: m (aO + alpha x c), Ic alpha + c x it */
-                for (int i = 0; i < 3; ++i) la[i] = mass * (aO[i] + x[i]);
-                mv3(Ic, al, F);
-                cross(c, la, x);
-                for (int i = 0; i < 3; ++i) F[i] += x[i], F[3 + i] = la[i];
-                cross(wv, ha, x); /* V x* h: (w x ha + vO x hl, w x hl) */
-                for (int i = 0; i < 3; ++i) F[i] += x[i];
-                cross(vO, hl, x);
-                for (int i = 0; i < 3; ++i) F[i] += x[i];
-                cross(wv, hl, x);
-                for (int i = 0; i < 3; ++i) F[3 + i] += x[i];
+                body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, Vj, Aj, Fs + 6 * j);
             }
             for (Py_ssize_t j = nj - 1; j > 0; --j) {
                 const Py_ssize_t par = p->parent[j];
@@ -1100,6 +1115,289 @@ static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* ---- the welded walk's torques between its QP ticks (controller.py: held_torques) ------- */
+
+/* the rotation log of R (row-major) into w; 0 if its angle is within 1e-3 of pi (the caller
+ * falls back) */
+static int log3(const double *R, double *w) {
+    const double vx = R[7] - R[5], vy = R[2] - R[6], vz = R[3] - R[1];
+    const double s = 0.5 * sqrt(vx * vx + vy * vy + vz * vz), c = 0.5 * (R[0] + R[4] + R[8] - 1);
+    const double theta = atan2(s, c);
+    if (theta > PI - 1e-3) return 0;
+    const double k = theta < 1e-4 ? 0.5 * (1 + theta * theta / 6) : 0.5 * theta / s;
+    w[0] = k * vx, w[1] = k * vy, w[2] = k * vz;
+    return 1;
+}
+
+/* the SE3 log (linear, then angular) of (R, t); 0 as log3 */
+static int log6(const double *R, const double *t, double *e) {
+    double *w = e + 3, x[3];
+    if (!log3(R, w)) return 0;
+    const double th2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2], th = sqrt(th2);
+    double a, b; /* V^-1 t = a t - w x t / 2 + b (w . t) w */
+    if (th < 1e-4) {
+        a = 1 - th2 / 12 - th2 * th2 / 720, b = 1.0 / 12 + th2 / 720;
+    } else {
+        const double sn = sin(th), cs = cos(th);
+        a = th * sn / (2 * (1 - cs)), b = (1 - a) / th2;
+    }
+    const double wt = w[0] * t[0] + w[1] * t[1] + w[2] * t[2];
+    cross(w, t, x);
+    for (int i = 0; i < 3; ++i) e[i] = a * t[i] - 0.5 * x[i] + b * wt * w[i];
+    return 1;
+}
+
+/* a motion (angular, linear about the origin; world axes) in a frame's axes at (R, p):
+ * Pinocchio's order, linear then angular */
+static void motion_local(const double *R, const double *p, const double *U, double *out) {
+    double x[3];
+    cross(U, p, x);
+    for (int i = 0; i < 3; ++i) {
+        out[i] = R[i] * (U[3] + x[0]) + R[3 + i] * (U[4] + x[1]) + R[6 + i] * (U[5] + x[2]);
+        out[3 + i] = R[i] * U[0] + R[3 + i] * U[1] + R[6 + i] * U[2];
+    }
+}
+
+/* tau (nv) from the packed holds (see held_torques' docstring in controller.py): 0 done, 1 the
+ * rows' Gram matrix is not positive definite, 2 a weld turned by about pi (the caller falls
+ * back to Pinocchio) */
+static int held(Plan *p, const double *I, const double *g, const double *q,
+                const double *v, const double *dv, const long long *ints, const double *reals,
+                double *tau, double *work) {
+    const Py_ssize_t nj = p->nj, nv = p->nv;
+    const long long k = ints[0], nw = ints[1], nl = ints[2], nh = ints[3], nr = ints[4];
+    const long long *ljoint = ints + 5, *wjoint = ljoint + k, *lock = wjoint + nw,
+                    *hinge = lock + 2 * nl;
+    const double *loads = reals, *welds = loads + 6 * k, *lanchor = welds + 24 * nw,
+                 *hreal = lanchor + nl, *Jr = hreal + 4 * nh, *sc = Jr + nr * nv;
+    const double alpha = sc[0], beta = sc[1], scale = sc[2], rtime = sc[3], ridge = sc[4];
+    double *V = work, *A = V + 6 * nj, *A0 = A + 6 * nj, *F = A0 + 6 * nj, *C = F + 6 * nj;
+    double *rows = C + 16 * nj, S[36];
+    kinematics(p, q);
+    /* the forward pass: velocities, accelerations at dv (gravity as the root's) and at 0 */
+    memset(V, 0, 6 * sizeof(double)), memset(A, 0, 6 * sizeof(double));
+    memset(A0, 0, 6 * sizeof(double));
+    A[3] = -g[0], A[4] = -g[1], A[5] = -g[2];
+    for (Py_ssize_t j = 1; j < nj; ++j) {
+        const Py_ssize_t par = p->parent[j];
+        const long long iv = p->iv[j];
+        const int n = subspace(p, j, S);
+        double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = V + 6 * j, *Aj = A + 6 * j, *A0j = A0 + 6 * j;
+        for (int c = 0; c < n; ++c)
+            for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * v[iv + c];
+        for (int i = 0; i < 6; ++i)
+            Vj[i] = V[6 * par + i] + vj[i], Aj[i] = A[6 * par + i], A0j[i] = A0[6 * par + i];
+        for (int c = 0; c < n; ++c)
+            for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * dv[iv + c];
+        motion_cross_add(Vj, vj, Aj);
+        motion_cross_add(Vj, vj, A0j);
+        body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, Vj, Aj, F + 6 * j);
+        /* the body's inertia about the origin for the composite: mass, m c, I_O (row-major) */
+        double c[3], Ic[9], *Cj = C + 16 * j;
+        const double m = I[13 * j];
+        body_world(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, c, Ic);
+        const double cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+        Cj[0] = m;
+        for (int i = 0; i < 3; ++i) Cj[1 + i] = m * c[i];
+        for (int r = 0; r < 3; ++r)
+            for (int s = 0; s < 3; ++s)
+                Cj[4 + 3 * r + s] = Ic[3 * r + s] + m * ((r == s) * cc - c[r] * c[s]);
+    }
+    /* the held forces at their points (both in their joints' axes), as wrenches about the
+     * origin */
+    for (long long i = 0; i < k; ++i) {
+        const long long j = ljoint[i];
+        const double *L = loads + 6 * i;
+        double x[3], pw[3], f[3];
+        mv3(p->oR + 9 * j, L, pw);
+        mv3(p->oR + 9 * j, L + 3, f);
+        for (int r = 0; r < 3; ++r) pw[r] += p->ot[3 * j + r];
+        cross(pw, f, x);
+        for (int r = 0; r < 3; ++r) F[6 * j + r] -= x[r], F[6 * j + 3 + r] -= f[r];
+    }
+    /* the backward pass: tau = M dv + h - J^T f, and the composite inertias */
+    for (Py_ssize_t j = nj - 1; j > 0; --j) {
+        const Py_ssize_t par = p->parent[j];
+        const int n = subspace(p, j, S);
+        for (int c = 0; c < n; ++c) {
+            double s = 0.0;
+            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
+            tau[p->iv[j] + c] = s;
+        }
+        if (par > 0)
+            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
+        if (par > 0)
+            for (int i = 0; i < 13; ++i) C[16 * par + i] += C[16 * j + i];
+    }
+    /* the rows: the base's six of M, the welds' six, the locks', the range rows held, the
+     * hinges that would cross their damper */
+    const Py_ssize_t cap = 6 + 6 * nw + nl + nr + nh;
+    double *Ar = rows, *rhs = rows + cap * nv, *G = rhs + cap, *dd = G + cap * cap;
+    memset(Ar, 0, cap * nv * sizeof(double));
+    Py_ssize_t m = 0;
+    {
+        double Sb[36];
+        const int nb = subspace(p, 1, Sb);
+        for (Py_ssize_t j = 1; j < nj; ++j) {
+            const int n = subspace(p, j, S);
+            const double *Cj = C + 16 * j, mass = Cj[0], *h = Cj + 1, *IO = Cj + 4;
+            for (int c = 0; c < n; ++c) {
+                const double *al = S + 6 * c, *aO = al + 3;
+                double Fc[6], x[3]; /* the composite's force for the column: spatial inertia */
+                mv3(IO, al, Fc);
+                cross(h, aO, x);
+                for (int i = 0; i < 3; ++i) Fc[i] += x[i];
+                cross(al, h, x);
+                for (int i = 0; i < 3; ++i) Fc[3 + i] = mass * aO[i] + x[i];
+                for (int b = 0; b < nb; ++b) {
+                    double s = 0.0;
+                    for (int i = 0; i < 6; ++i) s += Sb[6 * b + i] * Fc[i];
+                    Ar[b * nv + p->iv[j] + c] = s;
+                }
+            }
+        }
+        for (int b = 0; b < 6; ++b) rhs[b] = tau[b];
+        m = 6;
+    }
+    for (long long i = 0; i < nw; ++i, m += 6) {
+        const long long j = wjoint[i];
+        const double *P = welds + 24 * i, *Ra = P + 12, *ta = Ra + 9, *Rj = p->oR + 9 * j;
+        double Rf[9], pf[3], RaT[9], Re[9], te[3], d[3], e[6], acc[6], tw[6];
+        mat3(Rj, P, Rf);
+        mv3(Rj, P + 9, pf);
+        for (int r = 0; r < 3; ++r) pf[r] += p->ot[3 * j + r];
+        for (Py_ssize_t a = j; a > 0; a = p->parent[a]) {
+            const int n = subspace(p, a, S);
+            for (int c = 0; c < n; ++c) {
+                double col[6];
+                motion_local(Rf, pf, S + 6 * c, col);
+                for (int r = 0; r < 6; ++r) Ar[(m + r) * nv + p->iv[a] + c] = col[r];
+            }
+        }
+        for (int r = 0; r < 3; ++r)
+            for (int s = 0; s < 3; ++s) RaT[3 * r + s] = Ra[3 * s + r];
+        mat3(RaT, Rf, Re);
+        for (int r = 0; r < 3; ++r) d[r] = pf[r] - ta[r];
+        mv3(RaT, d, te);
+        if (!log6(Re, te, e)) return 2;
+        motion_local(Rf, pf, A0 + 6 * j, acc);
+        motion_local(Rf, pf, V + 6 * j, tw);
+        for (int r = 0; r < 6; ++r) {
+            double s = 0.0; /* J dv - gamma, gamma = -(drift + 2 alpha J v + beta^2 e) */
+            for (Py_ssize_t c = 0; c < nv; ++c) s += Ar[(m + r) * nv + c] * dv[c];
+            rhs[m + r] = s + acc[r] + 2 * alpha * tw[r] + beta * beta * e[r];
+        }
+    }
+    for (long long i = 0; i < nl; ++i, ++m) {
+        const long long iq = lock[2 * i], iv = lock[2 * i + 1];
+        Ar[m * nv + iv] = 1.0;
+        rhs[m] = dv[iv] + 2 * alpha * v[iv] + beta * beta * (q[iq] - lanchor[i]);
+    }
+    if (nr) memcpy(Ar + m * nv, Jr, nr * nv * sizeof(double));
+    for (long long i = 0; i < nr; ++i) rhs[m++] = 0.0;
+    for (long long i = 0; i < nh; ++i) {
+        const long long iq = hinge[2 * i], iv = hinge[2 * i + 1];
+        const double *H = hreal + 4 * i, bound = H[0], hsign = H[1], sign = H[2], Jdv = H[3];
+        const double r = hsign * (q[iq] - bound);
+        const double floor = (-r / rtime - sign * v[iv]) * scale;
+        if (Jdv < floor) {
+            Ar[m * nv + iv] = sign;
+            rhs[m++] = Jdv - floor;
+        }
+    }
+    /* d = A^T (A A^T + ridge trace / m)^-1 rhs, the smallest change; tau -= M d */
+    double tr = 0.0;
+    for (Py_ssize_t a = 0; a < m; ++a)
+        for (Py_ssize_t b = 0; b <= a; ++b) {
+            double s = 0.0;
+            for (Py_ssize_t c = 0; c < nv; ++c) s += Ar[a * nv + c] * Ar[b * nv + c];
+            G[a * m + b] = G[b * m + a] = s;
+            if (a == b) tr += s;
+        }
+    for (Py_ssize_t a = 0; a < m; ++a) G[a * m + a] += ridge * tr / m;
+    if (!cholesky(G, m)) return 1;
+    cholesky_solve(G, m, rhs);
+    for (Py_ssize_t c = 0; c < nv; ++c) {
+        double s = 0.0;
+        for (Py_ssize_t a = 0; a < m; ++a) s += Ar[a * nv + c] * rhs[a];
+        dd[c] = s;
+    }
+    /* M d: the accelerations S d down the tree, the bodies' forces I A^d summed up it */
+    memset(A, 0, 6 * sizeof(double));
+    for (Py_ssize_t j = 1; j < nj; ++j) {
+        const int n = subspace(p, j, S);
+        double *Aj = A + 6 * j;
+        for (int i = 0; i < 6; ++i) Aj[i] = A[6 * p->parent[j] + i];
+        for (int c = 0; c < n; ++c)
+            for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * dd[p->iv[j] + c];
+        body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, NULL, Aj, F + 6 * j);
+    }
+    for (Py_ssize_t j = nj - 1; j > 0; --j) {
+        const Py_ssize_t par = p->parent[j];
+        const int n = subspace(p, j, S);
+        for (int c = 0; c < n; ++c) {
+            double s = 0.0;
+            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
+            tau[p->iv[j] + c] -= s;
+        }
+        if (par > 0)
+            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
+    }
+    for (int i = 0; i < 6; ++i) tau[i] = 0.0;
+    return 0;
+}
+
+static PyObject *held_torques(PyObject *self, PyObject *args) {
+    PyObject *capsule, *objs[8];
+    if (!PyArg_ParseTuple(args, "OOOOOOOOO", &capsule, &objs[0], &objs[1], &objs[2], &objs[3],
+                          &objs[4], &objs[5], &objs[6], &objs[7]))
+        return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    const Py_ssize_t nj = p->nj, nv = p->nv, D = sizeof(double), L = sizeof(long long);
+    /* inertia, gravity, q, v, dv, ints, reals, tau (written) */
+    Py_buffer b[8];
+    const char *names[8] = {"inertia", "gravity", "q", "v", "dv", "ints", "reals", "tau"};
+    Py_ssize_t sizes[8] = {13 * nj * D, 3 * D, p->nq * D, nv * D, nv * D, 5 * L, 0, nv * D};
+    int got = 0;
+    for (; got < 8; ++got) {
+        int flags = PyBUF_C_CONTIGUOUS | (got == 7 ? PyBUF_WRITABLE : 0);
+        if (PyObject_GetBuffer(objs[got], &b[got], flags) < 0) break;
+        if (got == 6) { /* the packed holds' sizes, from their counts */
+            const long long *n = b[5].buf;
+            sizes[5] = (5 + n[0] + n[1] + 2 * n[2] + 2 * n[3]) * L;
+            sizes[6] = (6 * n[0] + 24 * n[1] + n[2] + 4 * n[3] + n[4] * nv + 5) * D;
+            if (b[5].len != sizes[5]) {
+                PyErr_Format(PyExc_ValueError, "held_torques: ints has %zd bytes, expected %zd",
+                             b[5].len, sizes[5]);
+                ++got;
+                break;
+            }
+        }
+        if (got == 6 ? b[got].len != sizes[got] : b[got].len < sizes[got]) {
+            PyErr_Format(PyExc_ValueError, "held_torques: %s has %zd bytes, needs %zd",
+                         names[got], b[got].len, sizes[got]);
+            ++got;
+            break;
+        }
+    }
+    long status = -1;
+    if (got == 8) {
+        const long long *n = b[5].buf;
+        const Py_ssize_t cap = 6 + 6 * n[1] + n[2] + n[4] + n[3];
+        double *work = malloc((40 * nj + cap * nv + cap + cap * cap + nv) * D);
+        if (!work)
+            PyErr_NoMemory();
+        else
+            status = held(p, b[0].buf, b[1].buf, b[2].buf, b[3].buf, b[4].buf, n, b[6].buf,
+                          b[7].buf, work);
+        free(work);
+    }
+    for (int i = 0; i < got; ++i) PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred()) return NULL;
+    return PyLong_FromLong(status);
+}
+
 static PyMethodDef methods[] = {
     {"ground_plan", ground_plan, METH_VARARGS, "The model's tree and the candidate points."},
     {"ground_select", ground_select, METH_VARARGS,
@@ -1114,6 +1412,8 @@ static PyMethodDef methods[] = {
     {"placements", placements, METH_VARARGS, "Every joint's placement at q (for the tests)."},
     {"tree_dynamics", tree_dynamics, METH_VARARGS,
      "States' joint placements, angular velocities, joint forces and torques (RNEA)."},
+    {"held_torques", held_torques, METH_VARARGS,
+     "The welded walk's torques between QP ticks; returns 0, or why the caller falls back."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "kernels",

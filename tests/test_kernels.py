@@ -402,3 +402,50 @@ def test_the_gait_records_compiled_kinetics_are_pinocchios():
                                        atol=1e-9)  # fmt: skip
     assert np.abs(compiled.kinetics["left"]).max() > 10.0  # real moments, not zeros
     assert compiled.heel["left"].any() and compiled.toe["right"].any()
+
+
+@pytest.mark.parametrize("name", ["male", "male_foot"])
+def test_the_compiled_held_torques_are_pinocchios(name):
+    """The welded walk's torques between QP ticks (WalkingController.held_torques) from the
+    compiled kernel and from Pinocchio's calls, after a solve with two feet welded (the male
+    body's toes locked beside its soles; ``male_foot``: one-piece feet, no locks), at 30 states
+    away from it: the pelvis turned and moved, the welds half a radian and centimetres off
+    their anchors (the general branch of the SE3 log), random velocities that send hinges
+    through their dampers' floors, and three ball joints' range rows held. The same tau to 1e-9 of its
+    size, the free flyer's rows zero."""
+    from humanoid.walking import run as walk_run
+    from humanoid.walking.plan import GaitParameters
+
+    h = get_model(name, "quaternion")
+    setup = walk_run.prepare(h, GaitParameters(steps=2))
+    ctl, sim, model = setup.ctl, setup.sim, h.model
+    ctl.every, ctl.period = 8, 8e-3
+    ctl.before_step(sim, 0, 0.0, setup.q0, setup.v0)
+    held = ctl._stance[2]
+    assert ctl._packed is not None and ctl._tree is not None
+    locks = int(ctl._packed[0][2])
+    assert locks == (2 if name == "male" else 0)
+    dv, fext, _, Jh_dv = ctl._held
+    Jr = ctl.ranges.rows(setup.q0, margin=2.0)[1]
+    Jr = Jr[np.count_nonzero(Jr, axis=1) > 1][:3]  # ball joints' (a hinge's may repeat a floor)
+    assert len(Jr) == 3
+    ctl._held = (dv, fext, Jr, Jh_dv)
+    stance = ["left", "right"]
+    forces = np.concatenate([ctl.last[1][s] for s in stance])
+    ctl._packed = ctl._pack(stance, ctl._stance[1], forces, Jr, Jh_dv)
+    rng = np.random.default_rng(37)
+    short = 0
+    for _ in range(30):
+        q = pin.integrate(model, setup.q0, rng.normal(size=model.nv) * 0.2)
+        v = rng.normal(size=model.nv)
+        compiled = ctl.held_torques(q, v, held)
+        packed, ctl._packed = ctl._packed, None
+        reference = ctl.held_torques(q, v, held)
+        ctl._packed = packed
+        np.testing.assert_allclose(compiled, reference, rtol=0,
+                                   atol=1e-9 * np.abs(reference).max())  # fmt: skip
+        assert not compiled[:6].any()
+        r, _ = ctl.ranges.hinge_rows(q)
+        floor = (-r / 0.05 - ctl._hinge_sign * v[ctl._hinge_v]) * (ctl.every / ctl.period)
+        short += int(np.count_nonzero(Jh_dv < floor))
+    assert short > 0  # the hinges' rows were exercised

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..constraints import Weld
+from ..constraints import JointLock, Weld
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..control.qp import (
@@ -44,6 +44,7 @@ from ..control.tasks import (
     PostureTask,
     TaskStack,
 )
+from ..dynamics import TreeDynamics
 from ..effects import Effect
 from ..linalg import spd_solve
 from ..model import SIDES
@@ -133,6 +134,10 @@ class WalkingController(Effect):
                                for s in SIDES}  # fmt: skip
         self._corner_local = {s: np.array([model.frames[f].placement.translation
                                            for f in self.corners[s]]) for s in SIDES}  # fmt: skip
+        # the held torques in one compiled call (TreeDynamics.held), when the kernels are built
+        tree = TreeDynamics(model)
+        self._tree = tree if tree.available else None
+        self._packed: tuple | None = None  # (ints, reals) of the holds, from the last solve
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -166,6 +171,10 @@ class WalkingController(Effect):
         small least-squares."""
         model, data = self.model, self.data
         dv, fext, Jr, Jh_dv = self._held
+        if self._packed is not None and self._tree is not None:
+            tau = np.empty(model.nv)
+            if self._tree.held(q, v, dv, *self._packed, tau) == 0:
+                return tau
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
         J, gamma = self._weld_rows(welds, v)
@@ -263,7 +272,48 @@ class WalkingController(Effect):
                 f,
             )
             self._held = (dv, fext, Jr[tight], self._hinge_J @ dv)
+            self._packed = self._pack(stance, welds, f, Jr[tight], self._held[3])
         return self.tau
+
+    def _pack(self, stance, welds, f, Jr, Jh_dv) -> tuple | None:
+        """The holds of :meth:`held_torques` as the compiled kernel reads them (ints, reals:
+        the corner forces at their joints' points, the welds' frames and anchors, the locks,
+        the hinges' rows, the range rows held, the Baumgarte gains and the damper's terms), or
+        None without the kernels or with a constraint they do not hold."""
+        if self._tree is None:
+            return None
+        model, ranges, b = self.model, self.ranges, self.baumgarte
+        held = [w for s in stance for w in welds[s]]
+        weld = [w for w in held if isinstance(w, Weld)]
+        locks = [w for w in held if isinstance(w, JointLock)]
+        if len(weld) + len(locks) != len(held):
+            return None
+        joints = [j for s in stance for j in self._corner_joints[s]]
+        local = np.concatenate([self._corner_local[s] for s in stance])
+        frames = [model.frames[w.frame_id] for w in weld]
+        nh = len(Jh_dv)
+        ints = np.concatenate([
+            [len(joints), len(weld), len(locks), nh, len(Jr)], joints,
+            [fr.parentJoint for fr in frames],
+            np.ravel([(model.joints[c.joint_id].idx_q, model.joints[c.joint_id].idx_v)
+                      for c in locks]),
+            np.column_stack([np.tile(ranges.iq, 2), np.tile(ranges.iv, 2)]).ravel(),
+        ]).astype(np.int64)  # fmt: skip
+        sign = np.repeat([1.0, -1.0], nh // 2)
+        hinges = np.column_stack([np.concatenate([ranges.lo, ranges.hi]), sign, sign, Jh_dv])
+        alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
+        # the forces held in their joints' axes, as JointWrenches holds them for RNEA
+        f_local = np.einsum("kji,kj->ki", np.array([self.data.oMi[j].rotation for j in joints]),
+                            f)  # fmt: skip
+        reals = np.concatenate([
+            np.hstack([local, f_local]).ravel(),
+            np.ravel([np.concatenate([fr.placement.rotation.ravel(), fr.placement.translation,
+                                      w.anchor.rotation.ravel(), w.anchor.translation])
+                      for fr, w in zip(frames, weld, strict=True)]),
+            [c.anchor for c in locks], hinges.ravel(), np.ravel(Jr),
+            [alpha, beta, self.every / self.period, RANGE_TIME, 1e-12],
+        ])  # fmt: skip
+        return ints, reals
 
     def shares(self, t, stance, data) -> list[float]:
         """Planned fraction of the weight on each stance foot, from the ZMP reference."""
