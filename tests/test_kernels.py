@@ -411,8 +411,8 @@ def test_the_compiled_held_torques_are_pinocchios(name):
     body's toes locked beside its soles; ``male_foot``: one-piece feet, no locks), at 30 states
     away from it: the pelvis turned and moved, the welds half a radian and centimetres off
     their anchors (the general branch of the SE3 log), random velocities that send hinges
-    through their dampers' floors, and three ball joints' range rows held. The same tau to 1e-9 of its
-    size, the free flyer's rows zero."""
+    through their dampers' floors, and three ball joints' range rows held. The same tau to
+    1e-9 of its size, the free flyer's rows zero."""
     from humanoid.walking import run as walk_run
     from humanoid.walking.plan import GaitParameters
 
