@@ -137,7 +137,6 @@ class TreeDynamics:
                               out.w, out.m, out.f, out.tau)  # fmt: skip
         return out
 
-
     def held(self, q, v, dv, ints: np.ndarray, reals: np.ndarray, tau: np.ndarray) -> int:
         """The welded walk's torques between its QP ticks into ``tau`` (kernels.c's
         ``held_torques``, the holds packed by
@@ -148,6 +147,7 @@ class TreeDynamics:
             return 3
         return int(KERNELS.held_torques(self._plan, self._inertia, self._gravity, q, v, dv, ints,
                                         reals, tau))  # fmt: skip
+
 
 def centre_of_pressure(wrench, height: float = 0.0) -> np.ndarray:
     """Where on the plane z = ``height`` [m] a wrench about the origin (n, 6) [N, N m: force,
