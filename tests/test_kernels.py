@@ -421,27 +421,27 @@ def test_the_compiled_held_torques_are_pinocchios(name):
     ctl, sim, model = setup.ctl, setup.sim, h.model
     ctl.every, ctl.period = 8, 8e-3
     ctl.before_step(sim, 0, 0.0, setup.q0, setup.v0)
-    held = ctl._stance[2]
-    assert ctl._packed is not None and ctl._tree is not None
-    locks = int(ctl._packed[0][2])
+    held, holds = ctl._stance[2], ctl._holds
+    assert holds.packed is not None and holds.tree is not None
+    locks = int(holds.packed[0][2])
     assert locks == (2 if name == "male" else 0)
-    dv, fext, _, Jh_dv = ctl._held
+    dv, _, Jh_dv = ctl._held
     Jr = ctl.ranges.rows(setup.q0, margin=2.0)[1]
     Jr = Jr[np.count_nonzero(Jr, axis=1) > 1][:3]  # ball joints' (a hinge's may repeat a floor)
     assert len(Jr) == 3
-    ctl._held = (dv, fext, Jr, Jh_dv)
+    ctl._held = (dv, Jr, Jh_dv)
     stance = ["left", "right"]
     forces = np.concatenate([ctl.last[1][s] for s in stance])
-    ctl._packed = ctl._pack(stance, ctl._stance[1], forces, Jr, Jh_dv)
+    holds.hold(ctl, stance, ctl._stance[1], forces, Jr, Jh_dv)
     rng = np.random.default_rng(37)
     short = 0
     for _ in range(30):
         q = pin.integrate(model, setup.q0, rng.normal(size=model.nv) * 0.2)
         v = rng.normal(size=model.nv)
         compiled = ctl.held_torques(q, v, held)
-        packed, ctl._packed = ctl._packed, None
+        packed, holds.packed = holds.packed, None
         reference = ctl.held_torques(q, v, held)
-        ctl._packed = packed
+        holds.packed = packed
         np.testing.assert_allclose(compiled, reference, rtol=0,
                                    atol=1e-9 * np.abs(reference).max())  # fmt: skip
         assert not compiled[:6].any()

@@ -402,6 +402,22 @@ class JointWrenches:
         joint's frame) of ``joints`` (k,), with ``data``'s joint placements: ``fext`` (the same
         object at every call; the joints the last call loaded and this one does not are
         zeroed)."""
+        ids = np.asarray(joints, dtype=int)
+        return self.set_local(ids, local, self.local_forces(data, ids, f))
+
+    @staticmethod
+    def local_forces(data: pin.Data, joints, f: np.ndarray) -> np.ndarray:
+        """The forces ``f`` (k, 3, world axes) in the axes of their ``joints`` (k,) at
+        ``data``'s placements."""
+        ids = np.asarray(joints, dtype=int)
+        out = np.empty((len(ids), 3))
+        for j in dict.fromkeys(ids.tolist()):
+            on = ids == j
+            out[on] = f[on] @ data.oMi[j].rotation  # R^T f: the joint's axes
+        return out
+
+    def set_local(self, joints, local: np.ndarray, f: np.ndarray) -> pin.StdVec_Force:
+        """:meth:`set` with the forces ``f`` already in their joints' axes."""
         fext = self.fext
         ids = np.asarray(joints, dtype=int)
         loaded = list(dict.fromkeys(ids.tolist()))
@@ -415,7 +431,6 @@ class JointWrenches:
             else:
                 on = ids == j
                 f_j, r_j = f[on], local[on]
-            f_j = f_j @ data.oMi[j].rotation  # R^T f: the joint's axes
             # sum r x f: the antisymmetric part of sum r f^T
             c = (r_j.T @ f_j).ravel().tolist()
             fext[j] = pin.Force(np.array([*f_j.sum(axis=0).tolist(), c[5] - c[7], c[6] - c[2],

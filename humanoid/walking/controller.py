@@ -50,7 +50,7 @@ from ..linalg import spd_solve
 from ..model import SIDES
 from .clinical import torso_frame
 
-__all__ = ["ControllerGains", "WalkingController"]
+__all__ = ["ControllerGains", "HeldForces", "WalkingController"]
 
 RANGE_MARGIN = 0.3  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the velocity damper's time constant (see update)
@@ -128,16 +128,12 @@ class WalkingController(Effect):
         self._stance: tuple | None = None
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
-        self._wrenches = JointWrenches(model)  # the held forces' wrenches on the joints
         # each side's corners: their joints, and their places in their joints' frames
         self._corner_joints = {s: [model.frames[f].parentJoint for f in self.corners[s]]
                                for s in SIDES}  # fmt: skip
         self._corner_local = {s: np.array([model.frames[f].placement.translation
                                            for f in self.corners[s]]) for s in SIDES}  # fmt: skip
-        # the held torques in one compiled call (TreeDynamics.held), when the kernels are built
-        tree = TreeDynamics(model)
-        self._tree = tree if tree.available else None
-        self._packed: tuple | None = None  # (ints, reals) of the holds, from the last solve
+        self._holds = HeldForces(model)  # the last solve's holds, for held_torques
 
     def force(self, model, data, t, q, v):
         return self.tau
@@ -170,11 +166,11 @@ class WalkingController(Effect):
         external wrenches (held in the feet's joint frames, which the welds keep still) and a
         small least-squares."""
         model, data = self.model, self.data
-        dv, fext, Jr, Jh_dv = self._held
-        if self._packed is not None and self._tree is not None:
-            tau = np.empty(model.nv)
-            if self._tree.held(q, v, dv, *self._packed, tau) == 0:
-                return tau
+        dv, Jr, Jh_dv = self._held
+        tau = self._holds.compiled(q, v, dv)
+        if tau is not None:
+            return tau
+        fext = self._holds.fext()
         pin.forwardKinematics(model, data, q, v, self._zero)
         pin.computeJointJacobians(model, data, q)
         J, gamma = self._weld_rows(welds, v)
@@ -265,55 +261,9 @@ class WalkingController(Effect):
         if self.every > 1:
             # the range rows the solve holds at their damper's bound keep their acceleration
             tight = -Jr @ dv >= bound - 1e-6 * np.maximum(1.0, np.abs(bound))
-            fext = self._wrenches.set(
-                self.data,
-                [j for s in stance for j in self._corner_joints[s]],
-                np.concatenate([self._corner_local[s] for s in stance]),
-                f,
-            )
-            self._held = (dv, fext, Jr[tight], self._hinge_J @ dv)
-            self._packed = self._pack(stance, welds, f, Jr[tight], self._held[3])
+            self._held = (dv, Jr[tight], self._hinge_J @ dv)
+            self._holds.hold(self, stance, welds, f, *self._held[1:])
         return self.tau
-
-    def _pack(self, stance, welds, f, Jr, Jh_dv) -> tuple | None:
-        """The holds of :meth:`held_torques` as the compiled kernel reads them (ints, reals:
-        the corner forces at their joints' points, the welds' frames and anchors, the locks,
-        the hinges' rows, the range rows held, the Baumgarte gains and the damper's terms), or
-        None without the kernels or with a constraint they do not hold."""
-        if self._tree is None:
-            return None
-        model, ranges, b = self.model, self.ranges, self.baumgarte
-        held = [w for s in stance for w in welds[s]]
-        weld = [w for w in held if isinstance(w, Weld)]
-        locks = [w for w in held if isinstance(w, JointLock)]
-        if len(weld) + len(locks) != len(held):
-            return None
-        joints = [j for s in stance for j in self._corner_joints[s]]
-        local = np.concatenate([self._corner_local[s] for s in stance])
-        frames = [model.frames[w.frame_id] for w in weld]
-        nh = len(Jh_dv)
-        ints = np.concatenate([
-            [len(joints), len(weld), len(locks), nh, len(Jr)], joints,
-            [fr.parentJoint for fr in frames],
-            np.ravel([(model.joints[c.joint_id].idx_q, model.joints[c.joint_id].idx_v)
-                      for c in locks]),
-            np.column_stack([np.tile(ranges.iq, 2), np.tile(ranges.iv, 2)]).ravel(),
-        ]).astype(np.int64)  # fmt: skip
-        sign = np.repeat([1.0, -1.0], nh // 2)
-        hinges = np.column_stack([np.concatenate([ranges.lo, ranges.hi]), sign, sign, Jh_dv])
-        alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
-        # the forces held in their joints' axes, as JointWrenches holds them for RNEA
-        f_local = np.einsum("kji,kj->ki", np.array([self.data.oMi[j].rotation for j in joints]),
-                            f)  # fmt: skip
-        reals = np.concatenate([
-            np.hstack([local, f_local]).ravel(),
-            np.ravel([np.concatenate([fr.placement.rotation.ravel(), fr.placement.translation,
-                                      w.anchor.rotation.ravel(), w.anchor.translation])
-                      for fr, w in zip(frames, weld, strict=True)]),
-            [c.anchor for c in locks], hinges.ravel(), np.ravel(Jr),
-            [alpha, beta, self.every / self.period, RANGE_TIME, 1e-12],
-        ])  # fmt: skip
-        return ints, reals
 
     def shares(self, t, stance, data) -> list[float]:
         """Planned fraction of the weight on each stance foot, from the ZMP reference."""
@@ -334,3 +284,88 @@ class WalkingController(Effect):
                 frames.append(torso)
             self._trunk = frames
         return self._trunk
+
+
+class HeldForces:
+    """What :meth:`WalkingController.held_torques` holds from a solve to the next: the corner
+    forces in their joints' axes (the welds keep those joints still), and the same packed for
+    the compiled kernel (:meth:`~humanoid.dynamics.TreeDynamics.held`: the corners' points and
+    forces, the welds' frames and anchors, the locks, the hinges' damper rows, the range rows
+    held, the Baumgarte gains). The stance's part is packed once per stance, the rest at each
+    solve.
+
+    Args:
+        model: The controller's model.
+    """
+
+    def __init__(self, model: pin.Model) -> None:
+        self.model = model
+        tree = TreeDynamics(model)
+        self.tree = tree if tree.available else None
+        self.wrenches = JointWrenches(model)
+        self.packed: tuple[np.ndarray, np.ndarray] | None = None  # (ints, reals) for the kernel
+        self._forces: tuple = ()  # (joints, local points, forces in the joints' axes)
+        self._stance: tuple | None = None  # (the welds, the stance's ints and reals)
+
+    def hold(self, ctl: WalkingController, stance, welds, f, Jr, Jh_dv) -> None:
+        """Keep a solve's corner forces ``f`` (k, 3, world axes, at ``ctl.data``'s placements)
+        with the range rows ``Jr`` it held and its hinges' accelerations ``Jh_dv``."""
+        joints = [j for s in stance for j in ctl._corner_joints[s]]
+        local = np.concatenate([ctl._corner_local[s] for s in stance])
+        f_local = self.wrenches.local_forces(ctl.data, joints, f)
+        self._forces = (joints, local, f_local)
+        self.packed = None
+        if self.tree is None:
+            return
+        if self._stance is None or self._stance[0] is not welds:
+            self._stance = (welds, *self._pack_stance(ctl, stance, welds))
+        _, ints, fixed, signs = self._stance
+        if ints is None:
+            return
+        ints = ints.copy()
+        ints[4] = len(Jr)
+        hinges = np.column_stack([signs, Jh_dv])
+        b = ctl.baumgarte
+        alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
+        damper = [alpha, beta, ctl.every / ctl.period, RANGE_TIME, 1e-12]
+        reals = np.concatenate([np.hstack([local, f_local]).ravel(), fixed, hinges.ravel(),
+                                np.ravel(Jr), damper])  # fmt: skip
+        self.packed = (ints, reals)
+
+    def _pack_stance(self, ctl: WalkingController, stance, welds) -> tuple:
+        """The stance's part of the kernel's arrays: (ints, the welds' and locks' reals, the
+        hinges' bound and signs), or Nones if a constraint is neither a weld nor a lock."""
+        model, ranges = self.model, ctl.ranges
+        held = [w for s in stance for w in welds[s]]
+        weld = [w for w in held if isinstance(w, Weld)]
+        locks = [w for w in held if isinstance(w, JointLock)]
+        if len(weld) + len(locks) != len(held):
+            return None, None, None
+        joints = [j for s in stance for j in ctl._corner_joints[s]]
+        frames = [model.frames[w.frame_id] for w in weld]
+        nh = 2 * len(ranges.iq)
+        ints = np.concatenate([
+            [len(joints), len(weld), len(locks), nh, 0], joints, [fr.parentJoint for fr in frames],
+            np.ravel([(model.joints[c.joint_id].idx_q, model.joints[c.joint_id].idx_v)
+                      for c in locks]),
+            np.column_stack([np.tile(ranges.iq, 2), np.tile(ranges.iv, 2)]).ravel(),
+        ]).astype(np.int64)  # fmt: skip
+        fixed = np.concatenate([
+            *(np.concatenate([fr.placement.rotation.ravel(), fr.placement.translation,
+                              w.anchor.rotation.ravel(), w.anchor.translation])
+              for fr, w in zip(frames, weld, strict=True)),
+            [c.anchor for c in locks],
+        ])  # fmt: skip
+        sign = np.repeat([1.0, -1.0], nh // 2)
+        return ints, fixed, np.column_stack([np.concatenate([ranges.lo, ranges.hi]), sign, sign])
+
+    def compiled(self, q, v, dv) -> np.ndarray | None:
+        """The held torques from the kernel, or None (no kernel, or it declined)."""
+        if self.packed is None or self.tree is None:
+            return None
+        tau = np.empty(self.model.nv)
+        return tau if self.tree.held(q, v, dv, *self.packed, tau) == 0 else None
+
+    def fext(self) -> pin.StdVec_Force:
+        """The held forces as RNEA's external forces (Pinocchio's path)."""
+        return self.wrenches.set_local(*self._forces)
