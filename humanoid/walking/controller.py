@@ -305,26 +305,29 @@ class HeldForces:
         self.wrenches = JointWrenches(model)
         self.packed: tuple[np.ndarray, np.ndarray] | None = None  # (ints, reals) for the kernel
         self._forces: tuple = ()  # (joints, local points, forces in the joints' axes)
-        self._stance: tuple | None = None  # (the welds, the stance's ints and reals)
+        # (the welds, the corners' joints, their points, the corners by joint, the stance's
+        # ints, reals and hinge rows)
+        self._stance: tuple | None = None
 
     def hold(self, ctl: WalkingController, stance, welds, f, Jr, Jh_dv) -> None:
         """Keep a solve's corner forces ``f`` (k, 3, world axes, at ``ctl.data``'s placements)
         with the range rows ``Jr`` it held and its hinges' accelerations ``Jh_dv``."""
-        joints = [j for s in stance for j in ctl._corner_joints[s]]
-        local = np.concatenate([ctl._corner_local[s] for s in stance])
-        f_local = self.wrenches.local_forces(ctl.data, joints, f)
+        if self._stance is None or self._stance[0] is not welds:
+            joints = [j for s in stance for j in ctl._corner_joints[s]]
+            local = np.concatenate([ctl._corner_local[s] for s in stance])
+            groups = [(j, np.flatnonzero(np.equal(joints, j))) for j in dict.fromkeys(joints)]
+            self._stance = (welds, joints, local, groups, *self._pack_stance(ctl, stance, welds))
+        _, joints, local, groups, ints, fixed, hinges = self._stance
+        f_local = np.empty_like(f)
+        for j, on in groups:  # R^T f: the joints' axes
+            f_local[on] = f[on] @ ctl.data.oMi[j].rotation
         self._forces = (joints, local, f_local)
         self.packed = None
-        if self.tree is None:
-            return
-        if self._stance is None or self._stance[0] is not welds:
-            self._stance = (welds, *self._pack_stance(ctl, stance, welds))
-        _, ints, fixed, signs = self._stance
         if ints is None:
             return
         ints = ints.copy()
         ints[4] = len(Jr)
-        hinges = np.column_stack([signs, Jh_dv])
+        hinges[:, 3] = Jh_dv
         b = ctl.baumgarte
         alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
         damper = [alpha, beta, ctl.every / ctl.period, RANGE_TIME, 1e-12]
@@ -337,6 +340,8 @@ class HeldForces:
         hinges' bound and signs), or Nones if a constraint is neither a weld nor a lock."""
         model, ranges = self.model, ctl.ranges
         held = [w for s in stance for w in welds[s]]
+        if self.tree is None:
+            return None, None, None
         weld = [w for w in held if isinstance(w, Weld)]
         locks = [w for w in held if isinstance(w, JointLock)]
         if len(weld) + len(locks) != len(held):
@@ -357,7 +362,8 @@ class HeldForces:
             [c.anchor for c in locks],
         ])  # fmt: skip
         sign = np.repeat([1.0, -1.0], nh // 2)
-        return ints, fixed, np.column_stack([np.concatenate([ranges.lo, ranges.hi]), sign, sign])
+        bounds = np.concatenate([ranges.lo, ranges.hi])
+        return ints, fixed, np.column_stack([bounds, sign, sign, np.zeros(nh)])
 
     def compiled(self, q, v, dv) -> np.ndarray | None:
         """The held torques from the kernel, or None (no kernel, or it declined)."""

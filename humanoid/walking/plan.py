@@ -115,6 +115,10 @@ class FootstepPlan:
         self.final = pos
         self.duration = self.steps[-1].t_land + g.t_end
         self._lifts = [s.t_lift for s in self.steps]
+        # each step's stance foot where it stands during the step, and after the last step
+        self._stance_at = [self._position_before(_other(s.side), i)
+                           for i, s in enumerate(self.steps)]  # fmt: skip
+        self._stance_after = self._position_before(_other(self.steps[-1].side), len(self.steps))
 
     # -- phases --------------------------------------------------------------------------
     def swing(self, t: float) -> Footstep | None:
@@ -146,20 +150,22 @@ class FootstepPlan:
             stance0 = self.initial["left" if first.side == "right" else "right"]
             s = np.clip((t - 0.2 * g.t_start) / (0.6 * g.t_start), 0.0, 1.0)
             return mid0 + smooth_step(s) * (stance0 - mid0)
-        for i, step in enumerate(self.steps):
-            stance_side = "left" if step.side == "right" else "right"
-            stance = self._position_before(stance_side, i)
+        # the last step lifted by t, and the one before it (whose weight transfer may end a
+        # rounding error after this one lifts)
+        i = bisect.bisect_right(self._lifts, t) - 1
+        for k in range(max(i - 1, 0), i + 1):
+            step, stance = self.steps[k], self._stance_at[k]
             if step.t_lift <= t < step.t_land:
-                return stance
+                return stance.copy()
             t_next = step.t_land + g.t_double
             if step.t_land <= t < t_next:
-                if i == len(self.steps) - 1:
+                if k == len(self.steps) - 1:
                     break
                 # the load is on the new foot before the old one lifts off
                 s = (t - step.t_land) / (TRANSFER * g.t_double)
                 return stance + smooth_step(s) * (step.target - stance)
         last = self.steps[-1]
-        stance = self._position_before("left" if last.side == "right" else "right", len(self.steps))
+        stance = self._stance_after
         mid = (self.final["left"] + self.final["right"]) / 2
         s = np.clip((t - last.t_land) / (0.6 * g.t_end), 0.0, 1.0)
         return stance + smooth_step(s) * (mid - stance)
@@ -202,3 +208,7 @@ def _quintic(tau):
     ds = 30 * tau**2 - 60 * tau**3 + 30 * tau**4
     dds = 60 * tau - 180 * tau**2 + 120 * tau**3
     return s, ds, dds
+
+
+def _other(side: str) -> str:
+    return "left" if side == "right" else "right"
