@@ -22,10 +22,11 @@ import pinocchio as pin
 
 from .ground import KERNELS
 
-__all__ = ["JointRanges"]
+__all__ = ["JointRanges", "range_violations"]
 
 MARGIN = 0.1  # [rad] rows closer than this to a limit are returned (speculative)
 LOCK = 0.05  # |cos(middle angle)| below this: the outer angles of a ball are not defined
+VIOLATIONS_BLOCK = 1024  # states per block of range_violations
 
 
 def _rotation_terms() -> np.ndarray:
@@ -49,6 +50,20 @@ def _rotation_terms() -> np.ndarray:
 
 def _wrap(x):
     return (x + np.pi) % (2 * np.pi) - np.pi
+
+
+def _wrap_in_place(x: np.ndarray) -> np.ndarray:
+    """x = _wrap(x) in place, the same numbers for less: with x + pi within one turn of
+    [0, 2 pi), its remainder is one subtraction of 2 pi (exact, as fmod) or, below 0, one
+    addition (as NumPy's remainder and the kernel's wrap add it)."""
+    x += np.pi
+    if x.min(initial=0.0) >= -2 * np.pi and x.max(initial=0.0) < 4 * np.pi:
+        np.subtract(x, 2 * np.pi, out=x, where=x >= 2 * np.pi)
+        np.add(x, 2 * np.pi, out=x, where=x < 0.0)
+    else:  # (NaN too)
+        np.remainder(x, 2 * np.pi, out=x)
+    x -= np.pi
+    return x
 
 
 def _kernel_plan(ranges: JointRanges):
@@ -317,3 +332,81 @@ def _compiled_rows(ranges: JointRanges, q, margin: float):
                            ranges._angles_now, hint, r, J, ids)  # fmt: skip
     ranges._hint, ranges.skipped, ranges.ids = ranges._angles_now, False, ids[:m].copy()
     return r[:m].copy(), J[:m].copy()
+
+
+def range_violations(ranges: JointRanges, Q) -> np.ndarray:
+    """:meth:`JointRanges.violation` at each configuration of Q (n, nq) [rad], the same numbers
+    as calling it on them in order, for a fraction of the cost.
+
+    On the compiled path every call decomposes every ball, the last call's angles the hint of
+    its branch (:meth:`JointRanges.angles`): here a block of states at a time in NumPy, the
+    hint chained from state to state (:func:`_chained_angles`), the last state's angles left
+    as the next call's hint (``ids``, the rows of a call, is left None). The NumPy path's
+    certificates skip states (its hints follow them): there, state by state."""
+    Q = np.asarray(Q, dtype=float).reshape(-1, ranges.model.nq)
+    if ranges._plan is None:
+        return np.array([ranges.violation(q) for q in Q])
+    # blocks: small arrays (in the cache, no fresh pages); the hint carries over
+    blocks = range(0, len(Q), VIOLATIONS_BLOCK)
+    return np.concatenate([np.zeros(0)] + [_violations(ranges, Q[a : a + VIOLATIONS_BLOCK])
+                                           for a in blocks])  # fmt: skip
+
+
+def _violations(ranges: JointRanges, Q) -> np.ndarray:
+    """:func:`range_violations` of a block of states on the compiled path."""
+    x = Q[:, ranges.iq].T
+    # the rows' r < 0 as excursions: -(x - lo) and x - hi, the angles' alike (the outer ones
+    # left out at the lock); NaN rows are skipped, as the kernel skips them
+    past = [ranges.lo[:, None] - x, x - ranges.hi[:, None]]
+    if ranges.balls:
+        th = _chained_angles(ranges, Q)  # (n_balls, angle, state)
+        out = np.fmax(ranges._blo[:, :, None] - th, th - ranges._bhi[:, :, None])
+        locked = np.abs(np.cos(th[:, 1])) < LOCK
+        out[:, 0][locked] = out[:, 2][locked] = np.nan
+        past.append(out.reshape(-1, len(Q)))
+        ranges._angles_now[:] = th[:, :, -1]
+        ranges._hint, ranges.skipped, ranges.ids = ranges._angles_now, False, None
+    return np.fmax.reduce(np.concatenate(past), axis=0, initial=0.0)
+
+
+def _chained_angles(ranges: JointRanges, Q) -> np.ndarray:
+    """Each ball's triplet angles at each configuration (n_balls, 3, n), as the compiled
+    :meth:`JointRanges.rows` picks them called on Q in order: the solution inside the range,
+    and where both or neither are, the one nearer the previous state's angles (the first
+    state's: the last call's, if any, else the first solution). Only those ambiguous states
+    are resolved one by one (none in a walk within its ranges). The states are the last axis
+    (NumPy's loops run along it)."""
+    n, nb = len(Q), len(ranges.balls)
+    quats = np.ascontiguousarray(Q[:, ranges._bq4.ravel()].T).reshape(nb, 4, n)
+    qq = (quats[:, :, None, :] * quats[:, None, :, :]).reshape(nb, 16, n)
+    w = ranges._W @ qq  # (nb, 5, n): the entries of K^T R K the angles read
+    abc = np.empty((nb, 1, 3, n))
+    np.arctan2(-w[:, 1], w[:, 2], out=abc[:, 0, 0])
+    np.arcsin(np.clip(w[:, 0], -1.0, 1.0), out=abc[:, 0, 1])
+    np.arctan2(-w[:, 3], w[:, 4], out=abc[:, 0, 2])
+    both = np.multiply(abc, ranges._flip[:, :, None])  # (nb, solution, angle, n)
+    both += ranges._shift[:, :, None]
+    both *= ranges._s[:, None, None, None]
+    mid = ranges._mid2[..., None]
+    both -= mid
+    _wrap_in_place(both)
+    both += mid
+    inside = ((both >= ranges._lo2[..., None]) & (both <= ranges._hi2[..., None])).all(axis=2)
+    pick = inside[:, 1] & ~inside[:, 0]
+    b, k = np.nonzero(inside[:, 0] == inside[:, 1])  # by ball, then state
+    if len(b):
+        hint = np.where((k > 0)[:, None, None], both[b, :, :, np.maximum(k - 1, 0)], np.nan)
+        if ranges._hint is not None:  # the first state's: the last call's angles
+            hint[k == 0] = ranges._hint[b[k == 0]][:, None, :]
+        # d[m, solution, the previous state's solution]: the distance the kernel compares
+        d = np.abs(_wrap(both[b, :, :, k][:, :, None, :] - hint[:, None, :, :])).sum(axis=3)
+        # the pick after the previous state's first or second solution (flat lists: cheap)
+        after = [(d[:, 1, p] < d[:, 0, p]).tolist() for p in (0, 1)]
+        flat, first = pick.ravel().tolist(), ranges._hint is not None
+        for m, i in enumerate((b * n + k).tolist()):
+            if i % n:
+                flat[i] = after[flat[i - 1]][m]
+            elif first:
+                flat[i] = after[0][m]
+        pick = np.array(flat, dtype=bool).reshape(nb, n)
+    return np.where(pick[:, None, :], both[:, 1], both[:, 0])

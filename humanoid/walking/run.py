@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from ..constraints.limits import JointRanges
-from ..dynamics import centre_of_pressure
+from ..constraints.limits import JointRanges, range_violations
+from ..dynamics import TreeDynamics, centre_of_pressure
 from ..errors import RunFailed, WalkError
 from ..linalg import cross
 from ..model import SIDES, Humanoid
@@ -269,6 +269,9 @@ SERIES = (
     "cop_margin", "com_x", "com_y", "com_z", "com_ref_x", "com_ref_y", "zmp_x", "zmp_y",
     "tau_base", "range",
 )  # fmt: skip
+# x^2 + y^2 of the pelvis' quaternion under this: its tilt is under 28.4 deg, no fall to test
+TILT_GUARD = 0.06
+KINEMATICS_BATCH = 256  # states per TreeDynamics call (its outputs stay in the cache)
 
 
 class WalkMonitor:
@@ -276,115 +279,142 @@ class WalkMonitor:
     (pelvis below 80 % of its start height, or the trunk tilted over 30 degrees) stops the run.
 
     During the run each tick keeps only what the checks need and cannot get back later (the
-    state, the plant's contact forces, the controller's base torques and, on control ticks,
-    the controller's accelerations against the plant's) and tests for a fall; the series
-    (centre of mass, feet wrenches, friction, centres of pressure, weld drift, zero-moment
-    point, joint ranges) are computed from those after the run (:meth:`series_until`), the
-    same numbers at every tick for a fraction of the cost.
+    state, the plant's contact forces and which welds they belong to, the controller's base
+    torques and, on control ticks, the controller's accelerations against the plant's) and
+    tests for a fall; the series (trunk tilt, centre of mass, feet wrenches, friction, centres
+    of pressure, weld drift, zero-moment point, joint ranges) are computed from those after
+    the run, for all ticks at once (:meth:`series_until`), the same numbers at every tick for
+    a fraction of the cost.
     """
 
     def __init__(self, h: Humanoid, sim: Simulation, ctl: WalkingController) -> None:
         n = sim.n_steps
         self.h, self.sim, self.ctl = h, sim, ctl
         self.ranges = JointRanges(h)
+        self.fk = TreeDynamics(sim.model)  # the batch kinematics of series_until
         self.weight = h.mass * 9.81
         self.z_start: float | None = None  # the pelvis' height at the first step [m]
         self.t = np.full(n, np.nan)
         self.q = np.zeros((n, sim.model.nq))
-        self.tilt = np.full(n, np.nan)
         self.base = np.full((n, 6), np.nan)  # the torques on the free flyer
-        self.consistency = np.full(n, np.nan)
-        self.wrench = {s: np.full((n, 6), np.nan) for s in SIDES}  # the welds' (LOCAL axes)
-        self.anchor = {s: np.full(n, -1) for s in SIDES}  # index into self.anchors
+        # (tick, the plant's accelerations, the QP's) of the ticks the QP was solved at
+        self.solves: list[tuple[int, np.ndarray, np.ndarray]] = []
+        # the plant's stacked constraint forces, and the index of their layout (-1: none)
+        width = sum(con.size for c in sim.contacts for con in c.constraints)
+        self.forces = np.full((n, width), np.nan)
+        self.layout = np.full(n, -1)
+        # each active set's layout: [(side, its weld's first row, its anchor's index)]
+        self.layouts: list[list[tuple[str, int, int]]] = []
         self.anchors: list[pin.SE3] = []
         self.welds: dict = {}  # (weld, its anchor's index) of each side, the last seen
-        # the active set's layout: (its constraints' list, [(side, first row, anchor index)])
-        self._layout: tuple[list, list] | None = None
+        self._active: list | None = None  # the active set of the last layout
+        self._index = -1  # its index in layouts
 
-    def _rows(self, sim: Simulation, active: list) -> list:
-        """Where each attached foot's weld is in the plant's forces, and its anchor's index
-        (a new weld's anchor kept); computed once per active set."""
-        if self._layout is None or self._layout[0] is not active:
-            rows, i = [], 0
-            for c in sim.contacts:
-                if c.attached:
-                    weld = c.constraints[0]
-                    if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
-                        self.welds[c.side] = (weld, len(self.anchors))
-                        self.anchors.append(weld.anchor)
-                    rows.append((c.side, i, self.welds[c.side][1]))
-                    i += sum(con.size for con in c.constraints)  # the weld, then its locks
-            self._layout = (active, rows)
-        return self._layout[1]
+    def _new_layout(self, sim: Simulation, active: list) -> None:
+        """A new active set's layout: where each attached foot's weld is in the plant's forces,
+        and its anchor's index (a new weld's anchor kept)."""
+        rows, i = [], 0
+        for c in sim.contacts:
+            if c.attached:
+                weld = c.constraints[0]
+                if self.welds.get(c.side, (None,))[0] is not weld:  # a new weld
+                    self.welds[c.side] = (weld, len(self.anchors))
+                    self.anchors.append(weld.anchor)
+                rows.append((c.side, i, self.welds[c.side][1]))
+                i += sum(con.size for con in c.constraints)  # the weld, then its locks
+        if i > self.forces.shape[1]:
+            wider = np.full((len(self.forces), i), np.nan)
+            wider[:, : self.forces.shape[1]] = self.forces
+            self.forces = wider
+        self._active, self._index = active, len(self.layouts)
+        self.layouts.append(rows)
 
     def observe(self, sim: Simulation, k: int, t: float, q, v, step: StepResult) -> None:
         if self.z_start is None:
             self.z_start = q[2]
         self.t[k] = t
         self.q[k] = q
-        x, y = q[3], q[4]  # the pelvis' tilt: the angle of its z axis from the vertical
-        self.tilt[k] = tilt = math.degrees(
-            math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y))))
-        )
         self.base[k] = step.torque[:6]
         sol = step.solution
-        active = sim.active_constraints()
-        if sol is not None and active:
-            if self.ctl.fresh:  # the QP was solved at this very state
-                dv = self.ctl.last[0]
-                self.consistency[k] = np.abs(sol.a - dv).max() / max(1.0, np.abs(dv).max())
-            forces = sol.forces
-            for side, i, anchor in self._rows(sim, active):
-                self.wrench[side][k] = forces[i : i + 6]
-                self.anchor[side][k] = anchor
-        z = step.q[2]
+        if sol is not None:
+            active = sim.book.active_constraints()
+            if active:
+                if self.ctl.fresh:  # the QP was solved at this very state
+                    self.solves.append((k, sol.a.copy(), self.ctl.last[0].copy()))
+                forces = sol.forces
+                self.forces[k, : len(forces)] = forces
+                if active is not self._active:
+                    self._new_layout(sim, active)
+                self.layout[k] = self._index
+        x, y, z = q[3], q[4], step.q[2]
+        if z < 0.8 * self.z_start or not x * x + y * y < TILT_GUARD:
+            self._fall(t, x, y, z)
+
+    def _fall(self, t: float, x: float, y: float, z: float) -> None:
+        """Stop the run (RunFailed) at a fall: the pelvis (its height z at the step's end)
+        below 80 % of its start height, or the trunk (its quaternion's x and y) tilted over 30
+        degrees."""
+        assert self.z_start is not None
+        tilt = math.degrees(math.acos(min(1.0, max(-1.0, 1.0 - 2.0 * (x * x + y * y)))))
         if z < 0.8 * self.z_start or tilt > 30.0:
             raise RunFailed(
                 f"fall at t = {t:.3f} s: pelvis {z:.3f} m (start {self.z_start:.3f} m), "
                 f"trunk tilt {tilt:.1f} deg"
             )
 
+    def consistency_until(self, n: int) -> np.ndarray:
+        """The plant's accelerations against the controller's over the first n ticks: the
+        largest difference relative to the largest of the controller's (at least 1), on the
+        ticks the QP was solved at (NaN on the others)."""
+        out = np.full(n, np.nan)
+        solves = [row for row in self.solves if row[0] < n]
+        if solves:
+            k, a, dv = (np.array(x) for x in zip(*solves, strict=True))
+            out[k] = np.abs(a - dv).max(axis=1) / np.fmax(1.0, np.abs(dv).max(axis=1))
+        return out
+
+    def wrenches(self, n: int) -> tuple[dict, dict]:
+        """Each foot's weld wrench over the first n ticks (n, 6) (LOCAL axes, NaN when not
+        attached) and its anchor's index in ``anchors`` (-1 when not attached)."""
+        wrench = {c.side: np.full((n, 6), np.nan) for c in self.sim.contacts}
+        anchor = {c.side: np.full(n, -1) for c in self.sim.contacts}
+        layout = self.layout[:n]
+        for index, rows in enumerate(self.layouts):
+            ticks = np.flatnonzero(layout == index)
+            for side, i, a in rows:
+                wrench[side][ticks] = self.forces[ticks, i : i + 6]
+                anchor[side][ticks] = a
+        return wrench, anchor
+
     def series_until(self, n: int) -> dict:
         """The checks' time series over the first n ticks (see the class docstring)."""
-        model, sim, ctl, weight = self.sim.model, self.sim, self.ctl, self.weight
-        data = model.createData()
+        sim, weight = self.sim, self.weight
         s = {k: np.full(n, np.nan) for k in SERIES}
-        s["t"], s["tilt"] = self.t[:n], self.tilt[:n]
+        q = self.q[:n]
+        s["t"], s["pelvis_z"], s["consistency"] = self.t[:n], q[:, 2], self.consistency_until(n)
+        s["tilt"] = _tilt(q[:, 3], q[:, 4])
         s["tau_base"] = np.abs(self.base[:n]).max(axis=1)
-        s["consistency"], s["pelvis_z"] = self.consistency[:n], self.q[:n, 2]
-        com = np.zeros((n, 3))
-        rotation = {side: np.zeros((n, 3, 3)) for side in SIDES}
-        origin = {side: np.zeros((n, 3)) for side in SIDES}
-        drift = np.zeros(n)
         soles = {c.side: c.sole for c in sim.contacts}
-        for k in range(n):
-            q = self.q[k]
-            com[k] = pin.centerOfMass(model, data, q)  # (the joints' placements too)
-            for side, fid in soles.items():
-                M = pin.updateFramePlacement(model, data, fid)
-                rotation[side][k], origin[side][k] = M.rotation, M.translation
-                a = self.anchor[side][k]
-                if a >= 0:
-                    r = pin.log6(self.anchors[a].actInv(M)).linear
-                    drift[k] = max(drift[k], math.sqrt(r @ r))
-            s["range"][k] = math.degrees(self.ranges.violation(q))
+        com, rotation, origin = _kinematics(self.fk, sim.model, q, soles)
         s["com_x"], s["com_y"], s["com_z"] = com.T
-        ref = np.array([ctl.com_reference(t)[0][:2] for t in s["t"]]).reshape(n, 2)
-        s["com_ref_x"], s["com_ref_y"] = ref.T
+        s["com_ref_x"], s["com_ref_y"] = _com_reference(self.ctl, s["t"]).T
+        s["range"] = np.degrees(range_violations(self.ranges, q))
+        wrench, anchor = self.wrenches(n)
+        drift = _drift(anchor, self.anchors, rotation, origin)
         total = np.zeros((n, 6))  # the feet's wrench about the world origin
         friction = np.zeros(n)
         margin = np.full(n, np.inf)
         on = np.zeros(n, dtype=bool)
         for c in sim.contacts:
-            w = self.wrench[c.side][:n]  # LOCAL axes, about the sole's origin
+            w = wrench[c.side]  # LOCAL axes, about the sole's origin
             attached = np.isfinite(w[:, 0])
             on |= attached
             R, o = rotation[c.side], origin[c.side]
             f = np.einsum("nij,nj->ni", R, w[:, :3])
             tau = np.einsum("nij,nj->ni", R, w[:, 3:])
             s[f"fz_{c.side}"] = np.where(attached, f[:, 2] / weight, np.nan)
-            wr = np.where(attached[:, None], np.hstack([f, tau + cross(o, f)]), 0.0)
-            total += wr
+            total[:, :3] += np.where(attached[:, None], f, 0.0)
+            total[:, 3:] += np.where(attached[:, None], tau + cross(o, f), 0.0)
             with np.errstate(invalid="ignore", divide="ignore"):
                 loaded = attached & (f[:, 2] > 0.2 * weight)
                 ratio = np.hypot(f[:, 0], f[:, 1]) / f[:, 2]
@@ -393,7 +423,8 @@ class WalkMonitor:
                 # that of an (almost) unloaded foot is undefined
                 cop = centre_of_pressure(w)
                 lo, hi = c.cop_box
-                inside = np.minimum((cop - lo).min(axis=1), (hi - cop).min(axis=1))
+                inside = np.minimum(np.minimum(cop[:, 0] - lo[0], cop[:, 1] - lo[1]),
+                                    np.minimum(hi[0] - cop[:, 0], hi[1] - cop[:, 1]))  # fmt: skip
                 margin = np.minimum(margin, np.where(f[:, 2] > COP_MIN_LOAD * weight, inside,
                                                      np.inf))  # fmt: skip
         s["friction"] = np.where(on, friction, np.nan)
@@ -403,6 +434,134 @@ class WalkMonitor:
         up = on & (total[:, 2] > 1e-6)  # the zero-moment point: the feet's CoP on the floor
         s["zmp_x"], s["zmp_y"] = np.where(up, zmp[:, 0], np.nan), np.where(up, zmp[:, 1], np.nan)
         return s
+
+
+def _tilt(x, y) -> np.ndarray:
+    """The pelvis' tilt [deg] from its quaternion's x and y: the angle of its z axis from the
+    vertical (as WalkMonitor._fall)."""
+    return np.degrees(np.arccos(np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0)))
+
+
+def _kinematics(fk: TreeDynamics, model: pin.Model, Q, soles: dict) -> tuple:
+    """The centre of mass (n, 3) and each sole's world rotation (n, 3, 3) and origin (n, 3) at
+    the configurations Q (n, nq): TreeDynamics' compiled forward kinematics, a batch of states
+    at a time (Pinocchio's, state by state, without it); the same numbers to 1e-15."""
+    n, nj = len(Q), model.njoints
+    com = np.empty((n, 3))
+    rotation = {side: np.empty((n, 3, 3)) for side in soles}
+    origin = {side: np.empty((n, 3)) for side in soles}
+    if not fk.available:
+        data = model.createData()
+        for k in range(n):
+            com[k] = pin.centerOfMass(model, data, Q[k])  # (the joints' placements too)
+            for side, fid in soles.items():
+                M = pin.updateFramePlacement(model, data, fid)
+                rotation[side][k], origin[side][k] = M.rotation, M.translation
+        return com, rotation, origin
+    # the CoM, sum_j m_j (R_j c_j + t_j) / m (the universe left out), as two matrix products
+    # with the batch's placements (rows: the states; columns: every R_j and t_j entry)
+    mass = np.array([0.0] + [inertia.mass for inertia in model.inertias[1:]])
+    lever = np.array([inertia.lever for inertia in model.inertias])
+    by_R, by_t = np.zeros((nj, 3, 3, 3)), np.zeros((nj, 3, 3))
+    for i in range(3):
+        by_R[:, i, :, i], by_t[:, i, i] = mass[:, None] * lever, mass
+    by_R, by_t = by_R.reshape(9 * nj, 3) / mass.sum(), by_t.reshape(3 * nj, 3) / mass.sum()
+    frames = {side: model.frames[fid] for side, fid in soles.items()}
+    zero = np.zeros((KINEMATICS_BATCH, model.nv))
+    for a in range(0, n, KINEMATICS_BATCH):
+        b = slice(a, min(n, a + KINEMATICS_BATCH))
+        m = b.stop - a
+        out = fk(Q[b], zero[:m], zero[:m])
+        com[b] = out.R.reshape(m, -1) @ by_R + out.t.reshape(m, -1) @ by_t
+        for side, frame in frames.items():  # a frame: its joint's placement times its own
+            R, t = out.R[:, frame.parentJoint], out.t[:, frame.parentJoint]
+            rotation[side][b] = (R.reshape(3 * m, 3) @ frame.placement.rotation).reshape(m, 3, 3)
+            origin[side][b] = R @ frame.placement.translation + t
+    return com, rotation, origin
+
+
+def _com_reference(ctl: WalkingController, t) -> np.ndarray:
+    """The controller's CoM reference (x, y) at every t (n, 2): ``ctl.com_reference(t)[0][:2]``
+    for all t at once, the same interpolation on its uniform table with the same clamping."""
+    t_ref, c_ref = ctl.t_ref, ctl.c_ref
+    k = np.minimum(np.maximum((t - t_ref[0]) / (t_ref[1] - t_ref[0]), 0.0), len(t_ref) - 1.0)
+    i = np.minimum(k.astype(np.int64), len(t_ref) - 2)
+    s = (k - i)[:, None]
+    return (1.0 - s) * c_ref[i] + s * c_ref[i + 1]
+
+
+def _drift(anchor: dict, anchors: list, rotation: dict, origin: dict) -> np.ndarray:
+    """The largest weld drift of the attached feet at each tick [m] (0 with none): the norm of
+    the translation of log6(anchor^-1 M), M the sole's placement."""
+    drift = np.zeros(len(next(iter(origin.values()))))
+    for side, index in anchor.items():
+        for a, A in enumerate(anchors):
+            k = np.flatnonzero(index == a)
+            if len(k):  # anchor.actInv(M): R_a^T R and R_a^T (p - p_a)
+                Rt = rotation[side][k].transpose(0, 2, 1).reshape(-1, 3) @ A.rotation
+                p = (origin[side][k] - A.translation) @ A.rotation
+                r = _log6_linear(Rt.reshape(-1, 3, 3).transpose(0, 2, 1), p)
+                drift[k] = np.maximum(drift[k], np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+    return drift
+
+
+EPS = float(np.finfo(float).eps)
+TAYLOR = EPS ** (1.0 / 3.0)  # Pinocchio's TaylorSeriesExpansion<double>::precision<2>()
+HALF_TURN = -0.9  # _log6_linear: a rotation whose cosine is below this goes to pin.log6
+LOG_BLOCK = 2048  # placements per block of _log6_linear
+
+
+def _cross(a, b) -> np.ndarray:
+    """a x b of vectors stored by component, (3, m)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])  # fmt: skip
+
+
+def _log6_linear(R, p) -> np.ndarray:
+    """``pin.log6(SE3(R, p)).linear`` of many placements R (m, 3, 3), p (m, 3), as (3, m):
+    Pinocchio 4's log6 and log3 formulas (the rotation renormalised, the Taylor expansions
+    near the identity), a block of placements at a time (small arrays: no fresh pages);
+    rotations past about 150 deg, where the log is ill-conditioned, are handed to pin.log6
+    itself. Agrees with it to 1e-14."""
+    R, p = np.asarray(R, dtype=float).reshape(-1, 3, 3), np.asarray(p, dtype=float).reshape(-1, 3)
+    out = np.empty((3, len(R)))
+    for a in range(0, len(R), LOG_BLOCK):
+        out[:, a : a + LOG_BLOCK] = _log6_block(R[a : a + LOG_BLOCK], p[a : a + LOG_BLOCK])
+    for i in np.flatnonzero((np.einsum("nii->n", R) - 1.0) / 2.0 < HALF_TURN):
+        out[:, i] = pin.log6(pin.SE3(R[i], p[i])).linear
+    return out
+
+
+def _log6_block(R, p) -> np.ndarray:
+    """:func:`_log6_linear` of a block of placements (as (3, m))."""
+    # by component (r[i, j]: the entry (i, j) of every rotation), contiguous
+    r, P = np.ascontiguousarray(R.transpose(1, 2, 0)), np.ascontiguousarray(p.T)
+
+    def unskew(c0, c1, c2):  # of the matrix of columns c0, c1, c2
+        return 0.5 * np.stack([c1[2] - c2[1], c2[0] - c0[2], c0[1] - c1[0]])
+
+    a = unskew(r[:, 0], r[:, 1], r[:, 2])
+    t2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+    tr = r[0, 0] + r[1, 1] + r[2, 2]
+    c0, c1 = (r[:, i] / np.sqrt(r[0, i] ** 2 + r[1, i] ** 2 + r[2, i] ** 2) for i in (0, 1))
+    c2 = _cross(c0, c1)
+    c0 = _cross(c1, c2)
+    trn = c0[0] + c1[1] + c2[2]  # the renormalised rotation's trace
+    cos = (trn - 1.0) / 2.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        series = np.sqrt(2.0 * (1.0 - cos) + EPS * EPS)
+        theta = np.where(trn <= 3.0 - TAYLOR, np.arccos(np.clip(cos, -1.0, 1.0)), series)
+        an = unskew(c0, c1, c2)
+        n2 = an[0] * an[0] + an[1] * an[1] + an[2] * an[2]
+        w = np.where(theta >= TAYLOR, theta / np.sin(theta),
+                     1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0) * an  # fmt: skip
+        st, ct = np.sin(theta), np.cos(theta)
+        near = tr >= 3.0 - TAYLOR
+        alpha = np.where(near, 1.0 - t2 / 12.0 - t2 * t2 / 720.0, theta * st / (2.0 * (1.0 - ct)))
+        beta = np.where(near, 1.0 / 12.0 + t2 / 720.0,
+                        1.0 / (theta * theta) - st / (2.0 * theta * (1.0 - ct)))  # fmt: skip
+    wp = w[0] * P[0] + w[1] * P[1] + w[2] * P[2]
+    return alpha * P - 0.5 * _cross(w, P) + beta * wp * w
 
 
 def _acceptance(s, plan, status, message, weight, mu) -> dict:
