@@ -63,8 +63,10 @@ class WarmQP:
             optimality of the weights).
     """
 
-    def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float) -> None:
+    def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float,
+                 pad: int = 0) -> None:  # fmt: skip
         self.eps_abs, self.max_iter, self.primal, self.dual = eps_abs, max_iter, primal, dual
+        self.pad = pad
         self._qp: Any = None  # proxsuite's dense QP, built at the first solve
         self._dims: tuple[int, int, int] | None = None
         self.iterations = 0
@@ -74,6 +76,11 @@ class WarmQP:
         """The solution, or None when ProxQP neither solved nor reached an acceptable point."""
         import proxsuite
 
+        if self.pad:  # zero rows (0 <= 1) up to a multiple of pad: a new size rebuilds ProxQP
+            extra = -len(G) % self.pad
+            if extra:
+                G = np.vstack([G, np.zeros((extra, G.shape[1]))])
+                h = np.concatenate([h, np.ones(extra)])
         dims = (P.shape[0], A.shape[0], G.shape[0])
         lower = np.full(len(h), -1e20)
         if self._dims != dims:
@@ -249,27 +256,36 @@ def whole_body_qp(M, hvec, weight: float, tasks, Jc, mu: float, *, forces=(), mo
         qv[nv:] += qf
     if ridge:
         P.flat[:: n + 1] += ridge
-    A_eq = [np.hstack([M[:6], -weight * Jc.T[:6]])]
-    b_eq = [-hvec[:6]]
+    # the equalities and the inequalities written in place (the same numbers as stacking)
+    motion = [(A, b) for A, b in motion]
+    bounds = [(C, d) for C, d in bounds if len(C)]
+    A_eq = np.zeros((6 + sum(len(A) for A, _ in motion), n))
+    b_eq = np.empty(len(A_eq))
+    A_eq[:6, :nv] = M[:6]
+    A_eq[:6, nv:] = -weight * Jc.T[:6]
+    b_eq[:6] = -hvec[:6]
+    r = 6
     for A, b in motion:
-        A_eq.append(np.hstack([A, np.zeros((len(A), nf))]))
-        b_eq.append(b)
+        A_eq[r : r + len(A), :nv] = A
+        b_eq[r : r + len(A)] = b
+        r += len(A)
     k = nf // 3
-    G = [pyramid_rows(mu, k, n, nv)]
-    h = [np.zeros(5 * k)]
     cones = 5 * k
-    if upper is not None and k:
-        rows = np.zeros((k, n))
-        rows[np.arange(k), nv + 3 * np.arange(k) + 2] = 1.0
-        G.append(rows)
-        h.append(np.asarray(upper, dtype=float))
+    capped = upper is not None and k > 0
+    G = np.zeros((cones + (k if capped else 0) + sum(len(C) for C, _ in bounds), n))
+    h = np.zeros(len(G))
+    G[:cones] = _pyramids(float(mu), k, n, nv)
+    r = cones
+    if capped:
+        G[r + np.arange(k), nv + 3 * np.arange(k) + 2] = 1.0
+        h[r : r + k] = np.asarray(upper, dtype=float)
+        r += k
     for C, d in bounds:
-        if len(C):
-            G.append(np.hstack([C, np.zeros((len(C), nf))]))
-            h.append(d)
+        G[r : r + len(C), :nv] = C
+        h[r : r + len(C)] = d
+        r += len(C)
     U = np.zeros((0, 0)) if U is None else U
-    return ContactQP(P, qv, np.vstack(A_eq), np.concatenate(b_eq), np.vstack(G),
-                     np.concatenate(h), Jc, U, cones)  # fmt: skip
+    return ContactQP(P, qv, A_eq, b_eq, G, h, Jc, U, cones)
 
 
 def ramped_bound(force: float, time_to_lift: float, ramp: float, margin: float) -> float:

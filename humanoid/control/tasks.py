@@ -10,6 +10,7 @@ world axes at the frame (LOCAL_WORLD_ALIGNED), angular rows after linear ones.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -98,7 +99,15 @@ class PostureTask(Task):
         e = pin.difference(model, q, self.q_ref)[dofs]
         v_ref = np.zeros(nv) if self.v_ref is None else self.v_ref
         a_ref = 0.0 if self.a_ref is None else self.a_ref[dofs]
-        return np.eye(nv)[dofs], a_ref + self.kp * e + self.kd * (v_ref[dofs] - v[dofs])
+        return _rows(nv, self.dofs), a_ref + self.kp * e + self.kd * (v_ref[dofs] - v[dofs])
+
+
+@functools.lru_cache(maxsize=16)
+def _rows(nv: int, dofs: str) -> np.ndarray:
+    """The identity's rows of ``dofs`` (read only: built once per size)."""
+    out = np.eye(nv)[DOFS[dofs]]
+    out.flags.writeable = False
+    return out
 
 
 @dataclass

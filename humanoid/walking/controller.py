@@ -126,7 +126,7 @@ class WalkingController(Effect):
         self._solved_for: set | None = None  # the stance set of the last solve
         # (the plant's active constraints, the welds by side, in order, the sides) of this tick
         self._stance: tuple | None = None
-        self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
+        self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5, pad=16)
         self._zero = np.zeros(model.nv)
         # each side's corners: their joints, and their places in their joints' frames
         self._corner_joints = {s: [model.frames[f].parentJoint for f in self.corners[s]]
@@ -271,7 +271,7 @@ class WalkingController(Effect):
             return [1.0]
         a, b = (data.oMf[self.sole[s]].translation[:2] for s in stance)
         d = b - a
-        x = float(np.clip((self.plan.zmp(t) - a) @ d / max(d @ d, 1e-12), 0.0, 1.0))
+        x = min(max(float((self.plan.zmp(t) - a) @ d / max(d @ d, 1e-12)), 0.0), 1.0)
         return [1.0 - x, x]
 
     def trunk_frames(self) -> list[int]:
@@ -315,7 +315,8 @@ class HeldForces:
         if self._stance is None or self._stance[0] is not welds:
             joints = [j for s in stance for j in ctl._corner_joints[s]]
             local = np.concatenate([ctl._corner_local[s] for s in stance])
-            groups = [(j, np.flatnonzero(np.equal(joints, j))) for j in dict.fromkeys(joints)]
+            groups = [(j, _run_of(np.flatnonzero(np.equal(joints, j))))
+                      for j in dict.fromkeys(joints)]  # fmt: skip
             self._stance = (welds, joints, local, groups, *self._pack_stance(ctl, stance, welds))
         _, joints, local, groups, ints, fixed, hinges = self._stance
         f_local = np.empty_like(f)
@@ -375,3 +376,10 @@ class HeldForces:
     def fext(self) -> pin.StdVec_Force:
         """The held forces as RNEA's external forces (Pinocchio's path)."""
         return self.wrenches.set_local(*self._forces)
+
+
+def _run_of(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice when it is a run of consecutive integers (a view, not a gather)."""
+    if len(index) and index[-1] - index[0] == len(index) - 1:
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index

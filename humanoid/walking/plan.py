@@ -148,7 +148,7 @@ class FootstepPlan:
         mid0 = (self.initial["left"] + self.initial["right"]) / 2
         if t < first.t_lift:
             stance0 = self.initial["left" if first.side == "right" else "right"]
-            s = np.clip((t - 0.2 * g.t_start) / (0.6 * g.t_start), 0.0, 1.0)
+            s = _clip01((t - 0.2 * g.t_start) / (0.6 * g.t_start))
             return mid0 + smooth_step(s) * (stance0 - mid0)
         # the last step lifted by t, and the one before it (whose weight transfer may end a
         # rounding error after this one lifts)
@@ -167,7 +167,7 @@ class FootstepPlan:
         last = self.steps[-1]
         stance = self._stance_after
         mid = (self.final["left"] + self.final["right"]) / 2
-        s = np.clip((t - last.t_land) / (0.6 * g.t_end), 0.0, 1.0)
+        s = _clip01((t - last.t_land) / (0.6 * g.t_end))
         return stance + smooth_step(s) * (mid - stance)
 
     def _position_before(self, side: str, i: int) -> np.ndarray:
@@ -199,11 +199,18 @@ class FootstepPlan:
 
 def smooth_step(s):
     """A smooth 0 -> 1 ramp with zero slope at both ends (the quintic)."""
-    return _quintic(np.clip(s, 0.0, 1.0))[0]
+    return _quintic(_clip01(s))[0]
+
+
+def _clip01(x):
+    """np.clip(x, 0, 1): for one number, the same float64 without NumPy's dispatch."""
+    if isinstance(x, float):
+        return np.float64(min(max(x, 0.0), 1.0))
+    return np.clip(x, 0.0, 1.0)
 
 
 def _quintic(tau):
-    tau = np.clip(tau, 0.0, 1.0)
+    tau = _clip01(tau)
     s = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
     ds = 30 * tau**2 - 60 * tau**3 + 30 * tau**4
     dds = 60 * tau - 180 * tau**2 + 120 * tau**3
