@@ -148,6 +148,28 @@ class TreeDynamics:
         return int(KERNELS.held_torques(self._plan, self._inertia, self._gravity, q, v, dv, ints,
                                         reals, tau))  # fmt: skip
 
+    @staticmethod
+    def rows_of(packed: tuple[np.ndarray, np.ndarray]) -> tuple:
+        """Welds and joint locks packed by :func:`humanoid.constraints.foot.packed_rows` made
+        ready for :meth:`constraint_rows` (their count in front, their rows counted)."""
+        ints, reals = packed
+        m = sum(6 if kind == 0 else 1 for kind in ints[::3].tolist())
+        return np.concatenate([[len(ints) // 3], ints]).astype(np.int64), reals, m
+
+    def constraint_rows(self, q, v, rows: tuple, alpha: float,
+                        beta: float) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+        """The Jacobian rows J and gamma = -(J'v + 2 alpha J v + beta^2 e) of welds and joint
+        locks (:meth:`rows_of`) at (q, v): what :func:`humanoid.constraints.solve.stack`
+        gives them (to 1e-12), in one compiled call; None without the kernels or when a weld
+        is turned by about pi from its anchor (stack them then)."""
+        if self._plan is None or KERNELS is None:
+            return None
+        ints, reals, m = rows
+        J, gamma = np.empty((m, self.model.nv)), np.empty(m)
+        if KERNELS.constraint_rows(self._plan, q, v, ints, reals, alpha, beta, J, gamma) < 0:
+            return None
+        return J, gamma
+
 
 def centre_of_pressure(wrench, height: float = 0.0) -> np.ndarray:
     """Where on the plane z = ``height`` [m] a wrench about the origin (n, 6) [N, N m: force,

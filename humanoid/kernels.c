@@ -1158,6 +1158,69 @@ static void motion_local(const double *R, const double *p, const double *U, doub
     }
 }
 
+/* the rows of welds and joint locks, in their order (constraints/foot.py: Weld, JointLock;
+ * solve.py: stack), at the placements in p and the joints' velocities V and accelerations at
+ * zero A0 (world axes about the origin): J (m x nv, zero on entry) and gamma = -(J'v +
+ * 2 alpha J v + beta^2 e). A constraint is 3 ints (kind: 0 a weld, 1 a lock; a weld's joint;
+ * a lock's configuration and velocity index) and its reals (a weld: its frame's placement in
+ * its joint and its anchor, 12 each, rotations row-major; a lock: its angle). Returns the rows
+ * written, -1 if a weld is turned by about pi from its anchor. */
+static Py_ssize_t constraint_rows(const Plan *p, const double *V, const double *A0,
+                                  const double *q, const double *v, long long nc,
+                                  const long long *cints, const double *creals, double alpha,
+                                  double beta, double *J, double *gamma) {
+    const Py_ssize_t nv = p->nv;
+    Py_ssize_t m = 0;
+    double S[36];
+    for (long long i = 0; i < nc; ++i) {
+        const long long *c = cints + 3 * i;
+        if (c[0] == 1) { /* a lock: its hinge's unit row */
+            J[m * nv + c[2]] = 1.0;
+            gamma[m++] = -(2 * alpha * v[c[2]] + beta * beta * (q[c[1]] - creals[0]));
+            creals += 1;
+            continue;
+        }
+        const long long j = c[1];
+        const double *P = creals, *Ra = P + 12, *ta = Ra + 9, *Rj = p->oR + 9 * j;
+        double Rf[9], pf[3], RaT[9], Re[9], te[3], d[3], e[6], acc[6], tw[6];
+        creals += 24;
+        mat3(Rj, P, Rf);
+        mv3(Rj, P + 9, pf);
+        for (int r = 0; r < 3; ++r) pf[r] += p->ot[3 * j + r];
+        for (Py_ssize_t a = j; a > 0; a = p->parent[a]) {
+            const int n = subspace(p, a, S);
+            for (int col = 0; col < n; ++col) {
+                double u[6];
+                motion_local(Rf, pf, S + 6 * col, u);
+                for (int r = 0; r < 6; ++r) J[(m + r) * nv + p->iv[a] + col] = u[r];
+            }
+        }
+        for (int r = 0; r < 3; ++r)
+            for (int s = 0; s < 3; ++s) RaT[3 * r + s] = Ra[3 * s + r];
+        mat3(RaT, Rf, Re);
+        for (int r = 0; r < 3; ++r) d[r] = pf[r] - ta[r];
+        mv3(RaT, d, te);
+        if (!log6(Re, te, e)) return -1;
+        motion_local(Rf, pf, A0 + 6 * j, acc);
+        motion_local(Rf, pf, V + 6 * j, tw);
+        for (int r = 0; r < 6; ++r) gamma[m + r] = -(acc[r] + 2 * alpha * tw[r] + beta * beta * e[r]);
+        m += 6;
+    }
+    return m;
+}
+
+/* how many rows and reals the constraints of cints have (-1: a kind that is not 0 or 1) */
+static Py_ssize_t constraint_sizes(long long nc, const long long *cints, Py_ssize_t *nreals) {
+    Py_ssize_t m = 0;
+    *nreals = 0;
+    for (long long i = 0; i < nc; ++i) {
+        const long long kind = cints[3 * i];
+        if (kind != 0 && kind != 1) return -1;
+        m += kind ? 1 : 6, *nreals += kind ? 1 : 24;
+    }
+    return m;
+}
+
 /* tau (nv) from the packed holds (see held_torques' docstring in controller.py): 0 done, 1 the
  * rows' Gram matrix is not positive definite, 2 a weld turned by about pi (the caller falls
  * back to Pinocchio) */
@@ -1165,11 +1228,12 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
                 const double *v, const double *dv, const long long *ints, const double *reals,
                 double *tau, double *work) {
     const Py_ssize_t nj = p->nj, nv = p->nv;
-    const long long k = ints[0], nw = ints[1], nl = ints[2], nh = ints[3], nr = ints[4];
-    const long long *ljoint = ints + 5, *wjoint = ljoint + k, *lock = wjoint + nw,
-                    *hinge = lock + 2 * nl;
-    const double *loads = reals, *welds = loads + 6 * k, *lanchor = welds + 24 * nw,
-                 *hreal = lanchor + nl, *Jr = hreal + 4 * nh, *sc = Jr + nr * nv;
+    const long long k = ints[0], nc = ints[1], nh = ints[2], nr = ints[3];
+    const long long *ljoint = ints + 5, *cints = ljoint + k, *hinge = cints + 3 * nc;
+    Py_ssize_t ncr;
+    constraint_sizes(nc, cints, &ncr);
+    const double *loads = reals, *creals = loads + 6 * k, *hreal = creals + ncr,
+                 *Jr = hreal + 4 * nh, *sc = Jr + nr * nv;
     const double alpha = sc[0], beta = sc[1], scale = sc[2], rtime = sc[3], ridge = sc[4];
     double *V = work, *A = V + 6 * nj, *A0 = A + 6 * nj, *F = A0 + 6 * nj, *C = F + 6 * nj;
     double *rows = C + 16 * nj, S[36];
@@ -1231,7 +1295,7 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
     }
     /* the rows: the base's six of M, the welds' six, the locks', the range rows held, the
      * hinges that would cross their damper */
-    const Py_ssize_t cap = 6 + 6 * nw + nl + nr + nh;
+    const Py_ssize_t cap = 6 + constraint_sizes(nc, cints, &ncr) + nr + nh;
     double *Ar = rows, *rhs = rows + cap * nv, *G = rhs + cap, *dd = G + cap * cap;
     memset(Ar, 0, cap * nv * sizeof(double));
     Py_ssize_t m = 0;
@@ -1259,39 +1323,16 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
         for (int b = 0; b < 6; ++b) rhs[b] = tau[b];
         m = 6;
     }
-    for (long long i = 0; i < nw; ++i, m += 6) {
-        const long long j = wjoint[i];
-        const double *P = welds + 24 * i, *Ra = P + 12, *ta = Ra + 9, *Rj = p->oR + 9 * j;
-        double Rf[9], pf[3], RaT[9], Re[9], te[3], d[3], e[6], acc[6], tw[6];
-        mat3(Rj, P, Rf);
-        mv3(Rj, P + 9, pf);
-        for (int r = 0; r < 3; ++r) pf[r] += p->ot[3 * j + r];
-        for (Py_ssize_t a = j; a > 0; a = p->parent[a]) {
-            const int n = subspace(p, a, S);
-            for (int c = 0; c < n; ++c) {
-                double col[6];
-                motion_local(Rf, pf, S + 6 * c, col);
-                for (int r = 0; r < 6; ++r) Ar[(m + r) * nv + p->iv[a] + c] = col[r];
-            }
+    {
+        const Py_ssize_t mc = constraint_rows(p, V, A0, q, v, nc, cints, creals, alpha, beta,
+                                              Ar + m * nv, rhs + m);
+        if (mc < 0) return 2;
+        for (Py_ssize_t r = m; r < m + mc; ++r) { /* J dv - gamma */
+            double s = 0.0;
+            for (Py_ssize_t c = 0; c < nv; ++c) s += Ar[r * nv + c] * dv[c];
+            rhs[r] = s - rhs[r];
         }
-        for (int r = 0; r < 3; ++r)
-            for (int s = 0; s < 3; ++s) RaT[3 * r + s] = Ra[3 * s + r];
-        mat3(RaT, Rf, Re);
-        for (int r = 0; r < 3; ++r) d[r] = pf[r] - ta[r];
-        mv3(RaT, d, te);
-        if (!log6(Re, te, e)) return 2;
-        motion_local(Rf, pf, A0 + 6 * j, acc);
-        motion_local(Rf, pf, V + 6 * j, tw);
-        for (int r = 0; r < 6; ++r) {
-            double s = 0.0; /* J dv - gamma, gamma = -(drift + 2 alpha J v + beta^2 e) */
-            for (Py_ssize_t c = 0; c < nv; ++c) s += Ar[(m + r) * nv + c] * dv[c];
-            rhs[m + r] = s + acc[r] + 2 * alpha * tw[r] + beta * beta * e[r];
-        }
-    }
-    for (long long i = 0; i < nl; ++i, ++m) {
-        const long long iq = lock[2 * i], iv = lock[2 * i + 1];
-        Ar[m * nv + iv] = 1.0;
-        rhs[m] = dv[iv] + 2 * alpha * v[iv] + beta * beta * (q[iq] - lanchor[i]);
+        m += mc;
     }
     if (nr) memcpy(Ar + m * nv, Jr, nr * nv * sizeof(double));
     for (long long i = 0; i < nr; ++i) rhs[m++] = 0.0;
@@ -1347,6 +1388,32 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
     return 0;
 }
 
+/* buffers' checks: each of n objects as a C-contiguous buffer of at least (exactly, if
+ * exact[i]) bytes[i] bytes, writable if write[i]; returns how many were acquired (n when all
+ * were, the Python error set otherwise) */
+static int acquire(const char *who, int n, PyObject **objs, Py_buffer *b, const Py_ssize_t *bytes,
+                   const int *exact, const int *write, const char **names) {
+    for (int i = 0; i < n; ++i) {
+        if (PyObject_GetBuffer(objs[i], &b[i], PyBUF_C_CONTIGUOUS | (write[i] ? PyBUF_WRITABLE : 0)) < 0)
+            return i;
+        if (exact[i] ? b[i].len != bytes[i] : b[i].len < bytes[i]) {
+            PyErr_Format(PyExc_ValueError, "%s: %s has %zd bytes, needs %zd", who, names[i],
+                         b[i].len, bytes[i]);
+            return i + 1;
+        }
+    }
+    return n;
+}
+
+/* the constraints' counts from ints (nc at ints[at], their triples at ints + first): their
+ * rows and reals; -1 (the error set) if a kind is unknown */
+static Py_ssize_t constraint_counts(const char *who, long long nc, const long long *cints,
+                                    Py_ssize_t *nreals) {
+    const Py_ssize_t m = constraint_sizes(nc, cints, nreals);
+    if (m < 0) PyErr_Format(PyExc_ValueError, "%s: a constraint of an unknown kind", who);
+    return m;
+}
+
 static PyObject *held_torques(PyObject *self, PyObject *args) {
     PyObject *capsule, *objs[8];
     if (!PyArg_ParseTuple(args, "OOOOOOOOO", &capsule, &objs[0], &objs[1], &objs[2], &objs[3],
@@ -1355,36 +1422,32 @@ static PyObject *held_torques(PyObject *self, PyObject *args) {
     Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
     if (!p) return NULL;
     const Py_ssize_t nj = p->nj, nv = p->nv, D = sizeof(double), L = sizeof(long long);
-    /* inertia, gravity, q, v, dv, ints, reals, tau (written) */
+    /* inertia, gravity, q, v, dv, ints, reals, tau (written): ints first, whose counts size
+     * the reals */
     Py_buffer b[8];
     const char *names[8] = {"inertia", "gravity", "q", "v", "dv", "ints", "reals", "tau"};
-    Py_ssize_t sizes[8] = {13 * nj * D, 3 * D, p->nq * D, nv * D, nv * D, 5 * L, 0, nv * D};
-    int got = 0;
-    for (; got < 8; ++got) {
-        int flags = PyBUF_C_CONTIGUOUS | (got == 7 ? PyBUF_WRITABLE : 0);
-        if (PyObject_GetBuffer(objs[got], &b[got], flags) < 0) break;
-        if (got == 6) { /* the packed holds' sizes, from their counts */
-            const long long *n = b[5].buf;
-            sizes[5] = (5 + n[0] + n[1] + 2 * n[2] + 2 * n[3]) * L;
-            sizes[6] = (6 * n[0] + 24 * n[1] + n[2] + 4 * n[3] + n[4] * nv + 5) * D;
-            if (b[5].len != sizes[5]) {
-                PyErr_Format(PyExc_ValueError, "held_torques: ints has %zd bytes, expected %zd",
-                             b[5].len, sizes[5]);
-                ++got;
-                break;
-            }
-        }
-        if (got == 6 ? b[got].len != sizes[got] : b[got].len < sizes[got]) {
-            PyErr_Format(PyExc_ValueError, "held_torques: %s has %zd bytes, needs %zd",
-                         names[got], b[got].len, sizes[got]);
-            ++got;
-            break;
+    Py_ssize_t bytes[8] = {13 * nj * D, 3 * D, p->nq * D, nv * D, nv * D, 5 * L, 0, nv * D};
+    const int exact[8] = {0, 0, 0, 0, 0, 0, 1, 0}, write[8] = {0, 0, 0, 0, 0, 0, 0, 1};
+    int got = acquire("held_torques", 6, objs, b, bytes, exact, write, names);
+    Py_ssize_t mc = -1, ncr = 0;
+    if (got == 6) {
+        const long long *n = b[5].buf;
+        const Py_ssize_t want = (5 + n[0] + 3 * n[1] + 2 * n[2]) * L;
+        if (b[5].len != want)
+            PyErr_Format(PyExc_ValueError, "held_torques: ints has %zd bytes, expected %zd",
+                         b[5].len, want);
+        else
+            mc = constraint_counts("held_torques", n[1], n + 5 + n[0], &ncr);
+        if (mc >= 0) {
+            bytes[6] = (6 * n[0] + ncr + 4 * n[2] + n[3] * nv + 5) * D;
+            got = 6 + acquire("held_torques", 2, objs + 6, b + 6, bytes + 6, exact + 6,
+                              write + 6, names + 6);
         }
     }
     long status = -1;
     if (got == 8) {
         const long long *n = b[5].buf;
-        const Py_ssize_t cap = 6 + 6 * n[1] + n[2] + n[4] + n[3];
+        const Py_ssize_t cap = 6 + mc + n[3] + n[2];
         double *work = malloc((40 * nj + cap * nv + cap + cap * cap + nv) * D);
         if (!work)
             PyErr_NoMemory();
@@ -1396,6 +1459,72 @@ static PyObject *held_torques(PyObject *self, PyObject *args) {
     for (int i = 0; i < got; ++i) PyBuffer_Release(&b[i]);
     if (PyErr_Occurred()) return NULL;
     return PyLong_FromLong(status);
+}
+
+/* every joint's velocity and acceleration at zero (no gravity) about the origin, world axes */
+static void velocity_pass(Plan *p, const double *q, const double *v, double *V, double *A0) {
+    double S[36];
+    kinematics(p, q);
+    memset(V, 0, 6 * sizeof(double)), memset(A0, 0, 6 * sizeof(double));
+    for (Py_ssize_t j = 1; j < p->nj; ++j) {
+        const Py_ssize_t par = p->parent[j];
+        const int n = subspace(p, j, S);
+        double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = V + 6 * j, *A0j = A0 + 6 * j;
+        for (int c = 0; c < n; ++c)
+            for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * v[p->iv[j] + c];
+        for (int i = 0; i < 6; ++i) Vj[i] = V[6 * par + i] + vj[i], A0j[i] = A0[6 * par + i];
+        motion_cross_add(Vj, vj, A0j);
+    }
+}
+
+/* constraint_rows(plan, q, v, ints, reals, alpha, beta, J, gamma): the rows of welds and locks
+ * (ints: their count, then their triples) into J (m x nv) and gamma (m); returns m, or -1 when
+ * a weld is turned by about pi (the caller stacks them itself) */
+static PyObject *constraint_rows_py(PyObject *self, PyObject *args) {
+    PyObject *capsule, *objs[6];
+    double alpha, beta;
+    if (!PyArg_ParseTuple(args, "OOOOOddOO", &capsule, &objs[0], &objs[1], &objs[2], &objs[3],
+                          &alpha, &beta, &objs[4], &objs[5]))
+        return NULL;
+    Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
+    if (!p) return NULL;
+    const Py_ssize_t nv = p->nv, D = sizeof(double), L = sizeof(long long);
+    Py_buffer b[6];
+    const char *names[6] = {"q", "v", "ints", "reals", "J", "gamma"};
+    Py_ssize_t bytes[6] = {p->nq * D, nv * D, L, 0, 0, 0};
+    const int exact[6] = {0, 0, 0, 1, 0, 0}, write[6] = {0, 0, 0, 0, 1, 1};
+    int got = acquire("constraint_rows", 3, objs, b, bytes, exact, write, names);
+    Py_ssize_t m = -1, ncr = 0;
+    if (got == 3) {
+        const long long *n = b[2].buf;
+        if (b[2].len != (1 + 3 * n[0]) * L)
+            PyErr_Format(PyExc_ValueError, "constraint_rows: ints has %zd bytes, expected %zd",
+                         b[2].len, (1 + 3 * n[0]) * L);
+        else
+            m = constraint_counts("constraint_rows", n[0], n + 1, &ncr);
+        if (m >= 0) {
+            bytes[3] = ncr * D, bytes[4] = m * nv * D, bytes[5] = m * D;
+            got = 3 + acquire("constraint_rows", 3, objs + 3, b + 3, bytes + 3, exact + 3,
+                              write + 3, names + 3);
+        }
+    }
+    Py_ssize_t out = -2;
+    if (got == 6) {
+        double *work = malloc(12 * p->nj * D);
+        if (!work) {
+            PyErr_NoMemory();
+        } else {
+            const long long *n = b[2].buf;
+            velocity_pass(p, b[0].buf, b[1].buf, work, work + 6 * p->nj);
+            memset(b[4].buf, 0, m * nv * D);
+            out = constraint_rows(p, work, work + 6 * p->nj, b[0].buf, b[1].buf, n[0], n + 1,
+                                  b[3].buf, alpha, beta, b[4].buf, b[5].buf);
+            free(work);
+        }
+    }
+    for (int i = 0; i < got; ++i) PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred()) return NULL;
+    return PyLong_FromSsize_t(out);
 }
 
 static PyMethodDef methods[] = {
@@ -1412,6 +1541,8 @@ static PyMethodDef methods[] = {
     {"placements", placements, METH_VARARGS, "Every joint's placement at q (for the tests)."},
     {"tree_dynamics", tree_dynamics, METH_VARARGS,
      "States' joint placements, angular velocities, joint forces and torques (RNEA)."},
+    {"constraint_rows", constraint_rows_py, METH_VARARGS,
+     "The rows and gamma of welds and joint locks at (q, v); returns how many rows."},
     {"held_torques", held_torques, METH_VARARGS,
      "The welded walk's torques between QP ticks; returns 0, or why the caller falls back."},
     {NULL, NULL, 0, NULL}};

@@ -15,7 +15,7 @@ import pinocchio as pin
 from ..errors import ModelError
 from .base import Constraint
 
-__all__ = ["JointLock", "PointContact", "Weld", "foot_hinges"]
+__all__ = ["JointLock", "PointContact", "Weld", "foot_hinges", "packed_rows"]
 
 LOCAL = pin.ReferenceFrame.LOCAL
 WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -144,3 +144,28 @@ def _twin(model, frame_id, kind, reference, anchor, baumgarte) -> pin.RigidConst
         pin.BaumgarteCorrectorParameters(baumgarte.beta**2, 2 * baumgarte.alpha)
     )
     return cm
+
+
+def packed_rows(model: pin.Model, constraints) -> tuple[np.ndarray, np.ndarray] | None:
+    """Welds and joint locks as the compiled kernels read them
+    (:meth:`humanoid.dynamics.TreeDynamics.constraint_rows`, the welded walk's held torques):
+    three ints each (kind: 0 a weld, 1 a lock; a weld's frame's joint; a lock's configuration
+    and velocity index) and their reals (a weld: its frame's placement in its joint and its
+    anchor, rotation row-major then translation; a lock: its angle), in the constraints'
+    order; None if one is of another kind."""
+    ints: list[int] = []
+    reals: list[np.ndarray] = []
+    for c in constraints:
+        if isinstance(c, Weld):
+            frame = model.frames[c.frame_id]
+            ints += [0, frame.parentJoint, 0]
+            reals += [frame.placement.rotation.ravel(), frame.placement.translation,
+                      c.anchor.rotation.ravel(), c.anchor.translation]  # fmt: skip
+        elif isinstance(c, JointLock):
+            joint = model.joints[c.joint_id]
+            ints += [1, joint.idx_q, joint.idx_v]
+            reals.append(np.array([c.anchor]))
+        else:
+            return None
+    return (np.array(ints, dtype=np.int64),
+            np.concatenate(reals) if reals else np.zeros(0))  # fmt: skip

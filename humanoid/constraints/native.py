@@ -27,7 +27,9 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from ..dynamics import TreeDynamics
 from .base import Constraint, update_kinematics
+from .foot import packed_rows
 from .solve import Baumgarte, split_forces, stack
 
 __all__ = ["NativeSolve", "proximal_settings"]
@@ -64,6 +66,7 @@ class NativeSolve:
         constraints: Sequence[Constraint],
         baumgarte: Baumgarte | None = None,
         redundant: bool = False,
+        tree: TreeDynamics | None = None,
     ) -> None:
         baumgarte = baumgarte or Baumgarte()
         self.model = model
@@ -82,6 +85,14 @@ class NativeSolve:
                 self.cds.append(cm.createData())
             pin.initConstraintDynamics(model, self.data, self.cms, self.cds)
             self.prox = proximal_settings(redundant)
+        # the dense path's rows in one compiled call when they are welds and locks (``tree``:
+        # the model's TreeDynamics, available)
+        self._rows = None
+        if not self.native and tree is not None and tree.available:
+            packed = packed_rows(model, self.constraints)
+            if packed is not None:
+                gains = (baumgarte.alpha, baumgarte.beta) if baumgarte.active else (0.0, 0.0)
+                self._rows = (tree, tree.rows_of(packed), gains)
         self.a = np.zeros(model.nv)
 
     def acceleration(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -93,8 +104,14 @@ class NativeSolve:
             )
         else:
             model, data = self.model, self.data
-            update_kinematics(model, data, q, v)
-            J, gamma = stack(model, data, self.constraints, v, self.baumgarte)
+            rows = None
+            if self._rows is not None:
+                tree, packed, (alpha, beta) = self._rows
+                rows = tree.constraint_rows(q, v, packed, alpha, beta)
+            if rows is None:
+                update_kinematics(model, data, q, v)
+                rows = stack(model, data, self.constraints, v, self.baumgarte)
+            J, gamma = rows
             # Pinocchio's drift is J'v (J a + drift = 0): our gamma with its sign turned
             self.a = pin.forwardDynamics(model, data, q, v, tau, J, -gamma, DENSE_DAMPING)
         return self.a

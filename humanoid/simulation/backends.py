@@ -10,6 +10,7 @@ import pinocchio as pin
 from ..constraints import solve_kkt, update_kinematics
 from ..constraints.native import NativeSolution, NativeSolve
 from ..constraints.solve import stack
+from ..dynamics import TreeDynamics
 
 __all__ = ["CONSTRAINT_BACKENDS", "Native", "Reference"]
 
@@ -41,6 +42,7 @@ class Native:
     def __init__(self, plant) -> None:
         self.plant = plant
         self.solve: NativeSolve | None = None
+        self.tree: TreeDynamics | None = None  # for the dense path's compiled rows, once
 
     @staticmethod
     def supports(setup) -> bool:
@@ -52,7 +54,10 @@ class Native:
         p, solve = self.plant, self.solve
         if solve is None or solve.source is not constraints:
             redundant = sum(c.size for c in constraints) > 6 * len(p.contacts)
-            solve = self.solve = NativeSolve(p.model, constraints, p.baumgarte, redundant)
+            if self.tree is None:
+                self.tree = TreeDynamics(p.model)
+            solve = self.solve = NativeSolve(p.model, constraints, p.baumgarte, redundant,
+                                             self.tree)  # fmt: skip
         a = solve.acceleration(q, v, tau)
         p.last = (p.joint_torque, NativeSolution(solve))
         return a

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..constraints import JointLock, Weld
+from ..constraints import Weld
+from ..constraints.foot import packed_rows
 from ..constraints.limits import JointRanges
 from ..constraints.solve import stack
 from ..control.qp import (
@@ -327,7 +328,7 @@ class HeldForces:
         if ints is None:
             return
         ints = ints.copy()
-        ints[4] = len(Jr)
+        ints[3] = len(Jr)
         hinges[:, 3] = Jh_dv
         b = ctl.baumgarte
         alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
@@ -337,31 +338,21 @@ class HeldForces:
         self.packed = (ints, reals)
 
     def _pack_stance(self, ctl: WalkingController, stance, welds) -> tuple:
-        """The stance's part of the kernel's arrays: (ints, the welds' and locks' reals, the
-        hinges' bound and signs), or Nones if a constraint is neither a weld nor a lock."""
+        """The stance's part of the kernel's arrays: (ints: the counts, the corners' joints,
+        the welds and locks (:func:`~humanoid.constraints.foot.packed_rows`), the hinges' rows;
+        the welds' and locks' reals; the hinges' bounds and signs), or Nones if a constraint
+        is neither a weld nor a lock."""
         model, ranges = self.model, ctl.ranges
-        held = [w for s in stance for w in welds[s]]
-        if self.tree is None:
+        packed = packed_rows(model, [w for s in stance for w in welds[s]])
+        if self.tree is None or packed is None:
             return None, None, None
-        weld = [w for w in held if isinstance(w, Weld)]
-        locks = [w for w in held if isinstance(w, JointLock)]
-        if len(weld) + len(locks) != len(held):
-            return None, None, None
+        cints, fixed = packed
         joints = [j for s in stance for j in ctl._corner_joints[s]]
-        frames = [model.frames[w.frame_id] for w in weld]
         nh = 2 * len(ranges.iq)
         ints = np.concatenate([
-            [len(joints), len(weld), len(locks), nh, 0], joints, [fr.parentJoint for fr in frames],
-            np.ravel([(model.joints[c.joint_id].idx_q, model.joints[c.joint_id].idx_v)
-                      for c in locks]),
+            [len(joints), len(cints) // 3, nh, 0, 0], joints, cints,
             np.column_stack([np.tile(ranges.iq, 2), np.tile(ranges.iv, 2)]).ravel(),
         ]).astype(np.int64)  # fmt: skip
-        fixed = np.concatenate([
-            *(np.concatenate([fr.placement.rotation.ravel(), fr.placement.translation,
-                              w.anchor.rotation.ravel(), w.anchor.translation])
-              for fr, w in zip(frames, weld, strict=True)),
-            [c.anchor for c in locks],
-        ])  # fmt: skip
         sign = np.repeat([1.0, -1.0], nh // 2)
         bounds = np.concatenate([ranges.lo, ranges.hi])
         return ints, fixed, np.column_stack([bounds, sign, sign, np.zeros(nh)])
