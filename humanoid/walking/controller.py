@@ -127,6 +127,7 @@ class WalkingController(Effect):
         self._solved_for: set | None = None  # the stance set of the last solve
         # (the plant's active constraints, the welds by side, in order, the sides) of this tick
         self._stance: tuple | None = None
+        self._rows: tuple | None = None  # (the welds, their rows packed for the kernel)
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5, pad=16)
         self._zero = np.zeros(model.nv)
         # each side's corners: their joints, and their places in their joints' frames
@@ -251,7 +252,7 @@ class WalkingController(Effect):
             f_ref[12 * k + 2 : 12 * k + 12 : 3] = share / 4.0
         Jc = frame_jacobians(model, data, [f for s in stance for f in self.corners[s]])
         # the stance welds' rows exactly as the plant stacks them (same Baumgarte terms)
-        welded = stack(model, data, [w for s in stance for w in welds[s]], v, self.baumgarte)
+        welded = self._holds.weld_rows(self, q, v, stance, welds)
         Jr, bound = range_damper(self.ranges, q, v, self.period, RANGE_MARGIN, RANGE_TIME)
         weight = self.weight
         p = whole_body_qp(M, hvec, weight, tasks, Jc, g.mu, forces=[ForceTask(f_ref, g.w_force)],
@@ -309,6 +310,7 @@ class HeldForces:
         # (the welds, the corners' joints, their points, the corners by joint, the stance's
         # ints, reals and hinge rows)
         self._stance: tuple | None = None
+        self._rows: tuple | None = None  # (the welds, their rows packed for the kernel)
 
     def hold(self, ctl: WalkingController, stance, welds, f, Jr, Jh_dv) -> None:
         """Keep a solve's corner forces ``f`` (k, 3, world axes, at ``ctl.data``'s placements)
@@ -356,6 +358,23 @@ class HeldForces:
         sign = np.repeat([1.0, -1.0], nh // 2)
         bounds = np.concatenate([ranges.lo, ranges.hi])
         return ints, fixed, np.column_stack([bounds, sign, sign, np.zeros(nh)])
+
+    def weld_rows(self, ctl: WalkingController, q, v, stance, welds) -> tuple:
+        """(J, gamma) of the stance's welds and locks at (q, v) (``ctl.data``'s kinematics
+        there): the compiled kernel's (:meth:`~humanoid.dynamics.TreeDynamics.constraint_rows`),
+        or :func:`~humanoid.constraints.solve.stack`'s."""
+        held = [w for s in stance for w in welds[s]]
+        if self.tree is not None:
+            if self._rows is None or self._rows[0] is not welds:
+                packed = packed_rows(self.model, held)
+                self._rows = (welds, None if packed is None else self.tree.rows_of(packed))
+            if self._rows[1] is not None:
+                b = ctl.baumgarte
+                alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
+                rows = self.tree.constraint_rows(q, v, self._rows[1], alpha, beta)
+                if rows is not None:
+                    return rows
+        return stack(self.model, ctl.data, held, v, ctl.baumgarte)
 
     def compiled(self, q, v, dv) -> np.ndarray | None:
         """The held torques from the kernel, or None (no kernel, or it declined)."""
