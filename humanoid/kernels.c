@@ -10,6 +10,9 @@
  *   ground_write(plan, points, joints, local, J, ids)   (arrays of the n contacts, to fill)
  *   ranges = range_plan(...); m = range_rows(ranges, q, margin, hint, has_hint, r, J, ids)
  *   contact_solve(J, Minv, v_free, gap, nc, mu, tol, rho, max_iter, mem, screen, lam, v)
+ *   tree_dynamics(plan, n, inertia, gravity, Q, V, A, R, t, w, m, f, tau)   (many states' RNEA)
+ *   constraint_rows(plan, q, v, ints, reals, alpha, beta, J, gamma)   (welds' and locks' rows)
+ *   held_torques(plan, inertia, gravity, q, v, dv, ints, reals, tau)   (the welded walk's)
  *
  * ground_select places every joint from q (the forward kinematics of the joint kinds below,
  * the same products as Pinocchio's: oMi = oMparent * jointPlacement * jointMotion(q)), places
@@ -1221,6 +1224,23 @@ static Py_ssize_t constraint_sizes(long long nc, const long long *cints, Py_ssiz
     return m;
 }
 
+/* the joints' forces F (nj x 6, about the origin) summed from the leaves, each joint's share
+ * S^T F written into tau (subtract: taken from it) */
+static void backward(const Plan *p, double *F, double *tau, int subtract) {
+    double S[36];
+    for (Py_ssize_t j = p->nj - 1; j > 0; --j) {
+        const Py_ssize_t par = p->parent[j];
+        const int n = subspace(p, j, S);
+        for (int c = 0; c < n; ++c) {
+            double s = 0.0;
+            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
+            tau[p->iv[j] + c] = subtract ? tau[p->iv[j] + c] - s : s;
+        }
+        if (par > 0)
+            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
+    }
+}
+
 /* tau (nv) from the packed holds (see held_torques' docstring in controller.py): 0 done, 1 the
  * rows' Gram matrix is not positive definite, 2 a weld turned by about pi (the caller falls
  * back to Pinocchio) */
@@ -1280,19 +1300,10 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
         for (int r = 0; r < 3; ++r) F[6 * j + r] -= x[r], F[6 * j + 3 + r] -= f[r];
     }
     /* the backward pass: tau = M dv + h - J^T f, and the composite inertias */
-    for (Py_ssize_t j = nj - 1; j > 0; --j) {
-        const Py_ssize_t par = p->parent[j];
-        const int n = subspace(p, j, S);
-        for (int c = 0; c < n; ++c) {
-            double s = 0.0;
-            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
-            tau[p->iv[j] + c] = s;
-        }
-        if (par > 0)
-            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
-        if (par > 0)
-            for (int i = 0; i < 13; ++i) C[16 * par + i] += C[16 * j + i];
-    }
+    backward(p, F, tau, 0);
+    for (Py_ssize_t j = nj - 1; j > 0; --j)
+        if (p->parent[j] > 0)
+            for (int i = 0; i < 13; ++i) C[16 * p->parent[j] + i] += C[16 * j + i];
     /* the rows: the base's six of M, the welds' six, the locks', the range rows held, the
      * hinges that would cross their damper */
     const Py_ssize_t cap = 6 + constraint_sizes(nc, cints, &ncr) + nr + nh;
@@ -1373,17 +1384,7 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
             for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * dd[p->iv[j] + c];
         body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, NULL, Aj, F + 6 * j);
     }
-    for (Py_ssize_t j = nj - 1; j > 0; --j) {
-        const Py_ssize_t par = p->parent[j];
-        const int n = subspace(p, j, S);
-        for (int c = 0; c < n; ++c) {
-            double s = 0.0;
-            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
-            tau[p->iv[j] + c] -= s;
-        }
-        if (par > 0)
-            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
-    }
+    backward(p, F, tau, 1);
     for (int i = 0; i < 6; ++i) tau[i] = 0.0;
     return 0;
 }

@@ -51,3 +51,25 @@ def tree_dynamics(
     f: Any,
     tau: Any,
 ) -> None: ...
+def constraint_rows(
+    plan: object,
+    q: Any,
+    v: Any,
+    ints: Any,
+    reals: Any,
+    alpha: float,
+    beta: float,
+    J: Any,
+    gamma: Any,
+) -> int: ...
+def held_torques(
+    plan: object,
+    inertia: Any,
+    gravity: Any,
+    q: Any,
+    v: Any,
+    dv: Any,
+    ints: Any,
+    reals: Any,
+    tau: Any,
+) -> int: ...

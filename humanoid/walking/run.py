@@ -45,8 +45,9 @@ __all__ = [
 COP_MIN_LOAD = 0.01  # [body weights] below this a foot's centre of pressure is not checked
 # The controller's QP period [s]; between QP ticks the contact forces are held
 # (WalkingController.held_torques). Measured on the male, female and erd human bodies' 10-step
-# walks: every check passes up to 10 ms, the male falls at 16 ms; g1's walk (marginal at 1 ms,
-# its CoM 3.6 cm off its reference) passes at 3 ms and falls from 4 ms.
+# walks (scripts/walk_periods.py): every check passes up to 12 ms (the female's ranges fail at
+# 14 ms, the one-piece-feet male falls at 12 ms); g1's walk (marginal at 1 ms, its CoM 3.6 cm
+# off its reference) passes at 3 ms and falls from 4 ms.
 CONTROL_PERIOD = 8e-3
 
 # Typical adult gait (Bohannon 1997, Murray 1964/1970, Perry & Burnfield, Winter, Powers 2002,
