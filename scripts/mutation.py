@@ -918,8 +918,8 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "W04",
         "walking/plan.py",
-        'stance_side = "left" if step.side == "right" else "right"',
-        "stance_side = step.side",
+        "self._position_before(_other(s.side), i)",
+        "self._position_before(s.side, i)",
         (
             "tests/test_walking.py::test_zmp_reference_stays_in_the_support_polygon",
             "tests/test_walking.py::test_preview_control_tracks_the_zmp_reference",

@@ -63,10 +63,8 @@ class WarmQP:
             optimality of the weights).
     """
 
-    def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float,
-                 pad: int = 0) -> None:  # fmt: skip
+    def __init__(self, eps_abs: float, max_iter: int, primal: float, dual: float) -> None:
         self.eps_abs, self.max_iter, self.primal, self.dual = eps_abs, max_iter, primal, dual
-        self.pad = pad
         self._qp: Any = None  # proxsuite's dense QP, built at the first solve
         self._dims: tuple[int, int, int] | None = None
         self.iterations = 0
@@ -76,11 +74,6 @@ class WarmQP:
         """The solution, or None when ProxQP neither solved nor reached an acceptable point."""
         import proxsuite
 
-        if self.pad:  # zero rows (0 <= 1) up to a multiple of pad: a new size rebuilds ProxQP
-            extra = -len(G) % self.pad
-            if extra:
-                G = np.vstack([G, np.zeros((extra, G.shape[1]))])
-                h = np.concatenate([h, np.ones(extra)])
         dims = (P.shape[0], A.shape[0], G.shape[0])
         lower = np.full(len(h), -1e20)
         if self._dims != dims:

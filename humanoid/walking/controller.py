@@ -128,7 +128,7 @@ class WalkingController(Effect):
         # (the plant's active constraints, the welds by side, in order, the sides) of this tick
         self._stance: tuple | None = None
         self._rows: tuple | None = None  # (the welds, their rows packed for the kernel)
-        self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5, pad=16)
+        self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
         # each side's corners: their joints, and their places in their joints' frames
         self._corner_joints = {s: [model.frames[f].parentJoint for f in self.corners[s]]
