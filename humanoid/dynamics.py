@@ -115,7 +115,6 @@ class TreeDynamics:
         self._inertia = np.ascontiguousarray([
             np.concatenate([[I.mass], I.lever, I.inertia.ravel()]) for I in model.inertias
         ])  # fmt: skip
-        self._gravity = np.ascontiguousarray(model.gravity.linear, dtype=float)
 
     def __call__(self, q, v, a) -> SimpleNamespace:
         """At the states (q, v, a) (n, nq), (n, nv), (n, nv): ``R`` (n, nj, 3, 3) and ``t``
@@ -140,13 +139,14 @@ class TreeDynamics:
     def held(self, q, v, dv, ints: np.ndarray, reals: np.ndarray, tau: np.ndarray) -> int:
         """The welded walk's torques between its QP ticks into ``tau`` (kernels.c's
         ``held_torques``, the holds packed by
-        :meth:`~humanoid.walking.controller.WalkingController.update`): 0 when written, 1 or 2
-        when the caller must compute them itself (rows without a Cholesky factor, a weld
-        turned by about pi)."""
+        :meth:`~humanoid.walking.controller.HeldForces.hold`), under the model's gravity now:
+        0 when written, 1 or 2 when the caller must compute them itself (rows without a
+        Cholesky factor, a weld turned by about pi)."""
         if self._plan is None or KERNELS is None:
             return 3
-        return int(KERNELS.held_torques(self._plan, self._inertia, self._gravity, q, v, dv, ints,
-                                        reals, tau))  # fmt: skip
+        gravity = np.ascontiguousarray(self.model.gravity.linear, dtype=float)
+        return int(KERNELS.held_torques(self._plan, self._inertia, gravity, q, v, dv, ints, reals,
+                                        tau))  # fmt: skip
 
     @staticmethod
     def rows_of(packed: tuple[np.ndarray, np.ndarray]) -> tuple:

@@ -127,7 +127,6 @@ class WalkingController(Effect):
         self._solved_for: set | None = None  # the stance set of the last solve
         # (the plant's active constraints, the welds by side, in order, the sides) of this tick
         self._stance: tuple | None = None
-        self._rows: tuple | None = None  # (the welds, their rows packed for the kernel)
         self.qp = WarmQP(eps_abs=1e-8, max_iter=10_000, primal=1e-8, dual=1e-5)
         self._zero = np.zeros(model.nv)
         # each side's corners: their joints, and their places in their joints' frames
