@@ -989,6 +989,59 @@ static void motion_cross_add(const double *V, const double *U, double *out) {
     out[3] += c[0], out[4] += c[1], out[5] += c[2];
 }
 
+/* the forward recursion over the tree placed in p, about the origin in world axes: every
+ * joint's velocity V (v), its acceleration A at the accelerations a under gravity g (A_0 minus
+ * gravity; skipped if A is NULL) and at zero accelerations without gravity A0 (skipped if
+ * NULL): V_j = V_parent + S v_j, A_j = A_parent + S a_j + V_j x S v_j */
+static void forward(const Plan *p, const double *v, const double *a, const double *g, double *V,
+                    double *A, double *A0) {
+    double S[36];
+    memset(V, 0, 6 * sizeof(double));
+    if (A) {
+        memset(A, 0, 6 * sizeof(double));
+        A[3] = -g[0], A[4] = -g[1], A[5] = -g[2];
+    }
+    if (A0) memset(A0, 0, 6 * sizeof(double));
+    for (Py_ssize_t j = 1; j < p->nj; ++j) {
+        const Py_ssize_t par = p->parent[j];
+        const long long iv = p->iv[j];
+        const int n = subspace(p, j, S);
+        double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = V + 6 * j;
+        for (int c = 0; c < n; ++c)
+            for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * v[iv + c];
+        for (int i = 0; i < 6; ++i) Vj[i] = V[6 * par + i] + vj[i];
+        if (A) {
+            double *Aj = A + 6 * j;
+            for (int i = 0; i < 6; ++i) Aj[i] = A[6 * par + i];
+            for (int c = 0; c < n; ++c)
+                for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * a[iv + c];
+            motion_cross_add(Vj, vj, Aj);
+        }
+        if (A0) {
+            double *A0j = A0 + 6 * j;
+            for (int i = 0; i < 6; ++i) A0j[i] = A0[6 * par + i];
+            motion_cross_add(Vj, vj, A0j);
+        }
+    }
+}
+
+/* the joints' forces F (nj x 6, about the origin) summed from the leaves, each joint's share
+ * S^T F written into tau (subtract: taken from it) */
+static void backward(const Plan *p, double *F, double *tau, int subtract) {
+    double S[36];
+    for (Py_ssize_t j = p->nj - 1; j > 0; --j) {
+        const Py_ssize_t par = p->parent[j];
+        const int n = subspace(p, j, S);
+        for (int c = 0; c < n; ++c) {
+            double s = 0.0;
+            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
+            tau[p->iv[j] + c] = subtract ? tau[p->iv[j] + c] - s : s;
+        }
+        if (par > 0)
+            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
+    }
+}
+
 /* the body of joint j (In: mass, centre of mass in the joint's frame, inertia about it in the
  * joint's axes, row-major) placed at (Rj, oj): its mass, centre of mass and rotational inertia
  * about it in world axes */
@@ -1032,40 +1085,50 @@ static void body_force(const double *In, const double *Rj, const double *oj, con
     for (int i = 0; i < 3; ++i) F[3 + i] += x[i];
 }
 
+/* buffers' checks: each of n objects as a C-contiguous buffer of at least (exactly, if
+ * exact[i]) bytes[i] bytes, writable if write[i]; returns how many were acquired (n when all
+ * were, the Python error set otherwise) */
+static int acquire(const char *who, int n, PyObject **objs, Py_buffer *b, const Py_ssize_t *bytes,
+                   const int *exact, const int *write, const char **names) {
+    for (int i = 0; i < n; ++i) {
+        if (PyObject_GetBuffer(objs[i], &b[i], PyBUF_C_CONTIGUOUS | (write[i] ? PyBUF_WRITABLE : 0)) < 0)
+            return i;
+        if (exact[i] ? b[i].len != bytes[i] : b[i].len < bytes[i]) {
+            PyErr_Format(PyExc_ValueError, "%s: %s has %zd bytes, needs %zd", who, names[i],
+                         b[i].len, bytes[i]);
+            return i + 1;
+        }
+    }
+    return n;
+}
+
 /* every state's kinematics and inverse dynamics (RNEA) in world axes about the world origin:
  * V_j = V_parent + S q', A_j = A_parent + S q'' + V_j x S q' (A_0: minus gravity), the body's
  * force I A + V x* I V (I: its inertia about the origin), summed from the leaves */
 static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
-    PyObject *capsule, *oI, *og, *oQ, *oV, *oA, *oR, *ot, *ow, *om, *of, *otau;
+    PyObject *capsule, *objs[11];
     Py_ssize_t N;
-    if (!PyArg_ParseTuple(args, "OnOOOOOOOOOOO", &capsule, &N, &oI, &og, &oQ, &oV, &oA, &oR,
-                          &ot, &ow, &om, &of, &otau))
+    if (!PyArg_ParseTuple(args, "OnOOOOOOOOOOO", &capsule, &N, &objs[0], &objs[1], &objs[2],
+                          &objs[3], &objs[4], &objs[5], &objs[6], &objs[7], &objs[8], &objs[9],
+                          &objs[10]))
         return NULL;
     Plan *p = (Plan *)PyCapsule_GetPointer(capsule, "humanoid.ground_plan");
     if (!p) return NULL;
     const Py_ssize_t nj = p->nj, nq = p->nq, nv = p->nv, D = sizeof(double);
     Py_buffer b[11];
-    PyObject *objs[11] = {oI, og, oQ, oV, oA, oR, ot, ow, om, of, otau};
-    const Py_ssize_t sizes[11] = {13 * nj, 3, N * nq, N * nv, N * nv, N * 9 * nj, N * 3 * nj,
-                                  N * 3 * nj, N * 3 * nj, N * 3 * nj, N * nv};
+    /* inertia, gravity, Q, V, A (exactly their sizes), then R, t, w, m, f, tau (written) */
+    const Py_ssize_t bytes[11] = {13 * nj * D,     3 * D,          N * nq * D,     N * nv * D,
+                                  N * nv * D,      N * 9 * nj * D, N * 3 * nj * D, N * 3 * nj * D,
+                                  N * 3 * nj * D,  N * 3 * nj * D, N * nv * D};
+    const int exact[11] = {1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0},
+              write[11] = {0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1};
     const char *names[11] = {"inertia", "gravity", "Q", "V", "A", "R", "t", "w", "m", "f", "tau"};
-    int got = 0;
-    for (; got < 11; ++got) {
-        int ok = got < 5 ? PyObject_GetBuffer(objs[got], &b[got], PyBUF_C_CONTIGUOUS) == 0
-                         : writable(objs[got], &b[got], sizes[got] * D, names[got]);
-        if (!ok) break;
-        if (got < 5 && b[got].len != sizes[got] * D) {
-            PyErr_Format(PyExc_ValueError, "tree_dynamics: %s has %zd bytes, expected %zd",
-                         names[got], b[got].len, sizes[got] * D);
-            ++got;
-            break;
-        }
-    }
+    const int got = acquire("tree_dynamics", 11, objs, b, bytes, exact, write, names);
     double *scratch = got == 11 ? malloc(18 * nj * D) : NULL;
     if (got == 11 && !scratch) PyErr_NoMemory();
     if (scratch) {
         const double *I = b[0].buf, *g = b[1].buf;
-        double *Vs = scratch, *As = scratch + 6 * nj, *Fs = scratch + 12 * nj, S[36];
+        double *Vs = scratch, *As = scratch + 6 * nj, *Fs = scratch + 12 * nj;
         for (Py_ssize_t k = 0; k < N; ++k) {
             const double *q = (const double *)b[2].buf + k * nq;
             const double *qd = (const double *)b[3].buf + k * nv;
@@ -1074,39 +1137,19 @@ static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
             double *w = (double *)b[7].buf + k * 3 * nj, *m = (double *)b[8].buf + k * 3 * nj;
             double *f = (double *)b[9].buf + k * 3 * nj, *tau = (double *)b[10].buf + k * nv;
             kinematics(p, q);
-            memset(Vs, 0, 6 * D), memset(As, 0, 6 * D);
-            As[3] = -g[0], As[4] = -g[1], As[5] = -g[2];
+            forward(p, qd, qdd, g, Vs, As, NULL);
+            for (Py_ssize_t j = 1; j < nj; ++j)
+                body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, Vs + 6 * j, As + 6 * j,
+                           Fs + 6 * j);
+            backward(p, Fs, tau, 0); /* (each joint's F is then its subtree's) */
             for (Py_ssize_t j = 1; j < nj; ++j) {
-                const Py_ssize_t par = p->parent[j];
-                const long long iv = p->iv[j];
-                const int n = subspace(p, j, S);
-                double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = Vs + 6 * j, *Aj = As + 6 * j;
-                for (int c = 0; c < n; ++c)
-                    for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * qd[iv + c];
-                for (int i = 0; i < 6; ++i) Vj[i] = Vs[6 * par + i] + vj[i];
-                for (int i = 0; i < 6; ++i) Aj[i] = As[6 * par + i];
-                for (int c = 0; c < n; ++c)
-                    for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * qdd[iv + c];
-                motion_cross_add(Vj, vj, Aj);
-                body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, Vj, Aj, Fs + 6 * j);
-            }
-            for (Py_ssize_t j = nj - 1; j > 0; --j) {
-                const Py_ssize_t par = p->parent[j];
                 const double *F = Fs + 6 * j, *oj = p->ot + 3 * j;
-                const int n = subspace(p, j, S);
-                for (int c = 0; c < n; ++c) {
-                    double s = 0.0;
-                    for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[i];
-                    tau[p->iv[j] + c] = s;
-                }
                 double x[3];
                 cross(oj, F + 3, x); /* the moment about the joint's origin */
                 for (int i = 0; i < 3; ++i) {
                     m[3 * j + i] = F[i] - x[i], f[3 * j + i] = F[3 + i];
                     w[3 * j + i] = Vs[6 * j + i];
                 }
-                if (par > 0)
-                    for (int i = 0; i < 6; ++i) Fs[6 * par + i] += F[i];
             }
             memcpy(R, p->oR, 9 * nj * D), memcpy(t, p->ot, 3 * nj * D);
             memset(m, 0, 3 * D), memset(f, 0, 3 * D), memset(w, 0, 3 * D);
@@ -1224,23 +1267,6 @@ static Py_ssize_t constraint_sizes(long long nc, const long long *cints, Py_ssiz
     return m;
 }
 
-/* the joints' forces F (nj x 6, about the origin) summed from the leaves, each joint's share
- * S^T F written into tau (subtract: taken from it) */
-static void backward(const Plan *p, double *F, double *tau, int subtract) {
-    double S[36];
-    for (Py_ssize_t j = p->nj - 1; j > 0; --j) {
-        const Py_ssize_t par = p->parent[j];
-        const int n = subspace(p, j, S);
-        for (int c = 0; c < n; ++c) {
-            double s = 0.0;
-            for (int i = 0; i < 6; ++i) s += S[6 * c + i] * F[6 * j + i];
-            tau[p->iv[j] + c] = subtract ? tau[p->iv[j] + c] - s : s;
-        }
-        if (par > 0)
-            for (int i = 0; i < 6; ++i) F[6 * par + i] += F[6 * j + i];
-    }
-}
-
 /* tau (nv) from the packed holds (see held_torques' docstring in controller.py): 0 done, 1 the
  * rows' Gram matrix is not positive definite, 2 a weld turned by about pi (the caller falls
  * back to Pinocchio) */
@@ -1251,31 +1277,17 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
     const long long k = ints[0], nc = ints[1], nh = ints[2], nr = ints[3];
     const long long *ljoint = ints + 5, *cints = ljoint + k, *hinge = cints + 3 * nc;
     Py_ssize_t ncr;
-    constraint_sizes(nc, cints, &ncr);
+    const Py_ssize_t mc0 = constraint_sizes(nc, cints, &ncr);
     const double *loads = reals, *creals = loads + 6 * k, *hreal = creals + ncr,
                  *Jr = hreal + 4 * nh, *sc = Jr + nr * nv;
     const double alpha = sc[0], beta = sc[1], scale = sc[2], rtime = sc[3], ridge = sc[4];
     double *V = work, *A = V + 6 * nj, *A0 = A + 6 * nj, *F = A0 + 6 * nj, *C = F + 6 * nj;
     double *rows = C + 16 * nj, S[36];
     kinematics(p, q);
-    /* the forward pass: velocities, accelerations at dv (gravity as the root's) and at 0 */
-    memset(V, 0, 6 * sizeof(double)), memset(A, 0, 6 * sizeof(double));
-    memset(A0, 0, 6 * sizeof(double));
-    A[3] = -g[0], A[4] = -g[1], A[5] = -g[2];
+    /* velocities, accelerations at dv (gravity as the root's) and at 0; each body's force */
+    forward(p, v, dv, g, V, A, A0);
     for (Py_ssize_t j = 1; j < nj; ++j) {
-        const Py_ssize_t par = p->parent[j];
-        const long long iv = p->iv[j];
-        const int n = subspace(p, j, S);
-        double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = V + 6 * j, *Aj = A + 6 * j, *A0j = A0 + 6 * j;
-        for (int c = 0; c < n; ++c)
-            for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * v[iv + c];
-        for (int i = 0; i < 6; ++i)
-            Vj[i] = V[6 * par + i] + vj[i], Aj[i] = A[6 * par + i], A0j[i] = A0[6 * par + i];
-        for (int c = 0; c < n; ++c)
-            for (int i = 0; i < 6; ++i) Aj[i] += S[6 * c + i] * dv[iv + c];
-        motion_cross_add(Vj, vj, Aj);
-        motion_cross_add(Vj, vj, A0j);
-        body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, Vj, Aj, F + 6 * j);
+        body_force(I + 13 * j, p->oR + 9 * j, p->ot + 3 * j, V + 6 * j, A + 6 * j, F + 6 * j);
         /* the body's inertia about the origin for the composite: mass, m c, I_O (row-major) */
         double c[3], Ic[9], *Cj = C + 16 * j;
         const double m = I[13 * j];
@@ -1306,7 +1318,7 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
             for (int i = 0; i < 13; ++i) C[16 * p->parent[j] + i] += C[16 * j + i];
     /* the rows: the base's six of M, the welds' six, the locks', the range rows held, the
      * hinges that would cross their damper */
-    const Py_ssize_t cap = 6 + constraint_sizes(nc, cints, &ncr) + nr + nh;
+    const Py_ssize_t cap = 6 + mc0 + nr + nh;
     double *Ar = rows, *rhs = rows + cap * nv, *G = rhs + cap, *dd = G + cap * cap;
     memset(Ar, 0, cap * nv * sizeof(double));
     Py_ssize_t m = 0;
@@ -1389,25 +1401,8 @@ static int held(Plan *p, const double *I, const double *g, const double *q,
     return 0;
 }
 
-/* buffers' checks: each of n objects as a C-contiguous buffer of at least (exactly, if
- * exact[i]) bytes[i] bytes, writable if write[i]; returns how many were acquired (n when all
- * were, the Python error set otherwise) */
-static int acquire(const char *who, int n, PyObject **objs, Py_buffer *b, const Py_ssize_t *bytes,
-                   const int *exact, const int *write, const char **names) {
-    for (int i = 0; i < n; ++i) {
-        if (PyObject_GetBuffer(objs[i], &b[i], PyBUF_C_CONTIGUOUS | (write[i] ? PyBUF_WRITABLE : 0)) < 0)
-            return i;
-        if (exact[i] ? b[i].len != bytes[i] : b[i].len < bytes[i]) {
-            PyErr_Format(PyExc_ValueError, "%s: %s has %zd bytes, needs %zd", who, names[i],
-                         b[i].len, bytes[i]);
-            return i + 1;
-        }
-    }
-    return n;
-}
-
-/* the constraints' counts from ints (nc at ints[at], their triples at ints + first): their
- * rows and reals; -1 (the error set) if a kind is unknown */
+/* the rows and reals of the nc constraints whose triples are cints (constraint_sizes); -1,
+ * the Python error set, if a kind is unknown */
 static Py_ssize_t constraint_counts(const char *who, long long nc, const long long *cints,
                                     Py_ssize_t *nreals) {
     const Py_ssize_t m = constraint_sizes(nc, cints, nreals);
@@ -1462,22 +1457,6 @@ static PyObject *held_torques(PyObject *self, PyObject *args) {
     return PyLong_FromLong(status);
 }
 
-/* every joint's velocity and acceleration at zero (no gravity) about the origin, world axes */
-static void velocity_pass(Plan *p, const double *q, const double *v, double *V, double *A0) {
-    double S[36];
-    kinematics(p, q);
-    memset(V, 0, 6 * sizeof(double)), memset(A0, 0, 6 * sizeof(double));
-    for (Py_ssize_t j = 1; j < p->nj; ++j) {
-        const Py_ssize_t par = p->parent[j];
-        const int n = subspace(p, j, S);
-        double vj[6] = {0, 0, 0, 0, 0, 0}, *Vj = V + 6 * j, *A0j = A0 + 6 * j;
-        for (int c = 0; c < n; ++c)
-            for (int i = 0; i < 6; ++i) vj[i] += S[6 * c + i] * v[p->iv[j] + c];
-        for (int i = 0; i < 6; ++i) Vj[i] = V[6 * par + i] + vj[i], A0j[i] = A0[6 * par + i];
-        motion_cross_add(Vj, vj, A0j);
-    }
-}
-
 /* constraint_rows(plan, q, v, ints, reals, alpha, beta, J, gamma): the rows of welds and locks
  * (ints: their count, then their triples) into J (m x nv) and gamma (m); returns m, or -1 when
  * a weld is turned by about pi (the caller stacks them itself) */
@@ -1516,7 +1495,8 @@ static PyObject *constraint_rows_py(PyObject *self, PyObject *args) {
             PyErr_NoMemory();
         } else {
             const long long *n = b[2].buf;
-            velocity_pass(p, b[0].buf, b[1].buf, work, work + 6 * p->nj);
+            kinematics(p, b[0].buf);
+            forward(p, b[1].buf, NULL, NULL, work, NULL, work + 6 * p->nj);
             memset(b[4].buf, 0, m * nv * D);
             out = constraint_rows(p, work, work + 6 * p->nj, b[0].buf, b[1].buf, n[0], n + 1,
                                   b[3].buf, alpha, beta, b[4].buf, b[5].buf);
