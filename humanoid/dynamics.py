@@ -141,7 +141,7 @@ class TreeDynamics:
         ``held_torques``, the holds packed by
         :meth:`~humanoid.walking.controller.HeldForces.hold`), under the model's gravity now:
         0 when written, 1 or 2 when the caller must compute them itself (rows without a
-        Cholesky factor, a weld turned by about pi)."""
+        Cholesky factor, a weld turned within 0.1 rad of pi)."""
         if self._plan is None or KERNELS is None:
             return 3
         gravity = np.ascontiguousarray(self.model.gravity.linear, dtype=float)
@@ -149,22 +149,24 @@ class TreeDynamics:
                                         tau))  # fmt: skip
 
     @staticmethod
-    def rows_of(packed: tuple[np.ndarray, np.ndarray]) -> tuple:
+    def rows_of(packed: tuple[np.ndarray, np.ndarray], baumgarte) -> tuple:
         """Welds and joint locks packed by :func:`humanoid.constraints.foot.packed_rows` made
-        ready for :meth:`constraint_rows` (their count in front, their rows counted)."""
+        ready for :meth:`constraint_rows` with the Baumgarte gains ``baumgarte``
+        (:class:`~humanoid.constraints.solve.Baumgarte`): their count in front, their rows
+        counted, the gains."""
         ints, reals = packed
         m = sum(6 if kind == 0 else 1 for kind in ints[::3].tolist())
-        return np.concatenate([[len(ints) // 3], ints]).astype(np.int64), reals, m
+        counted = np.concatenate([[len(ints) // 3], ints]).astype(np.int64)
+        return counted, reals, m, baumgarte.alpha, baumgarte.beta
 
-    def constraint_rows(self, q, v, rows: tuple, alpha: float,
-                        beta: float) -> tuple[np.ndarray, np.ndarray] | None:  # fmt: skip
+    def constraint_rows(self, q, v, rows: tuple) -> tuple[np.ndarray, np.ndarray] | None:
         """The Jacobian rows J and gamma = -(J'v + 2 alpha J v + beta^2 e) of welds and joint
         locks (:meth:`rows_of`) at (q, v): what :func:`humanoid.constraints.solve.stack`
         gives them (to 1e-12), in one compiled call; None without the kernels or when a weld
-        is turned by about pi from its anchor (stack them then)."""
+        is turned within 0.1 rad of pi from its anchor (stack them then)."""
         if self._plan is None or KERNELS is None:
             return None
-        ints, reals, m = rows
+        ints, reals, m, alpha, beta = rows
         J, gamma = np.empty((m, self.model.nv)), np.empty(m)
         if KERNELS.constraint_rows(self._plan, q, v, ints, reals, alpha, beta, J, gamma) < 0:
             return None

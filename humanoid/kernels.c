@@ -1163,13 +1163,14 @@ static PyObject *tree_dynamics(PyObject *self, PyObject *args) {
 
 /* ---- the welded walk's torques between its QP ticks (controller.py: held_torques) ------- */
 
-/* the rotation log of R (row-major) into w; 0 if its angle is within 1e-3 of pi (the caller
- * falls back) */
+/* the rotation log of R (row-major) into w; 0 if its angle is within 0.1 rad of pi, where
+ * R - R^T loses the axis' digits (7e-12 of gamma's size at 3.1 rad; the caller falls back to
+ * Pinocchio's log) */
 static int log3(const double *R, double *w) {
     const double vx = R[7] - R[5], vy = R[2] - R[6], vz = R[3] - R[1];
     const double s = 0.5 * sqrt(vx * vx + vy * vy + vz * vz), c = 0.5 * (R[0] + R[4] + R[8] - 1);
     const double theta = atan2(s, c);
-    if (theta > PI - 1e-3) return 0;
+    if (theta > PI - 0.1) return 0;
     const double k = theta < 1e-4 ? 0.5 * (1 + theta * theta / 6) : 0.5 * theta / s;
     w[0] = k * vx, w[1] = k * vy, w[2] = k * vz;
     return 1;
@@ -1210,7 +1211,7 @@ static void motion_local(const double *R, const double *p, const double *U, doub
  * 2 alpha J v + beta^2 e). A constraint is 3 ints (kind: 0 a weld, 1 a lock; a weld's joint;
  * a lock's configuration and velocity index) and its reals (a weld: its frame's placement in
  * its joint and its anchor, 12 each, rotations row-major; a lock: its angle). Returns the rows
- * written, -1 if a weld is turned by about pi from its anchor. */
+ * written, -1 if a weld is turned within 0.1 rad of pi from its anchor (log3). */
 static Py_ssize_t constraint_rows(const Plan *p, const double *V, const double *A0,
                                   const double *q, const double *v, long long nc,
                                   const long long *cints, const double *creals, double alpha,
@@ -1459,7 +1460,7 @@ static PyObject *held_torques(PyObject *self, PyObject *args) {
 
 /* constraint_rows(plan, q, v, ints, reals, alpha, beta, J, gamma): the rows of welds and locks
  * (ints: their count, then their triples) into J (m x nv) and gamma (m); returns m, or -1 when
- * a weld is turned by about pi (the caller stacks them itself) */
+ * a weld is turned within 0.1 rad of pi (the caller stacks them itself) */
 static PyObject *constraint_rows_py(PyObject *self, PyObject *args) {
     PyObject *capsule, *objs[6];
     double alpha, beta;

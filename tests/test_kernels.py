@@ -468,6 +468,7 @@ def test_the_compiled_weld_and_lock_rows_are_stacks(name):
     h = get_model(name, "quaternion")
     model, data = h.model, h.model.createData()
     rng = np.random.default_rng(41)
+    pin.seed(41)  # (_random_q's joints: the same states whatever ran before in the process)
     constraints = []
     for side in ("left", "right"):
         sole = h.sole_id(side)
@@ -481,9 +482,8 @@ def test_the_compiled_weld_and_lock_rows_are_stacks(name):
     tree = TreeDynamics(model)
     packed = packed_rows(model, constraints)
     assert packed is not None
-    rows = tree.rows_of(packed)
     for gains in (Baumgarte(50.0, 50.0), Baumgarte()):
-        alpha, beta = (gains.alpha, gains.beta) if gains.active else (0.0, 0.0)
+        rows = tree.rows_of(packed, gains)
         for _ in range(10):
             q = _random_q(model, rng, 1.0)
             v = rng.normal(size=model.nv)
@@ -491,10 +491,10 @@ def test_the_compiled_weld_and_lock_rows_are_stacks(name):
             pin.computeJointJacobians(model, data, q)
             pin.updateFramePlacements(model, data)
             J, gamma = stack(model, data, constraints, v, gains)
-            got = tree.constraint_rows(q, v, rows, alpha, beta)
+            got = tree.constraint_rows(q, v, rows)
             turns = [np.linalg.norm(pin.log3(c.anchor.rotation.T @ data.oMf[c.frame_id].rotation))
                      for c in constraints if isinstance(c, Weld)]  # fmt: skip
-            if max(turns) > np.pi - 1e-3:  # the log's axis is ill-defined: stack them
+            if max(turns) > np.pi - 0.1:  # the log's axis loses digits: stack them
                 assert got is None
                 continue
             assert got is not None
@@ -504,5 +504,5 @@ def test_the_compiled_weld_and_lock_rows_are_stacks(name):
     pin.framesForwardKinematics(model, data, q)
     turned = data.oMf[h.sole_id("left")] * pin.SE3(pin.exp3(np.array([0, 0, np.pi])), np.zeros(3))
     half = Weld("turned", h.sole_id("left"), turned)
-    rows = tree.rows_of(packed_rows(model, [half]))
-    assert tree.constraint_rows(q, np.zeros(model.nv), rows, 1.0, 1.0) is None
+    rows = tree.rows_of(packed_rows(model, [half]), Baumgarte(1.0, 1.0))
+    assert tree.constraint_rows(q, np.zeros(model.nv), rows) is None

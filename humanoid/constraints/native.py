@@ -91,8 +91,7 @@ class NativeSolve:
         if not self.native and tree is not None and tree.available:
             packed = packed_rows(model, self.constraints)
             if packed is not None:
-                gains = (baumgarte.alpha, baumgarte.beta) if baumgarte.active else (0.0, 0.0)
-                self._rows = (tree, tree.rows_of(packed), gains)
+                self._rows = (tree, tree.rows_of(packed, baumgarte))
         self.a = np.zeros(model.nv)
 
     def acceleration(self, q: np.ndarray, v: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -106,8 +105,8 @@ class NativeSolve:
             model, data = self.model, self.data
             rows = None
             if self._rows is not None:
-                tree, packed, (alpha, beta) = self._rows
-                rows = tree.constraint_rows(q, v, packed, alpha, beta)
+                tree, packed = self._rows
+                rows = tree.constraint_rows(q, v, packed)
             if rows is None:
                 update_kinematics(model, data, q, v)
                 rows = stack(model, data, self.constraints, v, self.baumgarte)

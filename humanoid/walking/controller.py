@@ -332,8 +332,7 @@ class HeldForces:
         ints[3] = len(Jr)
         hinges[:, 3] = Jh_dv
         b = ctl.baumgarte
-        alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
-        damper = [alpha, beta, ctl.every / ctl.period, RANGE_TIME, 1e-12]
+        damper = [b.alpha, b.beta, ctl.every / ctl.period, RANGE_TIME, 1e-12]
         reals = np.concatenate([np.hstack([local, f_local]).ravel(), fixed, hinges.ravel(),
                                 np.ravel(Jr), damper])  # fmt: skip
         self.packed = (ints, reals)
@@ -366,11 +365,10 @@ class HeldForces:
         if self.tree is not None:
             if self._rows is None or self._rows[0] is not welds:
                 packed = packed_rows(self.model, held)
-                self._rows = (welds, None if packed is None else self.tree.rows_of(packed))
+                rows = None if packed is None else self.tree.rows_of(packed, ctl.baumgarte)
+                self._rows = (welds, rows)
             if self._rows[1] is not None:
-                b = ctl.baumgarte
-                alpha, beta = (b.alpha, b.beta) if b.active else (0.0, 0.0)
-                rows = self.tree.constraint_rows(q, v, self._rows[1], alpha, beta)
+                rows = self.tree.constraint_rows(q, v, self._rows[1])
                 if rows is not None:
                     return rows
         return stack(self.model, ctl.data, held, v, ctl.baumgarte)
