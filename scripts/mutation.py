@@ -918,7 +918,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     M(
         "W04",
         "walking/plan.py",
-        "self._position_before(_other(s.side), i)",
+        "self._position_before(OTHER_SIDE[s.side], i)",
         "self._position_before(s.side, i)",
         (
             "tests/test_walking.py::test_zmp_reference_stays_in_the_support_polygon",

@@ -34,6 +34,7 @@ What loading does, in order:
 from .checks import JOINT_TYPES, LINK_TAGS, URDF_MAX_BYTES, UnknownTagWarning
 from .feet import CORNERS, FOOT_WORDS
 from .humanoid import (
+    OTHER_SIDE,
     QUATERNION_TOLERANCE,
     SIDES,
     Humanoid,
@@ -59,6 +60,7 @@ __all__ = [
     "LINK_TAGS",
     "MASSLESS_TOLERANCE",
     "QUATERNION_TOLERANCE",
+    "OTHER_SIDE",
     "SIDES",
     "URDF_MAX_BYTES",
     "Humanoid",

@@ -13,6 +13,7 @@ from ..fusion import Fusion
 
 __all__ = [
     "QUATERNION_TOLERANCE",
+    "OTHER_SIDE",
     "SIDES",
     "Humanoid",
     "check_configuration",
@@ -24,6 +25,7 @@ __all__ = [
 ]
 
 SIDES = ("left", "right")
+OTHER_SIDE = {"left": "right", "right": "left"}
 
 
 @dataclass(eq=False)

@@ -54,12 +54,13 @@ import pinocchio as pin
 from ..dynamics import TreeDynamics
 from ..errors import RunFailed, WalkError
 from ..linalg import cross
+from ..model import OTHER_SIDE as OTHER
 from ..model import SIDES, lock_foot_hinges, restrict_configurations
 from ..scene import Effects, GroundSpec, JointLimitSpec, PushSpec, Scene
 from ..simulation import Simulation, Trajectory
 from .clinical import ANGLES, arm_chains, leg_chains
 from .reference import GaitCycle, fit_cycle, leg_length
-from .tracking import OTHER, GaitController, TrackingGains
+from .tracking import GaitController, TrackingGains
 from .transitions import start_stop
 
 if TYPE_CHECKING:

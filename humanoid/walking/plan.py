@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import WalkError
+from ..model import OTHER_SIDE
 
 MAX_STEPS = 1000
 
@@ -104,7 +105,7 @@ class FootstepPlan:
         t = g.t_start
         for k in range(1, g.steps + 1):
             side = "right" if k % 2 else "left"
-            other = "left" if side == "right" else "right"
+            other = OTHER_SIDE[side]
             x = (k if k < g.steps else k - 1) * g.step_length + self.initial[side][0]
             if k == g.steps:
                 x = pos[other][0]  # feet together
@@ -116,9 +117,9 @@ class FootstepPlan:
         self.duration = self.steps[-1].t_land + g.t_end
         self._lifts = [s.t_lift for s in self.steps]
         # each step's stance foot where it stands during the step, and after the last step
-        self._stance_at = [self._position_before(_other(s.side), i)
+        self._stance_at = [self._position_before(OTHER_SIDE[s.side], i)
                            for i, s in enumerate(self.steps)]  # fmt: skip
-        self._stance_after = self._position_before(_other(self.steps[-1].side), len(self.steps))
+        self._stance_after = self._position_before(OTHER_SIDE[self.steps[-1].side], len(self.steps))
 
     # -- phases --------------------------------------------------------------------------
     def swing(self, t: float) -> Footstep | None:
@@ -147,7 +148,7 @@ class FootstepPlan:
         first = self.steps[0]
         mid0 = (self.initial["left"] + self.initial["right"]) / 2
         if t < first.t_lift:
-            stance0 = self.initial["left" if first.side == "right" else "right"]
+            stance0 = self.initial[OTHER_SIDE[first.side]]
             s = _clip01((t - 0.2 * g.t_start) / (0.6 * g.t_start))
             return mid0 + smooth_step(s) * (stance0 - mid0)
         # the last step lifted by t, and the one before it (whose weight transfer may end a
@@ -215,7 +216,3 @@ def _quintic(tau):
     ds = 30 * tau**2 - 60 * tau**3 + 30 * tau**4
     dds = 60 * tau - 180 * tau**2 + 120 * tau**3
     return s, ds, dds
-
-
-def _other(side: str) -> str:
-    return "left" if side == "right" else "right"

@@ -81,6 +81,7 @@ from ..control.tasks import (
 )
 from ..effects import Effect
 from ..linalg import cross
+from ..model import OTHER_SIDE as OTHER
 from ..model import SIDES
 from .clinical import ANGLES, arm_chains, leg_chains, leg_joint_weights, torso_frame
 from .plan import smooth_step
@@ -90,7 +91,6 @@ __all__ = ["CyclePlayer", "GaitController", "TrackingGains", "bend"]
 # The walk itself, and its analysis: :mod:`humanoid.walking.gait` (``humanoid walk --gait human``).
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-OTHER = {"left": "right", "right": "left"}
 RANGE_MARGIN = 0.2  # [rad] joint-range rows this close to a limit enter the QP
 RANGE_TIME = 0.05  # [s] the range dampers' time constant
 SOLE_DEPTH = 2e-3  # [m] points of a foot's geometry this far above its sole may bear load
